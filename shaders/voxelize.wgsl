@@ -1,0 +1,84 @@
+// Stage 1, voxelize: analytic index fields → the raw index grid n and the medium grids.
+//
+// Each field contributes a smooth coverage α ∈ [0, 1] (a C² step across its boundary, `boundary`
+// metres wide, centred on the surface) and its own index n_f and medium. Fields are composited in
+// scene order, later over earlier: n ← mix(n, n_f, α). A smooth α keeps ∇n finite, so the ray
+// equation bends rays at a surface the way Snell's law does in the limit of a thin boundary.
+//
+// The CPU twin is src/cpu/field.rs.
+
+#import shared/types.wgsl
+
+@group(0) @binding(0) var<uniform> params: VoxelizeParams;
+@group(0) @binding(1) var<storage, read> fields: array<Field>;
+@group(0) @binding(2) var<storage, read_write> index_field: array<f32>;
+@group(0) @binding(3) var extinction_grid: texture_storage_3d<rgba16float, write>;
+@group(0) @binding(4) var scattering_grid: texture_storage_3d<rgba16float, write>;
+
+// Quintic smoothstep on [0, 1]: C², so ∇n is continuous across the boundary.
+fn smootherstep(t: f32) -> f32 {
+    let u = clamp(t, 0.0, 1.0);
+    return u * u * u * (u * (u * 6.0 - 15.0) + 10.0);
+}
+
+// Coverage from signed distance d (metres, negative inside) and boundary width w.
+fn coverage(d: f32, w: f32) -> f32 {
+    if w <= 0.0 {
+        return select(0.0, 1.0, d < 0.0);
+    }
+    return smootherstep(0.5 - d / w);
+}
+
+fn box_distance(p: vec3<f32>, half_size: vec3<f32>) -> f32 {
+    let q = abs(p) - half_size;
+    return length(max(q, vec3<f32>(0.0))) + min(max(q.x, max(q.y, q.z)), 0.0);
+}
+
+// (α, n_f) of one field at world point x.
+fn field_sample(f: Field, x: vec3<f32>) -> vec2<f32> {
+    let p = (f.world_to_local * vec4<f32>(x, 1.0)).xyz;
+    switch f.kind {
+        case FIELD_SPHERE: {
+            return vec2<f32>(coverage((length(p) - f.half_size.x) * f.scale, f.boundary), f.ior);
+        }
+        case FIELD_BOX: {
+            return vec2<f32>(coverage(box_distance(p, f.half_size) * f.scale, f.boundary), f.ior);
+        }
+        case FIELD_LUNEBURG: {
+            // n(r) = sqrt(2 − (r/R)²) inside, 1 on the surface: continuous, so no seam.
+            let r = length(p) / f.half_size.x;
+            let n = sqrt(max(2.0 - r * r, 1.0));
+            return vec2<f32>(coverage((length(p) - f.half_size.x) * f.scale, f.boundary), n);
+        }
+        default: {
+            // FIELD_SLAB: n = n₀ + g·y along the local y axis (metres).
+            let n = f.ior + f.ior_gradient * p.y * f.scale;
+            return vec2<f32>(coverage(box_distance(p, f.half_size) * f.scale, f.boundary), n);
+        }
+    }
+}
+
+@compute @workgroup_size(4, 4, 4)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let grid = params.grid;
+    if any(id >= grid.dims) {
+        return;
+    }
+    let x = grid.origin + (vec3<f32>(id) + 0.5) * grid.voxel_size;
+    var n = 1.0;
+    var absorption = vec3<f32>(0.0);
+    var scattering = vec4<f32>(0.0);
+    for (var i = 0u; i < params.field_count; i++) {
+        let f = fields[i];
+        let s = field_sample(f, x);
+        n = mix(n, s.y, s.x);
+        absorption = mix(absorption, f.absorption.rgb, s.x);
+        scattering = mix(scattering, f.scattering, s.x);
+    }
+    let idx = id.x + grid.dims.x * (id.y + grid.dims.y * id.z);
+    index_field[idx] = n;
+    // Extinction σ_t = absorption + scattering; the scattering grid keeps σ_s and g for the
+    // in-scattering term.
+    textureStore(extinction_grid, id, vec4<f32>(absorption + scattering.rgb, 0.0));
+    textureStore(scattering_grid, id, scattering);
+}

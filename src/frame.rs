@@ -1,0 +1,163 @@
+//! The flat frame description: everything one frame needs, in world space, with no hierarchy,
+//! no Lua and no glTF left in it. It is the boundary between the scene graph (CPU) and the GPU
+//! pipeline; `Renderer::frame` reads nothing else.
+
+use glam::{Mat4, Quat, UVec3, Vec3};
+
+use crate::gpu::types::{self, field_kind};
+use crate::scene::Environment;
+
+/// The camera, resolved to world space.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraDesc {
+    pub position: Vec3,
+    /// Orientation: the camera looks down its local −Z, +Y up.
+    pub orientation: Quat,
+    /// Vertical field of view, radians.
+    pub fov_y: f32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl CameraDesc {
+    pub fn forward(&self) -> Vec3 {
+        self.orientation * Vec3::NEG_Z
+    }
+
+    pub fn to_gpu(&self) -> types::Camera {
+        let right = self.orientation * Vec3::X;
+        let up = self.orientation * Vec3::Y;
+        types::Camera {
+            position: self.position.into(),
+            tan_half_fov: (0.5 * self.fov_y).tan(),
+            right: right.into(),
+            aspect: self.width as f32 / self.height as f32,
+            up: up.into(),
+            forward: self.forward().into(),
+            ..Default::default()
+        }
+    }
+
+    /// The unit direction of the ray through pixel (x, y)'s centre — CPU twin of `camera_ray`.
+    pub fn ray(&self, x: u32, y: u32) -> Vec3 {
+        let t = (0.5 * self.fov_y).tan();
+        let aspect = self.width as f32 / self.height as f32;
+        let nx = (2.0 * (x as f32 + 0.5) / self.width as f32 - 1.0) * aspect * t;
+        let ny = (1.0 - 2.0 * (y as f32 + 0.5) / self.height as f32) * t;
+        (self.forward() + nx * (self.orientation * Vec3::X) + ny * (self.orientation * Vec3::Y)).normalize()
+    }
+}
+
+/// The voxel volume: an axis-aligned box of cubic voxels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VolumeDesc {
+    pub min: Vec3,
+    pub voxel_size: f32,
+    pub dims: UVec3,
+    /// Arc length of one viewing-pass step, metres.
+    pub step: f32,
+}
+
+impl VolumeDesc {
+    pub fn max(&self) -> Vec3 {
+        self.min + self.dims.as_vec3() * self.voxel_size
+    }
+
+    pub fn voxel_count(&self) -> u64 {
+        self.dims.x as u64 * self.dims.y as u64 * self.dims.z as u64
+    }
+
+    /// Centre of voxel `i`.
+    pub fn voxel_centre(&self, i: UVec3) -> Vec3 {
+        self.min + (i.as_vec3() + 0.5) * self.voxel_size
+    }
+
+    pub fn to_gpu(&self) -> types::GridParams {
+        types::GridParams {
+            origin: self.min.into(),
+            voxel_size: self.voxel_size,
+            dims: self.dims.into(),
+            voxel_count: self.voxel_count().min(u32::MAX as u64) as u32,
+            inv_extent: (1.0 / (self.dims.as_vec3() * self.voxel_size)).into(),
+            _pad0: 0.0,
+        }
+    }
+}
+
+/// Kinds of analytic index field.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FieldKind {
+    Sphere,
+    Box,
+    Luneburg,
+    Slab,
+}
+
+/// One analytic index field in world space.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FieldDesc {
+    /// The node it came from, for messages.
+    pub name: String,
+    pub kind: FieldKind,
+    pub world_to_local: Mat4,
+    /// Local half extents (radius in x for spheres and Luneburg lenses).
+    pub half_size: Vec3,
+    /// Constant index, or n₀ of a slab.
+    pub ior: f32,
+    /// Slab dn/dy, per metre.
+    pub gradient: f32,
+    /// Smooth boundary width, metres.
+    pub boundary: f32,
+    /// Metres per local unit.
+    pub scale: f32,
+    pub absorption: Vec3,
+    pub scattering: Vec3,
+    pub g: f32,
+    /// World-space bounding box, including half the boundary.
+    pub bounds: (Vec3, Vec3),
+}
+
+impl FieldDesc {
+    pub fn to_gpu(&self) -> types::Field {
+        types::Field {
+            world_to_local: self.world_to_local.to_cols_array_2d(),
+            half_size: self.half_size.into(),
+            kind: match self.kind {
+                FieldKind::Sphere => field_kind::SPHERE,
+                FieldKind::Box => field_kind::BOX,
+                FieldKind::Luneburg => field_kind::LUNEBURG,
+                FieldKind::Slab => field_kind::SLAB,
+            },
+            ior: self.ior,
+            ior_gradient: self.gradient,
+            boundary: self.boundary,
+            scale: self.scale,
+            absorption: self.absorption.extend(0.0).into(),
+            scattering: self.scattering.extend(self.g).into(),
+        }
+    }
+
+    /// Whether the field absorbs or scatters light.
+    pub fn has_medium(&self) -> bool {
+        self.absorption.max_element() > 0.0 || self.scattering.max_element() > 0.0
+    }
+}
+
+/// Everything the GPU pipeline needs for one frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameDesc {
+    /// Scene time, seconds.
+    pub time: f64,
+    pub camera: CameraDesc,
+    pub environment: Environment,
+    pub volume: VolumeDesc,
+    pub fields: Vec<FieldDesc>,
+    /// Camera rays per pixel.
+    pub samples: u32,
+}
+
+impl FrameDesc {
+    pub fn has_media(&self) -> bool {
+        self.fields.iter().any(FieldDesc::has_medium)
+    }
+}

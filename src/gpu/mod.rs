@@ -1,0 +1,208 @@
+//! The headless GPU context: one adapter, one device, one queue — no window, no surface.
+//!
+//! Adapter choice is automatic (discrete GPU first, then integrated, virtual, CPU), and can be
+//! overridden by `--adapter SUBSTRING` or the `REFRAKT_ADAPTER` environment variable, matched
+//! against the adapter's name, driver and backend. `refrakt info` prints what was found and why
+//! the chosen one won.
+
+pub mod readback;
+pub mod shaders;
+pub mod types;
+
+use std::fmt::Write as _;
+use std::sync::{Arc, Mutex};
+
+use anyhow::{Result, bail};
+
+/// Environment variable that picks an adapter, like `--adapter`.
+pub const ADAPTER_ENV: &str = "REFRAKT_ADAPTER";
+
+/// An open device plus what we learned choosing it.
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    pub limits: wgpu::Limits,
+    pub features: wgpu::Features,
+    /// One sentence: why this adapter was chosen.
+    pub reason: String,
+    /// Every adapter that was found, for `refrakt info`.
+    pub candidates: Vec<wgpu::AdapterInfo>,
+    /// Validation errors the device reported outside an error scope (a bug on our side if any).
+    uncaptured: Arc<Mutex<Vec<String>>>,
+}
+
+/// Lower is better: the order in which device types are preferred.
+fn device_rank(t: wgpu::DeviceType) -> u8 {
+    match t {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 3,
+        wgpu::DeviceType::Other => 4,
+    }
+}
+
+/// Native compute backends are preferred over GL, whose compute support is partial.
+fn backend_rank(b: wgpu::Backend) -> u8 {
+    match b {
+        wgpu::Backend::Vulkan | wgpu::Backend::Metal | wgpu::Backend::Dx12 => 0,
+        _ => 1,
+    }
+}
+
+fn matches_filter(info: &wgpu::AdapterInfo, filter: &str) -> bool {
+    let f = filter.to_lowercase();
+    [
+        info.name.to_lowercase(),
+        info.driver.to_lowercase(),
+        info.driver_info.to_lowercase(),
+        format!("{:?}", info.backend).to_lowercase(),
+    ]
+    .iter()
+    .any(|s| s.contains(&f))
+}
+
+/// What to tell a user who has no usable adapter at all.
+pub fn no_adapter_help() -> &'static str {
+    "refrakt found no GPU adapter (Vulkan, Metal or DX12). On Linux without a GPU, install \
+     Mesa's software Vulkan driver lavapipe: `sudo apt-get install mesa-vulkan-drivers \
+     libvulkan1` (Debian/Ubuntu) or `sudo dnf install mesa-vulkan-drivers` (Fedora); \
+     `bash scripts/setup.sh` does this for you. With a GPU, install its vendor's driver \
+     with Vulkan support. `refrakt info` lists what is found."
+}
+
+impl GpuContext {
+    /// Opens the best adapter, or the one `filter` (or `$REFRAKT_ADAPTER`) names.
+    pub fn new(filter: Option<&str>) -> Result<Self> {
+        pollster::block_on(Self::open(filter))
+    }
+
+    async fn open(filter: Option<&str>) -> Result<Self> {
+        let env_filter = std::env::var(ADAPTER_ENV).ok().filter(|s| !s.trim().is_empty());
+        let (filter, filter_source) = match (filter, env_filter.as_deref()) {
+            (Some(f), _) => (Some(f.to_string()), "--adapter"),
+            (None, Some(f)) => (Some(f.to_string()), ADAPTER_ENV),
+            (None, None) => (None, ""),
+        };
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all());
+        let instance = wgpu::Instance::new(desc);
+        // Native compute backends first; GL (whose EGL probing is noisy and whose compute support
+        // is partial) only when nothing else is there.
+        let mut adapters = instance.enumerate_adapters(wgpu::Backends::PRIMARY).await;
+        if adapters.is_empty() {
+            adapters = instance.enumerate_adapters(wgpu::Backends::SECONDARY).await;
+        }
+        let candidates: Vec<wgpu::AdapterInfo> = adapters.iter().map(|a| a.get_info()).collect();
+        if adapters.is_empty() {
+            bail!("{}", no_adapter_help());
+        }
+        let mut usable: Vec<&wgpu::Adapter> = adapters
+            .iter()
+            .filter(|a| a.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS))
+            .collect();
+        if let Some(f) = &filter {
+            usable.retain(|a| matches_filter(&a.get_info(), f));
+            if usable.is_empty() {
+                let names: Vec<String> =
+                    candidates.iter().map(|i| format!("\"{}\" ({:?})", i.name, i.backend)).collect();
+                bail!(
+                    "no adapter matches {filter_source} \"{f}\"; found: {}. Give part of one of \
+                     these names or backends, or unset {filter_source} to choose automatically.",
+                    names.join(", ")
+                );
+            }
+        }
+        usable.sort_by_key(|a| {
+            let i = a.get_info();
+            (device_rank(i.device_type), backend_rank(i.backend))
+        });
+        let Some(adapter) = usable.first().copied() else {
+            bail!("no adapter with compute shaders was found. {}", no_adapter_help());
+        };
+        let info = adapter.get_info();
+        let reason = match &filter {
+            Some(f) => format!("it matches {filter_source} \"{f}\""),
+            None => format!(
+                "it is the most capable of {} adapter(s) found ({:?} on {:?}; discrete GPUs are \
+                 preferred, then integrated, virtual and CPU ones)",
+                candidates.len(),
+                info.device_type,
+                info.backend
+            ),
+        };
+        // Ask for everything the adapter offers: large volumes need more than the WebGPU
+        // defaults (128 MiB storage bindings, 2048³ textures are fine but buffers are not).
+        let limits = adapter.limits();
+        let wanted = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS;
+        let features = adapter.features() & wanted;
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("refrakt"),
+                required_features: features,
+                required_limits: limits.clone(),
+                experimental_features: wgpu::ExperimentalFeatures::disabled(),
+                memory_hints: wgpu::MemoryHints::Performance,
+                trace: wgpu::Trace::Off,
+            })
+            .await
+            .map_err(|e| anyhow::anyhow!("could not open the adapter \"{}\": {e}", info.name))?;
+        let uncaptured = Arc::new(Mutex::new(Vec::new()));
+        let sink = uncaptured.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            tracing::error!("GPU error: {e}");
+            sink.lock().map(|mut v| v.push(e.to_string())).ok();
+        }));
+        Ok(Self { device, queue, info, limits, features, reason, candidates, uncaptured })
+    }
+
+    /// Whether GPU timestamp queries can time each stage.
+    pub fn has_timestamps(&self) -> bool {
+        self.features.contains(wgpu::Features::TIMESTAMP_QUERY)
+    }
+
+    /// Errors the device raised outside any error scope since the last call.
+    pub fn take_uncaptured_errors(&self) -> Vec<String> {
+        self.uncaptured.lock().map(|mut v| std::mem::take(&mut *v)).unwrap_or_default()
+    }
+
+    /// The human-readable report printed by `refrakt info`.
+    pub fn report(&self) -> String {
+        let i = &self.info;
+        let l = &self.limits;
+        let mut s = String::new();
+        let _ = writeln!(s, "adapter:  {} ({:?}, {:?})", i.name, i.device_type, i.backend);
+        let _ = writeln!(s, "driver:   {} {}", i.driver, i.driver_info);
+        let _ = writeln!(s, "chosen because {}", self.reason);
+        let _ = writeln!(s, "limits the pipeline depends on:");
+        let _ = writeln!(s, "  max 3D texture side          {}", l.max_texture_dimension_3d);
+        let _ = writeln!(s, "  max 2D texture side          {}", l.max_texture_dimension_2d);
+        let _ = writeln!(s, "  max buffer size              {} MiB", l.max_buffer_size >> 20);
+        let _ = writeln!(
+            s,
+            "  max storage buffer binding   {} MiB",
+            l.max_storage_buffer_binding_size >> 20
+        );
+        let _ = writeln!(s, "  max storage textures / stage {}", l.max_storage_textures_per_shader_stage);
+        let _ = writeln!(s, "  max storage buffers / stage  {}", l.max_storage_buffers_per_shader_stage);
+        let _ = writeln!(s, "  max workgroup invocations    {}", l.max_compute_invocations_per_workgroup);
+        let _ = writeln!(s, "  max workgroups per dimension {}", l.max_compute_workgroups_per_dimension);
+        let _ = writeln!(
+            s,
+            "  timestamp queries            {}",
+            if self.has_timestamps() { "yes (refrakt bench times each stage)" } else { "no" }
+        );
+        let _ = writeln!(s, "adapters found:");
+        for c in &self.candidates {
+            let mark = if c.name == i.name && c.backend == i.backend { "*" } else { " " };
+            let _ = writeln!(s, " {mark} {} ({:?}, {:?}, {})", c.name, c.device_type, c.backend, c.driver);
+        }
+        s
+    }
+
+    /// A short one-line description, for logs and benchmark JSON.
+    pub fn adapter_name(&self) -> String {
+        format!("{} ({:?}, {})", self.info.name, self.info.backend, self.info.driver_info)
+    }
+}

@@ -1,0 +1,84 @@
+//! Bringing results back from the GPU: a staging buffer, a copy, a map, a wait.
+
+use anyhow::{Result, anyhow};
+
+use super::GpuContext;
+
+/// A reusable MAP_READ staging buffer.
+pub struct Staging {
+    pub buffer: wgpu::Buffer,
+    pub size: u64,
+}
+
+impl Staging {
+    pub fn new(device: &wgpu::Device, size: u64, label: &str) -> Self {
+        let size = size.max(4).next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT);
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Self { buffer, size }
+    }
+
+    /// Maps the first `len` bytes (after the submission that filled them), copies them out and
+    /// unmaps.
+    pub fn read(&self, ctx: &GpuContext, len: u64) -> Result<Vec<u8>> {
+        let len = len.next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT).min(self.size);
+        let (tx, rx) = std::sync::mpsc::channel();
+        self.buffer.map_async(wgpu::MapMode::Read, ..len, move |r| {
+            let _ = tx.send(r);
+        });
+        ctx.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| anyhow!("waiting for the GPU failed: {e}"))?;
+        rx.recv()
+            .map_err(|_| anyhow!("the GPU readback was dropped"))?
+            .map_err(|e| anyhow!("mapping a GPU buffer for reading failed: {e}"))?;
+        let bytes = {
+            let view = self.buffer.get_mapped_range(..len).map_err(|e| anyhow!("{e}"))?;
+            view.to_vec()
+        };
+        self.buffer.unmap();
+        Ok(bytes)
+    }
+}
+
+/// Reads a whole storage buffer (test and diagnostic use: allocates a staging buffer).
+pub fn read_buffer(ctx: &GpuContext, src: &wgpu::Buffer) -> Result<Vec<u8>> {
+    let staging = Staging::new(&ctx.device, src.size(), "readback");
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    enc.copy_buffer_to_buffer(src, 0, &staging.buffer, 0, src.size());
+    ctx.queue.submit([enc.finish()]);
+    staging.read(ctx, src.size())
+}
+
+/// Reads a whole 3D texture of `bytes_per_texel` into tightly packed rows.
+pub fn read_texture_3d(ctx: &GpuContext, tex: &wgpu::Texture, bytes_per_texel: u32) -> Result<Vec<u8>> {
+    let size = tex.size();
+    let row = size.width * bytes_per_texel;
+    let padded = row.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+    let total = padded as u64 * size.height as u64 * size.depth_or_array_layers as u64;
+    let staging = Staging::new(&ctx.device, total, "texture readback");
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    enc.copy_texture_to_buffer(
+        tex.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &staging.buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded),
+                rows_per_image: Some(size.height),
+            },
+        },
+        size,
+    );
+    ctx.queue.submit([enc.finish()]);
+    let raw = staging.read(ctx, total)?;
+    let mut out = Vec::with_capacity((row * size.height * size.depth_or_array_layers) as usize);
+    for chunk in raw.chunks(padded as usize) {
+        out.extend_from_slice(&chunk[..row as usize]);
+    }
+    Ok(out)
+}

@@ -1,0 +1,215 @@
+//! Every struct the CPU hands to the GPU, declared once here with `bytemuck` and mirrored
+//! member by member in `shaders/shared/types.wgsl`. The test at the bottom parses the WGSL with
+//! naga and checks that names, offsets and sizes agree, so a drifted field fails a test instead
+//! of silently shearing a uniform.
+//!
+//! WGSL's layout rules put `vec3<f32>` on 16-byte boundaries; every `[f32; 3]` here is followed
+//! by a 4-byte member (often an explicit `_padN`) so that both sides agree without guesswork.
+
+/// Implemented by [`gpu_struct!`]: the WGSL struct name and the Rust field offsets.
+pub trait GpuLayout {
+    const WGSL_NAME: &'static str;
+    fn fields() -> Vec<(&'static str, usize)>;
+}
+
+macro_rules! gpu_struct {
+    ($(#[$m:meta])* pub struct $name:ident { $($(#[$fm:meta])* pub $field:ident : $ty:ty),* $(,)? }) => {
+        $(#[$m])*
+        #[repr(C)]
+        #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+        pub struct $name { $($(#[$fm])* pub $field: $ty),* }
+        impl GpuLayout for $name {
+            const WGSL_NAME: &'static str = stringify!($name);
+            fn fields() -> Vec<(&'static str, usize)> {
+                vec![$((stringify!($field), std::mem::offset_of!($name, $field))),*]
+            }
+        }
+    };
+}
+
+gpu_struct! {
+    /// The voxel grid's placement in the world. Voxel `i` has its centre at
+    /// `origin + (i + 0.5) · voxel_size`; texture coordinates are `(x − origin) · inv_extent`.
+    pub struct GridParams {
+        pub origin: [f32; 3],
+        pub voxel_size: f32,
+        pub dims: [u32; 3],
+        pub voxel_count: u32,
+        pub inv_extent: [f32; 3],
+        pub _pad0: f32,
+    }
+}
+
+gpu_struct! {
+    /// A pinhole camera: an orthonormal basis and the tangent of half the vertical field of view.
+    pub struct Camera {
+        pub position: [f32; 3],
+        pub tan_half_fov: f32,
+        pub right: [f32; 3],
+        pub aspect: f32,
+        pub up: [f32; 3],
+        pub _pad0: f32,
+        pub forward: [f32; 3],
+        pub _pad1: f32,
+    }
+}
+
+gpu_struct! {
+    /// The environment seen by rays that leave the scene: a constant color or an
+    /// equirectangular image (kind 1), scaled by `intensity` and turned about +Y by `rotation`.
+    pub struct EnvParams {
+        pub color: [f32; 3],
+        pub intensity: f32,
+        pub rotation: f32,
+        pub kind: u32,
+        pub visible: u32,
+        pub _pad0: u32,
+    }
+}
+
+gpu_struct! {
+    /// Uniforms of the viewing pass (`shaders/view.wgsl`).
+    pub struct ViewParams {
+        pub camera: Camera,
+        pub grid: GridParams,
+        pub env: EnvParams,
+        pub width: u32,
+        pub height: u32,
+        pub max_steps: u32,
+        pub flags: u32,
+        /// Arc length of one ray-equation step, metres.
+        pub step: f32,
+        /// |n − 1| above which a sample counts as refractive (alpha, depth).
+        pub medium_eps: f32,
+        /// Rays per pixel (a fixed R2 pattern of sub-pixel offsets: no flicker between frames).
+        pub samples: u32,
+        pub _pad0: f32,
+    }
+}
+
+gpu_struct! {
+    /// One analytic index field, in the frame of the node that carries it (`shaders/voxelize.wgsl`).
+    pub struct Field {
+        pub world_to_local: [[f32; 4]; 4],
+        /// Box and slab half extents; sphere and Luneburg radius in x.
+        pub half_size: [f32; 3],
+        pub kind: u32,
+        /// Constant index (sphere, box), or n₀ at the slab's centre plane.
+        pub ior: f32,
+        /// Slab gradient dn/dy along the local y axis, per metre.
+        pub ior_gradient: f32,
+        /// Width of the smooth boundary, metres (0: a hard step).
+        pub boundary: f32,
+        /// Metres per local unit (the node's uniform scale).
+        pub scale: f32,
+        /// Absorption coefficient per metre, rgb (w unused).
+        pub absorption: [f32; 4],
+        /// Scattering coefficient per metre, rgb; w: Henyey–Greenstein g.
+        pub scattering: [f32; 4],
+    }
+}
+
+gpu_struct! {
+    /// Uniforms of the voxelize stage.
+    pub struct VoxelizeParams {
+        pub grid: GridParams,
+        pub field_count: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+        pub _pad2: u32,
+    }
+}
+
+gpu_struct! {
+    /// Uniforms of the probe kernel, which traces given rays for tests and `refrakt trace`.
+    pub struct ProbeParams {
+        pub grid: GridParams,
+        pub step: f32,
+        pub max_steps: u32,
+        pub record_every: u32,
+        pub ray_count: u32,
+        pub records_per_ray: u32,
+        pub integrator: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+    }
+}
+
+gpu_struct! {
+    /// A ray handed to the probe kernel: world-space origin and unit direction.
+    pub struct ProbeRay {
+        pub origin: [f32; 3],
+        pub _pad0: f32,
+        pub dir: [f32; 3],
+        pub _pad1: f32,
+    }
+}
+
+gpu_struct! {
+    /// A recorded state of a probed ray: position, n there, v = n·direction, steps taken.
+    pub struct ProbeRecord {
+        pub x: [f32; 3],
+        pub n: f32,
+        pub v: [f32; 3],
+        pub steps: u32,
+    }
+}
+
+/// Field kinds, as `Field::kind` (mirrored by constants in `types.wgsl`).
+pub mod field_kind {
+    pub const SPHERE: u32 = 0;
+    pub const BOX: u32 = 1;
+    pub const LUNEBURG: u32 = 2;
+    pub const SLAB: u32 = 3;
+}
+
+/// `ViewParams::flags` bits (mirrored in `types.wgsl`).
+pub mod view_flags {
+    /// Some object absorbs or scatters: sample the medium grid along rays.
+    pub const MEDIA: u32 = 1;
+}
+
+/// Probe integrators (`ProbeParams::integrator`).
+pub mod integrator {
+    /// Velocity Verlet on the ray Hamiltonian: second order, one field sample per step.
+    pub const LEAPFROG: u32 = 0;
+    /// Forward Euler, the paper's step: first order.
+    pub const EULER: u32 = 1;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::shaders::{ShaderLibrary, validate};
+
+    /// Checks one Rust struct against the WGSL struct of the same name.
+    fn check<T: GpuLayout>(module: &naga::Module) {
+        let (_, ty) = module
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some(T::WGSL_NAME))
+            .unwrap_or_else(|| panic!("struct {} missing from types.wgsl", T::WGSL_NAME));
+        let naga::TypeInner::Struct { members, span } = &ty.inner else {
+            panic!("{} is not a struct in WGSL", T::WGSL_NAME)
+        };
+        let wgsl: Vec<(&str, usize)> =
+            members.iter().map(|m| (m.name.as_deref().unwrap_or("?"), m.offset as usize)).collect();
+        assert_eq!(wgsl, T::fields(), "member names/offsets of {}", T::WGSL_NAME);
+        assert_eq!(*span as usize, std::mem::size_of::<T>(), "size of {}", T::WGSL_NAME);
+    }
+
+    #[test]
+    fn rust_and_wgsl_structs_agree() {
+        let composed = ShaderLibrary::Embedded.compose("shared/types").unwrap();
+        let module = validate(&composed).unwrap();
+        check::<GridParams>(&module);
+        check::<Camera>(&module);
+        check::<EnvParams>(&module);
+        check::<ViewParams>(&module);
+        check::<Field>(&module);
+        check::<VoxelizeParams>(&module);
+        check::<ProbeParams>(&module);
+        check::<ProbeRay>(&module);
+        check::<ProbeRecord>(&module);
+    }
+}

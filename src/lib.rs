@@ -1,0 +1,16 @@
+//! refrakt: a headless GPU renderer for refractive media — glass, water, gradient-index lenses —
+//! and the caustics and light shafts they throw, after Sun, Zhou, Stollnitz, Shi and Guo,
+//! "Interactive Relighting of Dynamic Refractive Objects" (SIGGRAPH 2008).
+//!
+//! Data flow of a frame: a scene (Lua script) is evaluated into a [`frame::FrameDesc`]; the
+//! [`pipeline::Renderer`] turns that into an [`output::Image`] on the GPU.
+
+pub mod cpu;
+pub mod frame;
+pub mod gpu;
+pub mod lua;
+pub mod output;
+pub mod pipeline;
+pub mod progress;
+pub mod render;
+pub mod scene;

@@ -1,0 +1,592 @@
+//! The objects a script sees: scene, nodes, shapes, materials, cameras, environment, volume.
+//!
+//! Each is a userdata over a shared Rust value of the scene graph, with its fields read and
+//! written by name (`node.translation = {0, 1, 0}`), so the script edits the same graph that is
+//! rendered. One generic wrapper [`Obj`] gives every kind the same behaviour: typed fields with
+//! clear errors, "did you mean …?" for unknown ones, `==` by identity, and `tostring`.
+
+use std::path::PathBuf;
+use std::rc::Rc;
+
+use glam::{Quat, Vec3};
+use mlua::{AnyUserData, IntoLua, Lua, MetaMethod, Table, UserData, UserDataMethods, Value};
+
+use super::convert::{self as cv, FieldName, error_at, unknown_field};
+use super::sandbox::FileAccess;
+use crate::scene::environment::{self, EnvironmentSource};
+use crate::scene::{Camera, Environment, Glass, Material, Node, Origin, Scene, Shape, Shared, VolumeSettings, shared};
+
+/// A scene-graph value a script can read and write field by field.
+pub trait LuaObject: Sized + 'static {
+    /// Name used in messages and `tostring` ("sphere", "node", …).
+    fn kind(&self) -> &'static str;
+    /// Every field, for "did you mean" and the docs.
+    fn fields(&self) -> &'static [&'static str];
+    fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value>;
+    fn set(&mut self, lua: &Lua, key: &str, value: Value) -> mlua::Result<()>;
+    /// Methods beyond field access (`scene:add`, `node:find`, …).
+    fn methods<M: UserDataMethods<Obj<Self>>>(_m: &mut M) {}
+}
+
+/// A shared scene-graph value seen from Lua.
+pub struct Obj<T>(pub Shared<T>);
+
+impl<T> Clone for Obj<T> {
+    fn clone(&self) -> Self {
+        Obj(self.0.clone())
+    }
+}
+
+impl<T: LuaObject> UserData for Obj<T> {
+    fn add_methods<M: UserDataMethods<Self>>(m: &mut M) {
+        T::methods(m);
+        m.add_meta_method(MetaMethod::Index, |lua, this, key: Value| {
+            let key = field_key(lua, &key, this.0.borrow().kind())?;
+            this.0.borrow().get(lua, &key)
+        });
+        m.add_meta_method(MetaMethod::NewIndex, |lua, this, (key, value): (Value, Value)| {
+            let key = field_key(lua, &key, this.0.borrow().kind())?;
+            this.0.borrow_mut().set(lua, &key, value)
+        });
+        m.add_meta_method(MetaMethod::Eq, |_, this, other: AnyUserData| {
+            Ok(other.borrow::<Obj<T>>().map(|o| Rc::ptr_eq(&o.0, &this.0)).unwrap_or(false))
+        });
+        m.add_meta_method(MetaMethod::ToString, |_, this, ()| Ok(format!("refrakt.{}", this.0.borrow().kind())));
+    }
+}
+
+fn field_key(lua: &Lua, key: &Value, kind: &str) -> mlua::Result<String> {
+    match key {
+        Value::String(s) => Ok(s.to_string_lossy()),
+        other => Err(error_at(lua, format!("{kind} fields are named by strings, got {}", cv::describe(other)))),
+    }
+}
+
+/// Builds an object from a constructor table: every key is set through [`LuaObject::set`] (so
+/// constructor and later assignment validate alike), in sorted order so errors are stable.
+pub fn construct<T: LuaObject>(lua: &Lua, mut init: T, table: Option<Table>, required: &[&str]) -> mlua::Result<Obj<T>> {
+    let mut pairs: Vec<(String, Value)> = Vec::new();
+    if let Some(t) = table {
+        for pair in t.pairs::<Value, Value>() {
+            let (k, v) = pair?;
+            pairs.push((field_key(lua, &k, init.kind())?, v));
+        }
+    }
+    pairs.sort_by(|a, b| a.0.cmp(&b.0));
+    for name in required {
+        if !pairs.iter().any(|(k, _)| k == name) {
+            return Err(error_at(lua, format!("{} needs a field \"{name}\"", init.kind())));
+        }
+    }
+    for (k, v) in pairs {
+        init.set(lua, &k, v)?;
+    }
+    Ok(Obj(shared(init)))
+}
+
+/// Reads a userdata argument of the expected kind.
+pub fn expect_obj<T: LuaObject>(lua: &Lua, name: FieldName, v: &Value, expected: &str) -> mlua::Result<Shared<T>> {
+    if let Value::UserData(u) = v {
+        if let Ok(o) = u.borrow::<Obj<T>>() {
+            return Ok(o.0.clone());
+        }
+    }
+    Err(error_at(lua, format!("{name} must be {expected}, got {}", cv::describe(v))))
+}
+
+fn opt_obj<T: LuaObject>(lua: &Lua, name: FieldName, v: &Value, expected: &str) -> mlua::Result<Option<Shared<T>>> {
+    if v.is_nil() { Ok(None) } else { expect_obj(lua, name, v, expected).map(Some) }
+}
+
+fn vec_value(lua: &Lua, v: Vec3) -> mlua::Result<Value> {
+    lua.create_sequence_from([v.x, v.y, v.z])?.into_lua(lua)
+}
+
+fn obj_value<T: LuaObject>(lua: &Lua, o: &Option<Shared<T>>) -> mlua::Result<Value> {
+    match o {
+        Some(s) => Obj(s.clone()).into_lua(lua),
+        None => Ok(Value::Nil),
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Quaternions (value type).
+
+/// A rotation, made by `refrakt.quat`, `refrakt.axis_angle` or `refrakt.euler`.
+#[derive(Clone, Copy)]
+pub struct LQuat(pub Quat);
+
+impl UserData for LQuat {
+    fn add_methods<M: UserDataMethods<Self>>(m: &mut M) {
+        m.add_method("inverse", |_, q, ()| Ok(LQuat(q.0.inverse())));
+        m.add_method("euler", |lua, q, ()| {
+            let (z, y, x) = q.0.to_euler(glam::EulerRot::ZYX);
+            vec_value(lua, Vec3::new(x, y, z) * (180.0 / std::f32::consts::PI))
+        });
+        m.add_method("rotate", |lua, q, v: Value| {
+            let v = cv::vec3(lua, FieldName { what: "quat:rotate", field: "vector" }, &v)?;
+            vec_value(lua, q.0 * v)
+        });
+        m.add_meta_function(MetaMethod::Mul, |lua, (a, b): (AnyUserData, Value)| {
+            let a = a.borrow::<LQuat>()?.0;
+            if let Value::UserData(u) = &b {
+                if let Ok(q) = u.borrow::<LQuat>() {
+                    return LQuat((a * q.0).normalize()).into_lua(lua);
+                }
+            }
+            let v = cv::vec3(lua, FieldName { what: "quat *", field: "operand" }, &b)?;
+            vec_value(lua, a * v)
+        });
+        m.add_meta_method(MetaMethod::ToString, |_, q, ()| {
+            Ok(format!("refrakt.quat{{w = {}, x = {}, y = {}, z = {}}}", q.0.w, q.0.x, q.0.y, q.0.z))
+        });
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scene.
+
+const SCENE_FIELDS: &[&str] = &["camera", "environment", "volume", "photons", "samples"];
+
+impl LuaObject for Scene {
+    fn kind(&self) -> &'static str {
+        "scene"
+    }
+    fn fields(&self) -> &'static [&'static str] {
+        SCENE_FIELDS
+    }
+    fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
+        match key {
+            "camera" => obj_value(lua, &self.camera),
+            "environment" => Obj(self.environment.clone()).into_lua(lua),
+            "volume" => Obj(self.volume.clone()).into_lua(lua),
+            "photons" => Ok(Value::Integer(self.photons as i64)),
+            "samples" => Ok(Value::Integer(self.samples as i64)),
+            _ => Err(unknown_field(lua, "scene", key, SCENE_FIELDS)),
+        }
+    }
+    fn set(&mut self, lua: &Lua, key: &str, value: Value) -> mlua::Result<()> {
+        let name = FieldName { what: "scene", field: key };
+        match key {
+            "camera" => self.camera = opt_obj(lua, name, &value, "a refrakt.camera{…}")?,
+            "environment" => {
+                self.environment = match &value {
+                    // A plain table is shorthand for refrakt.environment{…}.
+                    Value::Table(t) => construct(lua, Environment::default(), Some(t.clone()), &[])?.0,
+                    _ => expect_obj(lua, name, &value, "a refrakt.environment{…}")?,
+                }
+            }
+            "volume" => {
+                self.volume = match &value {
+                    Value::Table(t) => construct(lua, VolumeSettings::default(), Some(t.clone()), &[])?.0,
+                    _ => expect_obj(lua, name, &value, "a volume table {resolution = …, margin = …}")?,
+                }
+            }
+            "photons" => self.photons = cv::integer(lua, name, &value, 0, 1 << 30)? as u32,
+            "samples" => self.samples = cv::integer(lua, name, &value, 1, 256)? as u32,
+            _ => return Err(unknown_field(lua, "scene", key, SCENE_FIELDS)),
+        }
+        Ok(())
+    }
+    fn methods<M: UserDataMethods<Obj<Self>>>(m: &mut M) {
+        m.add_method("add", |lua, this, node: Value| {
+            let node = expect_obj::<Node>(lua, FieldName { what: "scene:add", field: "node" }, &node, "a refrakt.node{…}")?;
+            this.0.borrow_mut().roots.push(node.clone());
+            Ok(Obj(node))
+        });
+        m.add_method("find", |lua, this, name: String| {
+            let hit = this.0.borrow().find(&name);
+            obj_value(lua, &hit)
+        });
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Nodes.
+
+const NODE_FIELDS: &[&str] =
+    &["name", "translation", "rotation", "scale", "shape", "material", "camera", "visible", "children"];
+
+impl LuaObject for Node {
+    fn kind(&self) -> &'static str {
+        "node"
+    }
+    fn fields(&self) -> &'static [&'static str] {
+        NODE_FIELDS
+    }
+    fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
+        match key {
+            "name" => self.name.clone().into_lua(lua),
+            "translation" => vec_value(lua, self.transform.translation),
+            "rotation" => LQuat(self.transform.rotation).into_lua(lua),
+            "scale" => vec_value(lua, self.transform.scale),
+            "shape" => obj_value(lua, &self.shape),
+            "material" => obj_value(lua, &self.material),
+            "camera" => obj_value(lua, &self.camera),
+            "visible" => Ok(Value::Boolean(self.visible)),
+            "children" => {
+                let t = lua.create_table()?;
+                for c in &self.children {
+                    t.push(Obj(c.clone()))?;
+                }
+                Ok(Value::Table(t))
+            }
+            _ => Err(unknown_field(lua, "node", key, NODE_FIELDS)),
+        }
+    }
+    fn set(&mut self, lua: &Lua, key: &str, value: Value) -> mlua::Result<()> {
+        let name = FieldName { what: "node", field: key };
+        match key {
+            "name" => self.name = cv::string(lua, name, &value)?,
+            "translation" => self.transform.translation = cv::vec3(lua, name, &value)?,
+            "rotation" => self.transform.rotation = cv::rotation(lua, name, &value)?,
+            "scale" => {
+                self.transform.scale = match value {
+                    Value::Integer(_) | Value::Number(_) => Vec3::splat(cv::positive(lua, name, &value)?),
+                    _ => cv::size3(lua, name, &value)?,
+                }
+            }
+            "shape" => self.shape = opt_obj(lua, name, &value, "a shape such as refrakt.sphere{…}")?,
+            "material" => self.material = opt_obj(lua, name, &value, "a material such as refrakt.glass{…}")?,
+            "camera" => self.camera = opt_obj(lua, name, &value, "a refrakt.camera{…}")?,
+            "visible" => self.visible = cv::boolean(lua, name, &value)?,
+            "children" => {
+                let Value::Table(t) = &value else {
+                    return Err(error_at(lua, format!("{name} must be a list of nodes, got {}", cv::describe(&value))));
+                };
+                self.children.clear();
+                for child in t.clone().sequence_values::<Value>() {
+                    self.children.push(expect_obj::<Node>(lua, name, &child?, "a list of refrakt.node{…}")?);
+                }
+            }
+            _ => return Err(unknown_field(lua, "node", key, NODE_FIELDS)),
+        }
+        Ok(())
+    }
+    fn methods<M: UserDataMethods<Obj<Self>>>(m: &mut M) {
+        m.add_method("add", |lua, this, child: Value| {
+            let child =
+                expect_obj::<Node>(lua, FieldName { what: "node:add", field: "child" }, &child, "a refrakt.node{…}")?;
+            if Rc::ptr_eq(&child, &this.0) || contains(&child, &this.0) {
+                return Err(error_at(lua, "node:add would make a node its own ancestor"));
+            }
+            this.0.borrow_mut().children.push(child.clone());
+            Ok(Obj(child))
+        });
+        m.add_method("find", |lua, this, name: String| {
+            let scene = Scene { roots: this.0.borrow().children.clone(), ..Scene::default() };
+            obj_value(lua, &scene.find(&name))
+        });
+    }
+}
+
+/// Whether `node`'s subtree contains `target`.
+fn contains(node: &Shared<Node>, target: &Shared<Node>) -> bool {
+    node.borrow().children.iter().any(|c| Rc::ptr_eq(c, target) || contains(c, target))
+}
+
+/// `refrakt.node{…}`: remembers where it was made, for messages about it later.
+pub fn new_node(lua: &Lua, table: Option<Table>) -> mlua::Result<Obj<Node>> {
+    let mut node = Node::new("");
+    node.origin = Origin(cv::location(lua));
+    construct(lua, node, table, &[])
+}
+
+// ---------------------------------------------------------------------------------------------
+// Shapes.
+
+const SPHERE_FIELDS: &[&str] = &["radius", "boundary"];
+const BOX_FIELDS: &[&str] = &["size", "boundary"];
+const SLAB_FIELDS: &[&str] = &["size", "ior", "gradient", "boundary"];
+
+impl LuaObject for Shape {
+    fn kind(&self) -> &'static str {
+        self.kind_name()
+    }
+    fn fields(&self) -> &'static [&'static str] {
+        match self {
+            Shape::Sphere { .. } | Shape::Luneburg { .. } => SPHERE_FIELDS,
+            Shape::Box { .. } => BOX_FIELDS,
+            Shape::Slab { .. } => SLAB_FIELDS,
+        }
+    }
+    fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
+        let boundary = |b: &Option<f32>| Ok(b.map_or(Value::Nil, |b| Value::Number(b as f64)));
+        match (self, key) {
+            (Shape::Sphere { radius, .. } | Shape::Luneburg { radius, .. }, "radius") => Ok(Value::Number(*radius as f64)),
+            (Shape::Box { size, .. } | Shape::Slab { size, .. }, "size") => vec_value(lua, *size),
+            (Shape::Slab { ior, .. }, "ior") => Ok(Value::Number(*ior as f64)),
+            (Shape::Slab { gradient, .. }, "gradient") => Ok(Value::Number(*gradient as f64)),
+            (
+                Shape::Sphere { boundary: b, .. }
+                | Shape::Luneburg { boundary: b, .. }
+                | Shape::Box { boundary: b, .. }
+                | Shape::Slab { boundary: b, .. },
+                "boundary",
+            ) => boundary(b),
+            _ => Err(unknown_field(lua, self.kind_name(), key, self.fields())),
+        }
+    }
+    fn set(&mut self, lua: &Lua, key: &str, value: Value) -> mlua::Result<()> {
+        let kind = self.kind_name();
+        let name = FieldName { what: kind, field: key };
+        let fields = self.fields();
+        match (self, key) {
+            (Shape::Sphere { radius, .. } | Shape::Luneburg { radius, .. }, "radius") => {
+                *radius = cv::positive(lua, name, &value)?
+            }
+            (Shape::Box { size, .. } | Shape::Slab { size, .. }, "size") => *size = cv::size3(lua, name, &value)?,
+            (Shape::Slab { ior, .. }, "ior") => {
+                *ior = cv::number_in(lua, name, &value, Some(1.0), Some(4.0), "a number from 1 to 4")? as f32
+            }
+            (Shape::Slab { gradient, .. }, "gradient") => *gradient = cv::number(lua, name, &value)? as f32,
+            (
+                Shape::Sphere { boundary, .. }
+                | Shape::Luneburg { boundary, .. }
+                | Shape::Box { boundary, .. }
+                | Shape::Slab { boundary, .. },
+                "boundary",
+            ) => {
+                *boundary = if value.is_nil() {
+                    None
+                } else {
+                    Some(cv::number_in(lua, name, &value, Some(0.0), Some(16.0), "a width in voxels from 0 to 16")? as f32)
+                }
+            }
+            _ => return Err(unknown_field(lua, kind, key, fields)),
+        }
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Materials.
+
+const GLASS_FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g"];
+
+impl LuaObject for Material {
+    fn kind(&self) -> &'static str {
+        match self {
+            Material::Glass(_) => "glass",
+        }
+    }
+    fn fields(&self) -> &'static [&'static str] {
+        GLASS_FIELDS
+    }
+    fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
+        let Material::Glass(g) = self;
+        match key {
+            "ior" => Ok(Value::Number(g.ior as f64)),
+            "absorption" => vec_value(lua, g.absorption),
+            "scattering" => vec_value(lua, g.scattering),
+            "g" => Ok(Value::Number(g.g as f64)),
+            // Transmittance over one metre (the color a 1 m thick piece has).
+            "color" => vec_value(lua, (-g.absorption).exp()),
+            "distance" => Ok(Value::Number(1.0)),
+            _ => Err(unknown_field(lua, "glass", key, GLASS_FIELDS)),
+        }
+    }
+    fn set(&mut self, lua: &Lua, key: &str, value: Value) -> mlua::Result<()> {
+        let Material::Glass(g) = self;
+        let name = FieldName { what: "glass", field: key };
+        match key {
+            "ior" => g.ior = cv::number_in(lua, name, &value, Some(1.0), Some(4.0), "a number from 1 to 4")? as f32,
+            "absorption" => g.absorption = cv::color(lua, name, &value)?,
+            "scattering" => g.scattering = cv::color(lua, name, &value)?,
+            "g" => g.g = cv::number_in(lua, name, &value, Some(-0.99), Some(0.99), "a number from −0.99 to 0.99")? as f32,
+            "color" | "distance" => {
+                return Err(error_at(
+                    lua,
+                    "glass.color and glass.distance are set together in refrakt.glass{color = {…}, distance = …} \
+                     (the color light takes on after travelling that far); after that, set glass.absorption",
+                ));
+            }
+            _ => return Err(unknown_field(lua, "glass", key, GLASS_FIELDS)),
+        }
+        Ok(())
+    }
+}
+
+/// `refrakt.glass{…}`: `color` + `distance` (glTF's attenuation color and distance) become
+/// absorption = −ln(color) / distance.
+pub fn new_glass(lua: &Lua, table: Option<Table>) -> mlua::Result<Obj<Material>> {
+    let mut color = None;
+    let mut distance = 1.0f32;
+    let rest = lua.create_table()?;
+    if let Some(t) = table {
+        for pair in t.pairs::<Value, Value>() {
+            let (k, v) = pair?;
+            let key = match &k { Value::String(s) => s.to_str().ok().map(|x| x.to_string()), _ => None };
+            match key.as_deref() {
+                Some("color") => {
+                    let c = cv::color(lua, FieldName { what: "glass", field: "color" }, &v)?;
+                    if c.min_element() <= 0.0 || c.max_element() > 1.0 {
+                        return Err(error_at(lua, "glass.color must have components in (0, 1] (the transmitted fraction)"));
+                    }
+                    color = Some(c);
+                }
+                Some("distance") => distance = cv::positive(lua, FieldName { what: "glass", field: "distance" }, &v)?,
+                _ => rest.raw_set(k, v)?,
+            }
+        }
+    }
+    let obj = construct(lua, Material::Glass(Glass::default()), Some(rest), &[])?;
+    if let Some(c) = color {
+        let Material::Glass(g) = &mut *obj.0.borrow_mut();
+        if g.absorption != Vec3::ZERO {
+            return Err(error_at(lua, "give glass either absorption or color + distance, not both"));
+        }
+        g.absorption = -Vec3::new(c.x.ln(), c.y.ln(), c.z.ln()) / distance;
+    }
+    Ok(obj)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Camera.
+
+const CAMERA_FIELDS: &[&str] = &["position", "target", "rotation", "up", "fov", "size"];
+
+impl LuaObject for Camera {
+    fn kind(&self) -> &'static str {
+        "camera"
+    }
+    fn fields(&self) -> &'static [&'static str] {
+        CAMERA_FIELDS
+    }
+    fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
+        match key {
+            "position" => vec_value(lua, self.position),
+            "target" => self.target.map_or(Ok(Value::Nil), |t| vec_value(lua, t)),
+            "rotation" => LQuat(self.orientation()).into_lua(lua),
+            "up" => vec_value(lua, self.up),
+            "fov" => Ok(Value::Number(self.fov_y.to_degrees() as f64)),
+            "size" => lua.create_sequence_from([self.size.0, self.size.1])?.into_lua(lua),
+            _ => Err(unknown_field(lua, "camera", key, CAMERA_FIELDS)),
+        }
+    }
+    fn set(&mut self, lua: &Lua, key: &str, value: Value) -> mlua::Result<()> {
+        let name = FieldName { what: "camera", field: key };
+        match key {
+            "position" => self.position = cv::vec3(lua, name, &value)?,
+            "target" => {
+                self.target = Some(cv::vec3(lua, name, &value)?);
+                self.rotation = None;
+            }
+            "rotation" => {
+                self.rotation = Some(cv::rotation(lua, name, &value)?);
+                self.target = None;
+            }
+            "up" => {
+                let up = cv::vec3(lua, name, &value)?;
+                if up.length_squared() < 1e-12 {
+                    return Err(error_at(lua, "camera.up must not be the zero vector"));
+                }
+                self.up = up.normalize();
+            }
+            "fov" => {
+                self.fov_y = (cv::number_in(lua, name, &value, Some(0.1), Some(179.0), "an angle in degrees from 0.1 to 179")?
+                    as f32)
+                    .to_radians()
+            }
+            "size" => self.size = cv::image_size(lua, name, &value)?,
+            _ => return Err(unknown_field(lua, "camera", key, CAMERA_FIELDS)),
+        }
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Environment.
+
+const ENVIRONMENT_FIELDS: &[&str] = &["color", "image", "preset", "intensity", "rotation", "visible"];
+
+impl LuaObject for Environment {
+    fn kind(&self) -> &'static str {
+        "environment"
+    }
+    fn fields(&self) -> &'static [&'static str] {
+        ENVIRONMENT_FIELDS
+    }
+    fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
+        match (key, &self.source) {
+            ("color", EnvironmentSource::Color(c)) => vec_value(lua, *c),
+            ("image", EnvironmentSource::Image { path, .. }) => path.display().to_string().into_lua(lua),
+            ("preset", EnvironmentSource::Preset { name, .. }) => name.clone().into_lua(lua),
+            ("color" | "image" | "preset", _) => Ok(Value::Nil),
+            ("intensity", _) => Ok(Value::Number(self.intensity as f64)),
+            ("rotation", _) => Ok(Value::Number(self.rotation.to_degrees() as f64)),
+            ("visible", _) => Ok(Value::Boolean(self.visible)),
+            _ => Err(unknown_field(lua, "environment", key, ENVIRONMENT_FIELDS)),
+        }
+    }
+    fn set(&mut self, lua: &Lua, key: &str, value: Value) -> mlua::Result<()> {
+        let name = FieldName { what: "environment", field: key };
+        match key {
+            "color" => self.source = EnvironmentSource::Color(cv::color(lua, name, &value)?),
+            "image" => {
+                let given = cv::string(lua, name, &value)?;
+                let path = FileAccess::resolve(lua, &given)?;
+                let image = environment::load_image(&path).map_err(|e| error_at(lua, format!("{e:#}")))?;
+                self.source = EnvironmentSource::Image { path: PathBuf::from(given), image: image.into() };
+            }
+            "preset" => {
+                let preset = cv::string(lua, name, &value)?;
+                let image = environment::preset(&preset).map_err(|e| error_at(lua, format!("environment.preset: {e}")))?;
+                self.source = EnvironmentSource::Preset { name: preset, image };
+            }
+            "intensity" => self.intensity = cv::non_negative(lua, name, &value)?,
+            "rotation" => self.rotation = (cv::number(lua, name, &value)? as f32).to_radians(),
+            "visible" => self.visible = cv::boolean(lua, name, &value)?,
+            _ => return Err(unknown_field(lua, "environment", key, ENVIRONMENT_FIELDS)),
+        }
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Volume settings.
+
+const VOLUME_FIELDS: &[&str] = &["resolution", "margin", "min", "max", "boundary", "step"];
+
+impl LuaObject for VolumeSettings {
+    fn kind(&self) -> &'static str {
+        "volume"
+    }
+    fn fields(&self) -> &'static [&'static str] {
+        VOLUME_FIELDS
+    }
+    fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
+        match key {
+            "resolution" => Ok(Value::Integer(self.resolution as i64)),
+            "margin" => Ok(Value::Number(self.margin as f64)),
+            "min" => self.bounds.map_or(Ok(Value::Nil), |b| vec_value(lua, b.0)),
+            "max" => self.bounds.map_or(Ok(Value::Nil), |b| vec_value(lua, b.1)),
+            "boundary" => Ok(Value::Number(self.boundary as f64)),
+            "step" => Ok(Value::Number(self.step as f64)),
+            _ => Err(unknown_field(lua, "volume", key, VOLUME_FIELDS)),
+        }
+    }
+    fn set(&mut self, lua: &Lua, key: &str, value: Value) -> mlua::Result<()> {
+        let name = FieldName { what: "volume", field: key };
+        match key {
+            "resolution" => self.resolution = cv::integer(lua, name, &value, 8, 2048)? as u32,
+            "margin" => self.margin = cv::non_negative(lua, name, &value)?,
+            "min" | "max" => {
+                let p = cv::vec3(lua, name, &value)?;
+                let (mut lo, mut hi) = self.bounds.unwrap_or((Vec3::NAN, Vec3::NAN));
+                if key == "min" { lo = p } else { hi = p }
+                self.bounds = Some((lo, hi));
+            }
+            "boundary" => {
+                self.boundary =
+                    cv::number_in(lua, name, &value, Some(0.0), Some(16.0), "a width in voxels from 0 to 16")? as f32
+            }
+            "step" => {
+                self.step =
+                    cv::number_in(lua, name, &value, Some(0.01), Some(8.0), "a step in voxels from 0.01 to 8")? as f32
+            }
+            _ => return Err(unknown_field(lua, "volume", key, VOLUME_FIELDS)),
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,176 @@
+//! The `refrakt` command line.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::Ordering;
+use std::time::Duration;
+
+use anyhow::Result;
+use clap::{Args, Parser, Subcommand};
+
+use refrakt::output::Format;
+use refrakt::output::png::{PngOptions, ToneMap};
+use refrakt::progress::ProgressMode;
+use refrakt::render::{self, FrameRange, RenderOptions};
+use refrakt::scene::eval::EvalOptions;
+
+#[derive(Parser)]
+#[command(name = "refrakt", version, about = "Render glass, water and gradient-index media with their caustics, on the GPU")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+    /// More log output (repeat for more).
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    verbose: u8,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene (a .lua script) to EXR/PNG frames.
+    Render(RenderArgs),
+    /// Show the GPU adapter refrakt would use, its limits, and why it was chosen.
+    Info {
+        #[command(flatten)]
+        gpu: GpuArgs,
+    },
+}
+
+#[derive(Args)]
+struct GpuArgs {
+    /// Use the adapter whose name, driver or backend contains this text (also $REFRAKT_ADAPTER).
+    #[arg(long, value_name = "SUBSTRING")]
+    adapter: Option<String>,
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    /// The scene: a .lua script.
+    scene: PathBuf,
+    /// Frames to render, e.g. 1..48 (inclusive); frame k is the scene at t = k / fps.
+    #[arg(long, value_name = "A..B")]
+    frames: Option<FrameRange>,
+    /// Frames per second of the scene clock.
+    #[arg(long, default_value_t = 24.0)]
+    fps: f64,
+    /// Folder for the frames.
+    #[arg(long, short, default_value = "render", value_name = "DIR")]
+    out: PathBuf,
+    /// Base name of the files (default: the scene's file name).
+    #[arg(long)]
+    name: Option<String>,
+    /// Image size, overriding the camera's, e.g. 1920x1080.
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    size: Option<(u32, u32)>,
+    /// Voxels along the longest side of the volume, overriding the scene's.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(8..=2048))]
+    volume: Option<u32>,
+    /// Camera rays per pixel, overriding the scene's (antialiasing).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=256))]
+    samples: Option<u32>,
+    /// Use the node of this name that carries a camera.
+    #[arg(long)]
+    camera: Option<String>,
+    /// Output formats, comma separated.
+    #[arg(long, value_delimiter = ',', default_value = "exr,png")]
+    format: Vec<Format>,
+    /// PNG exposure in stops.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    exposure: f32,
+    /// PNG tone mapping.
+    #[arg(long, value_enum, default_value_t = ToneMap::Neutral)]
+    tonemap: ToneMap,
+    /// Skip frames whose files all exist (resume an interrupted render).
+    #[arg(long)]
+    skip_existing: bool,
+    /// How to show progress.
+    #[arg(long, value_enum, default_value_t = ProgressMode::Auto)]
+    progress: ProgressMode,
+    /// Let the script read files below this folder too (repeatable).
+    #[arg(long, value_name = "DIR")]
+    allow_read: Vec<PathBuf>,
+    /// Seconds a script may run per call (loading, each update) before it is stopped.
+    #[arg(long, default_value_t = 10.0, value_name = "SECONDS")]
+    script_timeout: f64,
+    /// Memory a script may use, MiB.
+    #[arg(long, default_value_t = 1024, value_name = "MIB")]
+    script_memory: usize,
+    #[command(flatten)]
+    gpu: GpuArgs,
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let err = || format!("\"{s}\" is not a size like 1024x576");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(err)?;
+    let (w, h): (u32, u32) = (w.trim().parse().map_err(|_| err())?, h.trim().parse().map_err(|_| err())?);
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(format!("size {s}: width and height must be from 1 to 16384"));
+    }
+    Ok((w, h))
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Info { gpu } => {
+            let ctx = refrakt::gpu::GpuContext::new(gpu.adapter.as_deref())?;
+            print!("{}", ctx.report());
+            Ok(())
+        }
+        Command::Render(a) => {
+            if !(a.fps.is_finite() && a.fps > 0.0) {
+                anyhow::bail!("--fps must be a positive number, got {}", a.fps);
+            }
+            if !(a.script_timeout.is_finite() && a.script_timeout > 0.0) {
+                anyhow::bail!("--script-timeout must be a positive number of seconds");
+            }
+            let opts = RenderOptions {
+                frames: a.frames,
+                fps: a.fps,
+                out: a.out,
+                name: a.name,
+                formats: a.format,
+                eval: EvalOptions { size: a.size, resolution: a.volume, camera: a.camera, samples: a.samples },
+                png: PngOptions { exposure: a.exposure, tonemap: a.tonemap, alpha: false },
+                skip_existing: a.skip_existing,
+                progress: a.progress,
+                adapter: a.gpu.adapter,
+                allow_read: a.allow_read,
+                limits: refrakt::lua::Limits {
+                    time_budget: Duration::from_secs_f64(a.script_timeout),
+                    memory_bytes: a.script_memory << 20,
+                },
+            };
+            render::run(&a.scene, &opts)
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let level = match cli.verbose {
+        0 => "warn",
+        1 => "info",
+        _ => "debug",
+    };
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_env("REFRAKT_LOG")
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(format!("refrakt={level},wgpu=error,naga=error"))),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    std::panic::set_hook(Box::new(|info| {
+        eprintln!("refrakt: internal error (a bug in refrakt, please report it): {info}");
+    }));
+    let _ = ctrlc::set_handler(|| {
+        if render::INTERRUPTED.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+    });
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            if render::INTERRUPTED.load(Ordering::SeqCst) { ExitCode::from(130) } else { ExitCode::FAILURE }
+        }
+    }
+}

@@ -1,0 +1,224 @@
+//! GPU resources shared between stages: the voxel grids, the environment map and the frame
+//! target. Each carries a generation number so stages rebuild a bind group only when the
+//! resource behind it was reallocated (a size change), never per frame.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use anyhow::{Result, anyhow};
+use glam::UVec3;
+
+use crate::gpu::GpuContext;
+use crate::gpu::readback::Staging;
+use crate::output::{Image, Layer};
+use crate::scene::{EnvImage, Environment};
+
+static GENERATION: AtomicU64 = AtomicU64::new(1);
+
+fn next_generation() -> u64 {
+    GENERATION.fetch_add(1, Ordering::Relaxed)
+}
+
+/// Runs `f` inside an out-of-memory error scope, turning an allocation failure into a message.
+fn allocating<T>(ctx: &GpuContext, what: &str, f: impl FnOnce() -> T) -> Result<T> {
+    let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+    let value = f();
+    if let Some(e) = pollster::block_on(scope.pop()) {
+        return Err(anyhow!(
+            "the GPU \"{}\" has not enough memory for {what}: {e}; lower the volume resolution or image size",
+            ctx.info.name
+        ));
+    }
+    Ok(value)
+}
+
+/// The format of every filtered 3D grid: see `shaders/gradient.wgsl` for why 16-bit floats.
+pub const GRID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+/// One filterable 3D grid that compute stages write and later stages sample.
+pub struct Grid3d {
+    pub texture: wgpu::Texture,
+    pub view: wgpu::TextureView,
+}
+
+impl Grid3d {
+    fn new(device: &wgpu::Device, dims: UVec3, label: &str) -> Self {
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d { width: dims.x, height: dims.y, depth_or_array_layers: dims.z },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D3,
+            format: GRID_FORMAT,
+            usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&Default::default());
+        Self { texture, view }
+    }
+}
+
+/// The voxel grids of the volume.
+pub struct Grids {
+    pub dims: UVec3,
+    pub generation: u64,
+    /// Where the grids sit in the world as of the last frame that filled them.
+    pub placement: Option<crate::gpu::types::GridParams>,
+    /// Raw n per voxel (f32), written by voxelize, read by gradient.
+    pub index_field: wgpu::Buffer,
+    /// (∇n, n), trilinearly sampled by every ray-marching stage.
+    pub ior_grid: Grid3d,
+    /// Extinction σ_t = absorption + scattering per metre (rgb).
+    pub extinction_grid: Grid3d,
+    /// Scattering σ_s per metre (rgb) and Henyey–Greenstein g (a).
+    pub scattering_grid: Grid3d,
+    /// Trilinear, clamped to the box edge.
+    pub sampler: wgpu::Sampler,
+}
+
+impl Grids {
+    pub fn new(ctx: &GpuContext, dims: UVec3) -> Result<Self> {
+        let device = &ctx.device;
+        let voxels = dims.x as u64 * dims.y as u64 * dims.z as u64;
+        allocating(ctx, &format!("a {}×{}×{} volume", dims.x, dims.y, dims.z), || Self {
+            dims,
+            generation: next_generation(),
+            placement: None,
+            index_field: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("index_field"),
+                size: voxels * 4,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            ior_grid: Grid3d::new(device, dims, "ior_grid"),
+            extinction_grid: Grid3d::new(device, dims, "extinction_grid"),
+            scattering_grid: Grid3d::new(device, dims, "scattering_grid"),
+            sampler: device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some("grid_sampler"),
+                mag_filter: wgpu::FilterMode::Linear,
+                min_filter: wgpu::FilterMode::Linear,
+                ..Default::default()
+            }),
+        })
+    }
+}
+
+/// The environment map on the GPU (a 1×1 texture for a constant color).
+pub struct EnvironmentTexture {
+    pub texture: wgpu::Texture,
+    pub view: wgpu::TextureView,
+    pub sampler: wgpu::Sampler,
+    pub generation: u64,
+    /// The image now uploaded (compared by identity: images are shared, never mutated).
+    uploaded: Option<Arc<EnvImage>>,
+}
+
+impl EnvironmentTexture {
+    pub fn new(ctx: &GpuContext) -> Self {
+        let (texture, view) = Self::texture(ctx, 1, 1, &[[1.0; 4]]);
+        let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("env_sampler"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        Self { texture, view, sampler, generation: next_generation(), uploaded: None }
+    }
+
+    fn texture(ctx: &GpuContext, width: u32, height: u32, texels: &[[f32; 4]]) -> (wgpu::Texture, wgpu::TextureView) {
+        let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
+        let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("environment"),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba16Float,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        let halves: Vec<half::f16> = texels.iter().flatten().map(|&c| half::f16::from_f32(c)).collect();
+        ctx.queue.write_texture(
+            texture.as_image_copy(),
+            bytemuck::cast_slice(&halves),
+            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(width * 8), rows_per_image: Some(height) },
+            size,
+        );
+        let view = texture.create_view(&Default::default());
+        (texture, view)
+    }
+
+    /// Uploads the environment's image if it is not the one on the GPU; true if it uploaded.
+    pub fn update(&mut self, ctx: &GpuContext, env: &Environment) -> bool {
+        let Some(image) = env.image() else { return false };
+        if self.uploaded.as_ref().is_some_and(|u| Arc::ptr_eq(u, image)) {
+            return false;
+        }
+        let max = ctx.limits.max_texture_dimension_2d;
+        let (texture, view) = if image.width <= max && image.height <= max {
+            Self::texture(ctx, image.width, image.height, &image.texels)
+        } else {
+            tracing::warn!("environment image {}×{} exceeds the adapter's {max} texels; using it at reduced size", image.width, image.height);
+            let reduced = EnvImage::from_fn(max.min(image.width), (max / 2).min(image.height), |d| image.bilinear(crate::scene::environment::dir_to_uv(d)));
+            Self::texture(ctx, reduced.width, reduced.height, &reduced.texels)
+        };
+        (self.texture, self.view) = (texture, view);
+        self.uploaded = Some(image.clone());
+        self.generation = next_generation();
+        true
+    }
+}
+
+/// Planes of vec4 per pixel the view stage writes: beauty, then (depth, …).
+pub const FRAME_PLANES: u64 = 2;
+
+/// Where the view stage writes the image, and the staging buffer it comes home through.
+pub struct FrameTarget {
+    pub width: u32,
+    pub height: u32,
+    pub generation: u64,
+    pub buffer: wgpu::Buffer,
+    staging: Staging,
+}
+
+impl FrameTarget {
+    pub fn bytes(width: u32, height: u32) -> u64 {
+        width as u64 * height as u64 * FRAME_PLANES * 16
+    }
+
+    pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<Self> {
+        let size = Self::bytes(width, height);
+        allocating(ctx, &format!("a {width}×{height} frame"), || Self {
+            width,
+            height,
+            generation: next_generation(),
+            buffer: ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("frame"),
+                size,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            staging: Staging::new(&ctx.device, size, "frame readback"),
+        })
+    }
+
+    pub fn encode_readback(&self, enc: &mut wgpu::CommandEncoder) {
+        enc.copy_buffer_to_buffer(&self.buffer, 0, &self.staging.buffer, 0, self.buffer.size());
+    }
+
+    /// The image after the submission with [`encode_readback`](Self::encode_readback) finished.
+    pub fn read(&self, ctx: &GpuContext) -> Result<Image> {
+        let bytes = self.staging.read(ctx, self.buffer.size())?;
+        let floats: &[f32] = bytemuck::cast_slice(&bytes);
+        let n = (self.width * self.height) as usize;
+        let beauty = floats[..4 * n].to_vec();
+        let depth = floats[4 * n..8 * n].chunks(4).map(|c| c[0]).collect();
+        Ok(Image {
+            width: self.width,
+            height: self.height,
+            layers: vec![Layer::new("beauty", &["R", "G", "B", "A"], beauty), Layer::new("depth", &["Z"], depth)],
+        })
+    }
+}

@@ -1,0 +1,120 @@
+//! Progress of a multi-frame render: a bar on a terminal, one line per frame otherwise, or
+//! JSON lines on stdout for programs (the Blender add-on):
+//!
+//! ```text
+//! {"event":"start","frames":48,"first":1,"last":48}
+//! {"event":"frame","frame":1,"done":1,"total":48,"seconds":0.41,"files":["out/scene.0001.exr"]}
+//! {"event":"skip","frame":2,"done":2,"total":48}
+//! {"event":"done","frames":48,"seconds":19.6}
+//! {"event":"error","message":"scene.lua:12: …","frame":3}
+//! ```
+
+use std::io::{IsTerminal, Write};
+use std::path::PathBuf;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum ProgressMode {
+    /// A bar on a terminal, lines otherwise.
+    #[default]
+    Auto,
+    Bar,
+    Lines,
+    Json,
+    Quiet,
+}
+
+pub struct Progress {
+    mode: ProgressMode,
+    bar: Option<indicatif::ProgressBar>,
+    total: u64,
+    done: u64,
+}
+
+fn json_line(value: serde_json::Value) {
+    let mut out = std::io::stdout().lock();
+    let _ = writeln!(out, "{value}");
+    let _ = out.flush();
+}
+
+impl Progress {
+    pub fn new(mode: ProgressMode) -> Self {
+        let mode = match mode {
+            ProgressMode::Auto if std::io::stderr().is_terminal() => ProgressMode::Bar,
+            ProgressMode::Auto => ProgressMode::Lines,
+            m => m,
+        };
+        Self { mode, bar: None, total: 0, done: 0 }
+    }
+
+    pub fn start(&mut self, first: i64, last: i64) {
+        self.total = (last - first + 1) as u64;
+        match self.mode {
+            ProgressMode::Bar => {
+                let bar = indicatif::ProgressBar::new(self.total);
+                if let Ok(style) = indicatif::ProgressStyle::with_template("{spinner} frame {pos}/{len} [{bar:32}] {elapsed} (eta {eta}) {msg}") {
+                    bar.set_style(style.progress_chars("=> "));
+                }
+                self.bar = Some(bar);
+            }
+            ProgressMode::Json => json_line(serde_json::json!({"event": "start", "frames": self.total, "first": first, "last": last})),
+            _ => {}
+        }
+    }
+
+    pub fn frame(&mut self, frame: i64, seconds: f64, files: &[PathBuf]) {
+        self.done += 1;
+        let names: Vec<String> = files.iter().map(|p| p.display().to_string()).collect();
+        match self.mode {
+            ProgressMode::Bar => {
+                if let Some(b) = &self.bar {
+                    b.set_message(format!("{seconds:.2} s/frame"));
+                    b.inc(1);
+                }
+            }
+            ProgressMode::Lines => eprintln!("frame {frame} ({}/{}) in {seconds:.2} s: {}", self.done, self.total, names.join(", ")),
+            ProgressMode::Json => json_line(serde_json::json!({
+                "event": "frame", "frame": frame, "done": self.done, "total": self.total,
+                "seconds": seconds, "files": names,
+            })),
+            ProgressMode::Quiet | ProgressMode::Auto => {}
+        }
+    }
+
+    pub fn skip(&mut self, frame: i64) {
+        self.done += 1;
+        match self.mode {
+            ProgressMode::Bar => {
+                if let Some(b) = &self.bar {
+                    b.inc(1);
+                }
+            }
+            ProgressMode::Lines => eprintln!("frame {frame} ({}/{}) exists, skipped", self.done, self.total),
+            ProgressMode::Json => json_line(serde_json::json!({"event": "skip", "frame": frame, "done": self.done, "total": self.total})),
+            _ => {}
+        }
+    }
+
+    pub fn finish(&mut self, seconds: f64) {
+        match self.mode {
+            ProgressMode::Bar => {
+                if let Some(b) = self.bar.take() {
+                    b.finish_and_clear();
+                }
+                eprintln!("rendered {} frame(s) in {seconds:.2} s", self.done);
+            }
+            ProgressMode::Lines => eprintln!("rendered {} frame(s) in {seconds:.2} s", self.done),
+            ProgressMode::Json => json_line(serde_json::json!({"event": "done", "frames": self.done, "seconds": seconds})),
+            _ => {}
+        }
+    }
+
+    /// Reports a failure (the caller also returns the error, which main prints).
+    pub fn error(&mut self, message: &str, frame: Option<i64>) {
+        if let Some(b) = self.bar.take() {
+            b.abandon();
+        }
+        if self.mode == ProgressMode::Json {
+            json_line(serde_json::json!({"event": "error", "message": message, "frame": frame}));
+        }
+    }
+}

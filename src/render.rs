@@ -1,0 +1,161 @@
+//! `refrakt render`: load a scene, and for each frame run `update`, evaluate the graph, render,
+//! and write the files (atomically, so an interrupted run leaves only whole frames and
+//! `--skip-existing` can resume it).
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use anyhow::{Result, anyhow, bail};
+
+use crate::frame::FrameDesc;
+use crate::lua::{Limits, ScriptHost};
+use crate::output::{self, Format, Image, png::PngOptions};
+use crate::pipeline::Renderer;
+use crate::progress::{Progress, ProgressMode};
+use crate::scene::eval::{EvalOptions, evaluate};
+
+/// Set by Ctrl-C / SIGTERM: the render stops after the frame in hand.
+pub static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// An inclusive frame range, `A..B` or a single frame `K`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FrameRange {
+    pub first: i64,
+    pub last: i64,
+}
+
+impl std::str::FromStr for FrameRange {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let parse = |t: &str| t.trim().parse::<i64>().map_err(|_| format!("\"{s}\" is not a frame range like 1..48 or 12"));
+        let (first, last) = match s.split_once("..") {
+            Some((a, b)) => (parse(a)?, parse(b.trim_start_matches('='))?),
+            None => (parse(s)?, parse(s)?),
+        };
+        if first < 0 || last < first {
+            return Err(format!("frame range {s}: frames must be ≥ 0 and the range must not run backwards"));
+        }
+        Ok(Self { first, last })
+    }
+}
+
+/// Everything `refrakt render` was asked to do.
+#[derive(Clone, Debug)]
+pub struct RenderOptions {
+    pub frames: Option<FrameRange>,
+    pub fps: f64,
+    pub out: PathBuf,
+    pub name: Option<String>,
+    pub formats: Vec<Format>,
+    pub eval: EvalOptions,
+    pub png: PngOptions,
+    pub skip_existing: bool,
+    pub progress: ProgressMode,
+    pub adapter: Option<String>,
+    pub allow_read: Vec<PathBuf>,
+    pub limits: Limits,
+}
+
+/// A scene that can be evaluated at any time.
+pub enum SceneSource {
+    Lua(ScriptHost),
+}
+
+impl SceneSource {
+    pub fn load(path: &Path, allow_read: &[PathBuf], limits: &Limits) -> Result<Self> {
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
+        match ext.as_str() {
+            "lua" => Ok(SceneSource::Lua(ScriptHost::load(path, allow_read, limits)?)),
+            _ => bail!("{}: a scene is a .lua script (glTF support is planned)", path.display()),
+        }
+    }
+
+    /// Runs the animation to time `t` (seconds) and flattens the scene.
+    pub fn frame_desc(&mut self, t: f64, opts: &EvalOptions) -> Result<FrameDesc> {
+        match self {
+            SceneSource::Lua(host) => {
+                host.update(t)?;
+                let scene = host.scene().borrow();
+                evaluate(&scene, t, opts).map_err(|e| anyhow!("{}: {e:#}", host.path().display()))
+            }
+        }
+    }
+
+    /// Every file the scene read (script, modules, images…), for `refrakt watch`.
+    pub fn files_read(&self) -> Vec<PathBuf> {
+        match self {
+            SceneSource::Lua(host) => host.files_read(),
+        }
+    }
+}
+
+/// The files frame `k` goes to: `<name>.<ext>` for a still, `<name>.<k:04>.<ext>` in a range.
+pub fn frame_paths(opts: &RenderOptions, name: &str, frame: Option<i64>) -> Vec<(Format, PathBuf)> {
+    opts.formats
+        .iter()
+        .map(|&f| {
+            let file = match frame {
+                Some(k) => format!("{name}.{k:04}.{}", f.extension()),
+                None => format!("{name}.{}", f.extension()),
+            };
+            (f, opts.out.join(file))
+        })
+        .collect()
+}
+
+/// Writes one rendered frame in every requested format.
+pub fn write_frame(image: &Image, paths: &[(Format, PathBuf)], png: &PngOptions) -> Result<()> {
+    for (format, path) in paths {
+        output::write(image, *format, path, png)?;
+    }
+    Ok(())
+}
+
+pub fn run(scene_path: &Path, opts: &RenderOptions) -> Result<()> {
+    let mut progress = Progress::new(opts.progress);
+    let result = render_all(scene_path, opts, &mut progress);
+    if let Err(e) = &result {
+        progress.error(&format!("{e:#}"), None);
+    }
+    result
+}
+
+fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &mut Progress) -> Result<()> {
+    let started = Instant::now();
+    let mut source = SceneSource::load(scene_path, &opts.allow_read, &opts.limits)?;
+    let ctx = crate::gpu::GpuContext::new(opts.adapter.as_deref())?;
+    tracing::info!("adapter: {}", ctx.adapter_name());
+    let mut renderer = Renderer::new(ctx)?;
+    let name = opts
+        .name
+        .clone()
+        .unwrap_or_else(|| scene_path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or("frame".into()));
+    let (first, last) = opts.frames.map_or((0, 0), |r| (r.first, r.last));
+    progress.start(first, last);
+    for k in first..=last {
+        if INTERRUPTED.load(Ordering::SeqCst) {
+            bail!("interrupted after {} frame(s); the frames written are whole", k - first);
+        }
+        let numbered = opts.frames.map(|_| k);
+        let paths = frame_paths(opts, &name, numbered);
+        if opts.skip_existing && paths.iter().all(|(_, p)| p.exists()) {
+            progress.skip(k);
+            continue;
+        }
+        let t0 = Instant::now();
+        let t = k as f64 / opts.fps;
+        let desc = source.frame_desc(t, &opts.eval).map_err(|e| match numbered {
+            Some(k) => anyhow!("frame {k} (t = {t:.4} s): {e:#}"),
+            None => e,
+        })?;
+        let image = renderer.frame(&desc)?;
+        let mut png = opts.png;
+        png.alpha = !desc.environment.visible;
+        write_frame(&image, &paths, &png)?;
+        let files: Vec<PathBuf> = paths.into_iter().map(|(_, p)| p).collect();
+        progress.frame(k, t0.elapsed().as_secs_f64(), &files);
+    }
+    progress.finish(started.elapsed().as_secs_f64());
+    Ok(())
+}

@@ -1,0 +1,281 @@
+//! The environment: what rays see when they leave the scene. A constant color, an
+//! equirectangular `.exr`/`.hdr` image, or a procedural preset generated here (so examples and
+//! tests need no image files).
+//!
+//! Lookup follows Blender's equirectangular convention converted to Y up (see
+//! `shaders/shared/environment.wgsl`); [`Environment::radiance`] is its CPU twin.
+
+use std::f32::consts::PI;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, OnceLock};
+
+use anyhow::{Context, Result, bail};
+use glam::{Vec2, Vec3};
+
+/// A linear-light equirectangular image, row 0 at the top.
+#[derive(Debug, PartialEq)]
+pub struct EnvImage {
+    pub width: u32,
+    pub height: u32,
+    pub texels: Vec<[f32; 4]>,
+}
+
+impl EnvImage {
+    /// An image of `f(direction)`, each texel the mean of 2×2 samples so that hard edges in
+    /// `f` come out antialiased.
+    pub fn from_fn(width: u32, height: u32, f: impl Fn(Vec3) -> Vec3) -> Self {
+        let mut texels = Vec::with_capacity((width * height) as usize);
+        for y in 0..height {
+            for x in 0..width {
+                let mut c = Vec3::ZERO;
+                for (sx, sy) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
+                    let uv = Vec2::new((x as f32 + sx) / width as f32, (y as f32 + sy) / height as f32);
+                    c += f(uv_to_dir(uv));
+                }
+                c *= 0.25;
+                texels.push([c.x, c.y, c.z, 1.0]);
+            }
+        }
+        Self { width, height, texels }
+    }
+
+    /// Bilinear lookup at texture coordinates (u wraps, v clamps), like the GPU sampler.
+    pub fn bilinear(&self, uv: Vec2) -> Vec3 {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let fx = uv.x * w as f32 - 0.5;
+        let fy = (uv.y * h as f32 - 0.5).clamp(0.0, (h - 1) as f32);
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (tx, ty) = (fx - x0, fy - y0);
+        let texel = |x: i64, y: i64| {
+            let t = self.texels[(y.clamp(0, h - 1) * w + x.rem_euclid(w)) as usize];
+            Vec3::new(t[0], t[1], t[2])
+        };
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let top = texel(x0, y0).lerp(texel(x0 + 1, y0), tx);
+        let bottom = texel(x0, y0 + 1).lerp(texel(x0 + 1, y0 + 1), tx);
+        top.lerp(bottom, ty)
+    }
+
+    /// Mean radiance over the sphere (texels weighted by solid angle).
+    pub fn mean(&self) -> Vec3 {
+        let mut sum = Vec3::ZERO;
+        let mut weight = 0.0;
+        for y in 0..self.height {
+            let lat = PI * (0.5 - (y as f32 + 0.5) / self.height as f32);
+            let w = lat.cos();
+            for x in 0..self.width {
+                let t = self.texels[(y * self.width + x) as usize];
+                sum += Vec3::new(t[0], t[1], t[2]) * w;
+                weight += w;
+            }
+        }
+        sum / weight.max(1e-12)
+    }
+}
+
+/// Texture coordinates → direction (inverse of [`dir_to_uv`]).
+pub fn uv_to_dir(uv: Vec2) -> Vec3 {
+    let phi = (uv.x - 0.5) * 2.0 * PI;
+    let lat = (0.5 - uv.y) * PI;
+    Vec3::new(lat.cos() * phi.cos(), lat.sin(), lat.cos() * phi.sin())
+}
+
+/// Direction → texture coordinates, Blender's convention in Y-up (row 0 at the top).
+pub fn dir_to_uv(d: Vec3) -> Vec2 {
+    let u = 0.5 + d.z.atan2(d.x) / (2.0 * PI);
+    let v = 0.5 + d.y.clamp(-1.0, 1.0).asin() / PI;
+    Vec2::new(u, 1.0 - v)
+}
+
+/// Where the environment's radiance comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum EnvironmentSource {
+    Color(Vec3),
+    Image { path: PathBuf, image: Arc<EnvImage> },
+    Preset { name: String, image: Arc<EnvImage> },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Environment {
+    pub source: EnvironmentSource,
+    pub intensity: f32,
+    /// Turn about +Y, radians (counter-clockwise seen from above).
+    pub rotation: f32,
+    /// Whether camera rays that meet no medium see it (false: transparent film).
+    pub visible: bool,
+}
+
+impl Default for Environment {
+    fn default() -> Self {
+        Self { source: EnvironmentSource::Color(Vec3::splat(0.05)), intensity: 1.0, rotation: 0.0, visible: true }
+    }
+}
+
+impl Environment {
+    pub fn image(&self) -> Option<&Arc<EnvImage>> {
+        match &self.source {
+            EnvironmentSource::Color(_) => None,
+            EnvironmentSource::Image { image, .. } | EnvironmentSource::Preset { image, .. } => Some(image),
+        }
+    }
+
+    /// Radiance seen along unit direction `d` — the CPU twin of `env_radiance` in WGSL.
+    pub fn radiance(&self, d: Vec3) -> Vec3 {
+        let (s, c) = self.rotation.sin_cos();
+        let r = Vec3::new(c * d.x - s * d.z, d.y, s * d.x + c * d.z);
+        match &self.source {
+            EnvironmentSource::Color(col) => *col * self.intensity,
+            EnvironmentSource::Image { image, .. } | EnvironmentSource::Preset { image, .. } => {
+                image.bilinear(dir_to_uv(r)) * self.intensity
+            }
+        }
+    }
+}
+
+/// Loads an equirectangular `.exr` or `.hdr` file as linear RGB.
+pub fn load_image(path: &Path) -> Result<EnvImage> {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
+    let image = match ext.as_str() {
+        "exr" => {
+            let img = exr::prelude::read_first_rgba_layer_from_file(
+                path,
+                |res, _| EnvImage {
+                    width: res.width() as u32,
+                    height: res.height() as u32,
+                    texels: vec![[0.0, 0.0, 0.0, 1.0]; res.width() * res.height()],
+                },
+                |img: &mut EnvImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                    let w = img.width as usize;
+                    img.texels[pos.y() * w + pos.x()] = [r, g, b, 1.0];
+                },
+            )
+            .with_context(|| format!("cannot read the environment image {}", path.display()))?;
+            img.layer_data.channel_data.pixels
+        }
+        "hdr" => {
+            let img = image::open(path)
+                .with_context(|| format!("cannot read the environment image {}", path.display()))?
+                .into_rgb32f();
+            EnvImage {
+                width: img.width(),
+                height: img.height(),
+                texels: img.pixels().map(|p| [p[0], p[1], p[2], 1.0]).collect(),
+            }
+        }
+        _ => bail!(
+            "environment image {} must be an equirectangular .exr or .hdr file",
+            path.display()
+        ),
+    };
+    if image.width < 2 || image.height < 1 {
+        bail!("environment image {} is empty", path.display());
+    }
+    if image.texels.iter().any(|t| !t.iter().all(|c| c.is_finite())) {
+        bail!("environment image {} contains NaN or infinite texels", path.display());
+    }
+    Ok(image)
+}
+
+/// Names of the built-in environments.
+pub const PRESETS: &[&str] = &["studio", "sky", "checker"];
+
+/// A built-in environment, generated once per process.
+pub fn preset(name: &str) -> Result<Arc<EnvImage>> {
+    static CACHE: OnceLock<Mutex<Vec<(String, Arc<EnvImage>)>>> = OnceLock::new();
+    let cache = CACHE.get_or_init(|| Mutex::new(Vec::new()));
+    let mut cache = cache.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((_, img)) = cache.iter().find(|(n, _)| n == name) {
+        return Ok(img.clone());
+    }
+    let img = Arc::new(match name {
+        "studio" => EnvImage::from_fn(2048, 1024, studio),
+        "sky" => EnvImage::from_fn(2048, 1024, sky),
+        "checker" => EnvImage::from_fn(512, 256, checker),
+        _ => bail!("unknown environment preset \"{name}\" (choose one of: {})", PRESETS.join(", ")),
+    });
+    cache.push((name.to_string(), img.clone()));
+    Ok(img)
+}
+
+fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
+    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// A photo studio: a dim grey cyclorama, a tiled floor that shows refraction clearly, and two
+/// soft boxes that put highlights and bright caustic-like shapes into glass.
+fn studio(d: Vec3) -> Vec3 {
+    let horizon = Vec3::new(0.55, 0.56, 0.6);
+    if d.y < 0.0 {
+        // Floor tiles seen from 1.5 m above a plane: tile index from the hit point.
+        let t = 1.5 / (-d.y).max(1e-3);
+        let p = Vec2::new(d.x, d.z) * t;
+        let tile = ((p.x * 2.0).floor() as i64 + (p.y * 2.0).floor() as i64).rem_euclid(2);
+        let base = if tile == 0 { Vec3::new(0.62, 0.6, 0.56) } else { Vec3::new(0.16, 0.16, 0.18) };
+        let fade = smoothstep(0.0, 0.25, -d.y);
+        return horizon.lerp(base, fade);
+    }
+    let wall = horizon.lerp(Vec3::new(0.22, 0.24, 0.3), smoothstep(0.0, 0.9, d.y));
+    let softbox = |centre: Vec3, size: f32, power: f32| {
+        let c = centre.normalize();
+        let cos = d.dot(c);
+        power * smoothstep((size * 1.15).cos(), size.cos(), cos)
+    };
+    let key = softbox(Vec3::new(-1.0, 1.2, 0.6), 0.28, 14.0);
+    let rim = softbox(Vec3::new(1.0, 0.6, -1.0), 0.18, 8.0);
+    wall + Vec3::new(1.0, 0.97, 0.92) * key + Vec3::new(0.85, 0.9, 1.0) * rim
+}
+
+/// A clear sky: blue zenith, bright hazy horizon, brown ground, and a small warm sun.
+fn sky(d: Vec3) -> Vec3 {
+    if d.y < 0.0 {
+        return Vec3::new(0.25, 0.22, 0.18).lerp(Vec3::new(0.12, 0.1, 0.08), smoothstep(0.0, 0.4, -d.y));
+    }
+    let base = Vec3::new(0.9, 0.95, 1.05).lerp(Vec3::new(0.18, 0.32, 0.7), smoothstep(0.0, 0.6, d.y));
+    let sun_dir = Vec3::new(0.4, 0.6, -0.7).normalize();
+    base + Vec3::new(60.0, 55.0, 45.0) * smoothstep(0.9995, 0.9998, d.dot(sun_dir))
+}
+
+/// A longitude/latitude checkerboard with a tint per octant: every direction is recognisable,
+/// which makes it the environment of the optics tests.
+fn checker(d: Vec3) -> Vec3 {
+    let uv = dir_to_uv(d);
+    let cell = ((uv.x * 24.0).floor() as i64 + (uv.y * 12.0).floor() as i64).rem_euclid(2);
+    let tint = Vec3::new(
+        if d.x > 0.0 { 1.0 } else { 0.35 },
+        if d.y > 0.0 { 1.0 } else { 0.35 },
+        if d.z > 0.0 { 1.0 } else { 0.35 },
+    );
+    tint * if cell == 0 { 1.0 } else { 0.15 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn uv_and_direction_are_inverse() {
+        for &d in &[Vec3::X, Vec3::Z, Vec3::new(-0.3, 0.5, 0.8).normalize(), Vec3::new(0.1, -0.9, -0.2).normalize()] {
+            let back = uv_to_dir(dir_to_uv(d));
+            assert!((back - d).length() < 1e-5, "{d} → {back}");
+        }
+        // Blender's convention: the image centre looks down +X, the top row is straight up.
+        assert!((dir_to_uv(Vec3::X) - Vec2::new(0.5, 0.5)).length() < 1e-6);
+        assert!(dir_to_uv(Vec3::Y).y.abs() < 1e-6);
+    }
+
+    #[test]
+    fn rotation_turns_the_environment_counter_clockwise_about_y() {
+        let img = preset("checker").unwrap();
+        let env = |rotation| Environment {
+            source: EnvironmentSource::Preset { name: "checker".into(), image: img.clone() },
+            intensity: 1.0,
+            rotation,
+            visible: true,
+        };
+        // What was seen along +X is seen along R_y(90°)·X = −Z after turning by 90°.
+        let before = env(0.0).radiance(Vec3::new(1.0, 0.3, 0.05).normalize());
+        let after = env(PI / 2.0).radiance(Vec3::new(0.05, 0.3, -1.0).normalize());
+        assert!((before - after).length() < 1e-3, "{before} vs {after}");
+    }
+}

@@ -1,0 +1,257 @@
+//! The scene graph: a hierarchy of named nodes with local transforms, each optionally carrying a
+//! shape, a material, a light or a camera, plus scene-wide settings (camera choice, environment,
+//! volume, photon budget).
+//!
+//! The graph is what scripts and glTF files build and animate. Once per frame
+//! [`evaluate`](eval::evaluate) resolves world transforms and flattens it into a
+//! [`FrameDesc`](crate::frame::FrameDesc), the only thing the GPU pipeline reads.
+//!
+//! Nodes, shapes and materials are shared (`Rc<RefCell<…>>`): a material assigned to two nodes
+//! and edited in `update` changes both, as in Blender.
+
+pub mod environment;
+pub mod eval;
+
+use std::cell::RefCell;
+use std::path::PathBuf;
+use std::rc::Rc;
+
+use glam::{Mat4, Quat, Vec3};
+
+pub use environment::{EnvImage, Environment, EnvironmentSource};
+
+pub type Shared<T> = Rc<RefCell<T>>;
+
+pub fn shared<T>(t: T) -> Shared<T> {
+    Rc::new(RefCell::new(t))
+}
+
+/// Where something was defined, for error messages (`scene.lua:12`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Origin(pub String);
+
+impl std::fmt::Display for Origin {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+/// Local transform: scale, then rotate, then translate (glTF's TRS order).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transform {
+    pub translation: Vec3,
+    pub rotation: Quat,
+    pub scale: Vec3,
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Self { translation: Vec3::ZERO, rotation: Quat::IDENTITY, scale: Vec3::ONE }
+    }
+}
+
+impl Transform {
+    pub fn matrix(&self) -> Mat4 {
+        Mat4::from_scale_rotation_translation(self.scale, self.rotation, self.translation)
+    }
+}
+
+/// A refractive or absorbing material: index, absorption (Beer–Lambert), scattering.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Glass {
+    pub ior: f32,
+    /// Absorption coefficient per metre, per channel.
+    pub absorption: Vec3,
+    /// Scattering coefficient per metre, per channel.
+    pub scattering: Vec3,
+    /// Henyey–Greenstein anisotropy of the scattering, in (−1, 1).
+    pub g: f32,
+}
+
+impl Default for Glass {
+    fn default() -> Self {
+        Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0 }
+    }
+}
+
+/// What a node's shape is made of.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Material {
+    /// Refractive/absorbing medium (glass, water, fog with ior = 1).
+    Glass(Glass),
+}
+
+/// Shapes. `Sphere` and `Box` are constant-index solids (their index comes from the material);
+/// `Luneburg` and `Slab` are index fields that define n themselves (a material, if given,
+/// contributes only absorption and scattering).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Shape {
+    Sphere { radius: f32, boundary: Option<f32> },
+    Box { size: Vec3, boundary: Option<f32> },
+    /// n(r) = sqrt(2 − (r/R)²): parallel light entering focuses on the far pole.
+    Luneburg { radius: f32, boundary: Option<f32> },
+    /// n(y) = ior + gradient · y inside a box of `size`, y along the node's local +Y from its centre.
+    Slab { size: Vec3, ior: f32, gradient: f32, boundary: Option<f32> },
+}
+
+impl Shape {
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            Shape::Sphere { .. } => "sphere",
+            Shape::Box { .. } => "box",
+            Shape::Luneburg { .. } => "luneburg",
+            Shape::Slab { .. } => "slab",
+        }
+    }
+
+    /// Smooth boundary width override, in voxels.
+    pub fn boundary(&self) -> Option<f32> {
+        match self {
+            Shape::Sphere { boundary, .. }
+            | Shape::Box { boundary, .. }
+            | Shape::Luneburg { boundary, .. }
+            | Shape::Slab { boundary, .. } => *boundary,
+        }
+    }
+
+    /// Whether the shape defines its own index (so a material's `ior` does not apply).
+    pub fn is_index_field(&self) -> bool {
+        matches!(self, Shape::Luneburg { .. } | Shape::Slab { .. })
+    }
+
+    /// Half extents of the shape's local bounding box.
+    pub fn local_half_extent(&self) -> Vec3 {
+        match self {
+            Shape::Sphere { radius, .. } | Shape::Luneburg { radius, .. } => Vec3::splat(*radius),
+            Shape::Box { size, .. } | Shape::Slab { size, .. } => *size * 0.5,
+        }
+    }
+}
+
+/// A pinhole camera. On the scene it is placed by `position` and `target` (or `rotation`); on a
+/// node it looks down the node's local −Z with +Y up, as in glTF.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub position: Vec3,
+    pub target: Option<Vec3>,
+    pub rotation: Option<Quat>,
+    pub up: Vec3,
+    /// Vertical field of view, radians.
+    pub fov_y: f32,
+    pub size: (u32, u32),
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Self {
+            position: Vec3::new(0.0, 0.0, 3.0),
+            target: Some(Vec3::ZERO),
+            rotation: None,
+            up: Vec3::Y,
+            fov_y: 35f32.to_radians(),
+            size: (1024, 576),
+        }
+    }
+}
+
+impl Camera {
+    /// World orientation (camera looks down its local −Z) when placed on the scene.
+    pub fn orientation(&self) -> Quat {
+        if let Some(r) = self.rotation {
+            return r;
+        }
+        let target = self.target.unwrap_or(self.position - Vec3::Z);
+        let forward = (target - self.position).normalize_or(Vec3::NEG_Z);
+        let up = if forward.cross(self.up).length_squared() < 1e-8 { Vec3::Z } else { self.up };
+        // Camera axes: right, up, and back (the camera looks down its local −Z).
+        let right = forward.cross(up).normalize();
+        Quat::from_mat3(&glam::Mat3::from_cols(right, right.cross(forward), -forward))
+    }
+}
+
+/// Settings of the voxel volume that holds the refractive media.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VolumeSettings {
+    /// Voxels along the longest side of the box.
+    pub resolution: u32,
+    /// Air around the fitted objects, metres (at least a few voxels are always kept).
+    pub margin: f32,
+    /// Fixed world box (min, max); fitted to the refractive objects when `None`.
+    pub bounds: Option<(Vec3, Vec3)>,
+    /// Default smooth boundary width of solids, voxels.
+    pub boundary: f32,
+    /// Ray-equation step of the viewing pass, voxels.
+    pub step: f32,
+}
+
+impl Default for VolumeSettings {
+    fn default() -> Self {
+        Self { resolution: 128, margin: 0.05, bounds: None, boundary: 3.0, step: 0.5 }
+    }
+}
+
+/// One node of the graph.
+#[derive(Clone, Debug, Default)]
+pub struct Node {
+    pub name: String,
+    pub transform: Transform,
+    pub children: Vec<Shared<Node>>,
+    pub shape: Option<Shared<Shape>>,
+    pub material: Option<Shared<Material>>,
+    pub camera: Option<Shared<Camera>>,
+    pub visible: bool,
+    pub origin: Origin,
+}
+
+impl Node {
+    pub fn new(name: impl Into<String>) -> Self {
+        Self { name: name.into(), visible: true, ..Default::default() }
+    }
+}
+
+/// The whole scene: settings plus the root nodes.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The scene camera (placed by position/target), if any.
+    pub camera: Option<Shared<Camera>>,
+    pub environment: Shared<Environment>,
+    pub volume: Shared<VolumeSettings>,
+    pub photons: u32,
+    /// Camera rays per pixel.
+    pub samples: u32,
+    pub roots: Vec<Shared<Node>>,
+    /// Folder of the scene file: relative asset paths resolve here.
+    pub base_dir: PathBuf,
+}
+
+impl Default for Scene {
+    fn default() -> Self {
+        Self {
+            camera: None,
+            environment: shared(Environment::default()),
+            volume: shared(VolumeSettings::default()),
+            photons: 70_000,
+            samples: 4,
+            roots: Vec::new(),
+            base_dir: PathBuf::from("."),
+        }
+    }
+}
+
+impl Scene {
+    /// Depth-first search for a node by name.
+    pub fn find(&self, name: &str) -> Option<Shared<Node>> {
+        fn walk(nodes: &[Shared<Node>], name: &str) -> Option<Shared<Node>> {
+            for n in nodes {
+                if n.borrow().name == name {
+                    return Some(n.clone());
+                }
+                if let Some(hit) = walk(&n.borrow().children, name) {
+                    return Some(hit);
+                }
+            }
+            None
+        }
+        walk(&self.roots, name)
+    }
+}

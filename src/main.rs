@@ -145,6 +145,11 @@ fn run(cli: Cli) -> Result<()> {
 }
 
 fn main() -> ExitCode {
+    // Mesa's Vulkan drivers complain on every start when a headless session has no runtime
+    // directory; give them one. (Before any thread exists, so setting the variable is sound.)
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        unsafe { std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir()) };
+    }
     let cli = Cli::parse();
     let level = match cli.verbose {
         0 => "warn",
@@ -154,7 +159,7 @@ fn main() -> ExitCode {
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_env("REFRAKT_LOG")
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(format!("refrakt={level},wgpu=error,naga=error"))),
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(format!("refrakt={level},wgpu_core=error,wgpu_hal=off,naga=error"))),
         )
         .with_writer(std::io::stderr)
         .init();

@@ -77,7 +77,11 @@ impl SceneSource {
             SceneSource::Lua(host) => {
                 host.update(t)?;
                 let scene = host.scene().borrow();
-                evaluate(&scene, t, opts).map_err(|e| anyhow!("{}: {e:#}", host.path().display()))
+                evaluate(&scene, t, opts).map_err(|e| {
+                    // Errors about a node already name the line that made it.
+                    let (msg, file) = (format!("{e:#}"), host.path().display().to_string());
+                    if msg.starts_with(&file) { anyhow!(msg) } else { anyhow!("{file}: {msg}") }
+                })
             }
         }
     }

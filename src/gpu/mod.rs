@@ -85,14 +85,18 @@ impl GpuContext {
             (None, Some(f)) => (Some(f.to_string()), ADAPTER_ENV),
             (None, None) => (None, ""),
         };
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-        desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all());
-        let instance = wgpu::Instance::new(desc);
         // Native compute backends first; GL (whose EGL probing is noisy and whose compute support
-        // is partial) only when nothing else is there.
-        let mut adapters = instance.enumerate_adapters(wgpu::Backends::PRIMARY).await;
+        // is partial) only when nothing else is there. WGPU_BACKEND overrides both.
+        let instance_for = |backends: wgpu::Backends| {
+            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+            desc.backends = wgpu::Backends::from_env().unwrap_or(backends);
+            wgpu::Instance::new(desc)
+        };
+        let mut instance = instance_for(wgpu::Backends::PRIMARY);
+        let mut adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
         if adapters.is_empty() {
-            adapters = instance.enumerate_adapters(wgpu::Backends::SECONDARY).await;
+            instance = instance_for(wgpu::Backends::SECONDARY);
+            adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
         }
         let candidates: Vec<wgpu::AdapterInfo> = adapters.iter().map(|a| a.get_info()).collect();
         if adapters.is_empty() {

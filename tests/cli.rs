@@ -1,0 +1,136 @@
+//! The command line on bad input: a clear one-paragraph error naming file:line or the field,
+//! a non-zero exit, never a panic.
+
+mod common;
+
+use std::process::Command;
+
+use common::write_script;
+
+fn refrakt(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_refrakt")).args(args).output().unwrap();
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+}
+
+/// Renders `source` (as scene.lua) at a tiny size; returns (exit code, stderr).
+fn render_script(source: &str, extra: &[&str]) -> (i32, String) {
+    let (dir, path) = write_script("scene.lua", source);
+    let out = dir.path().join("out");
+    let mut args = vec!["render", path.to_str().unwrap(), "--out", out.to_str().unwrap(), "--size", "16x16", "--progress", "quiet"];
+    args.extend_from_slice(extra);
+    let (code, _, err) = refrakt(&args);
+    (code, err)
+}
+
+fn assert_clean_failure(code: i32, err: &str, needles: &[&str]) {
+    assert_ne!(code, 0, "must fail: {err}");
+    assert!(!err.contains("panicked") && !err.contains("internal error"), "no panic: {err}");
+    for n in needles {
+        assert!(err.contains(n), "stderr should contain {n:?}:\n{err}");
+    }
+}
+
+const HEADER: &str = "local r = require(\"refrakt\")\nlocal scene = r.scene{}\n";
+
+#[test]
+fn lua_syntax_error_names_file_and_line() {
+    let (code, err) = render_script(&format!("{HEADER}local x = = 1\nreturn scene\n"), &[]);
+    assert_clean_failure(code, &err, &["scene.lua:3:", "unexpected symbol"]);
+}
+
+#[test]
+fn lua_runtime_error_names_file_and_line() {
+    let (code, err) = render_script(&format!("{HEADER}local t = nil\nprint(t.x)\nreturn scene\n"), &[]);
+    assert_clean_failure(code, &err, &["scene.lua:4:", "attempt to index"]);
+}
+
+#[test]
+fn wrong_field_type_names_the_field() {
+    let src = format!("{HEADER}scene:add(r.node{{ shape = r.sphere{{ radius = \"big\" }} }})\nreturn scene\n");
+    let (code, err) = render_script(&src, &[]);
+    assert_clean_failure(code, &err, &["scene.lua:3:", "sphere.radius must be a number > 0, got \"big\""]);
+}
+
+#[test]
+fn misspelled_field_gets_a_suggestion() {
+    let src = format!("{HEADER}scene:add(r.node{{ tranlsation = {{0, 1, 0}} }})\nreturn scene\n");
+    let (code, err) = render_script(&src, &[]);
+    assert_clean_failure(code, &err, &["scene.lua:3:", "did you mean translation?"]);
+}
+
+#[test]
+fn nan_in_a_vector_is_refused() {
+    let src = format!("{HEADER}scene:add(r.node{{ translation = {{0, 0/0, 0}} }})\nreturn scene\n");
+    let (code, err) = render_script(&src, &[]);
+    assert_clean_failure(code, &err, &["scene.lua:3:", "node.translation", "component y is nan"]);
+}
+
+#[test]
+fn missing_scene_file_is_reported() {
+    let (code, _, err) = refrakt(&["render", "/nonexistent/scene.lua", "--progress", "quiet"]);
+    assert_clean_failure(code, &err, &["cannot read the scene script /nonexistent/scene.lua"]);
+}
+
+#[test]
+fn missing_environment_image_is_reported() {
+    let src = "local r = require(\"refrakt\")\nlocal scene = r.scene{\n  environment = r.environment{ image = \"sky.exr\" } }\nreturn scene\n";
+    let (code, err) = render_script(src, &[]);
+    assert_clean_failure(code, &err, &["scene.lua:3:", "cannot open \"sky.exr\""]);
+}
+
+#[test]
+fn script_must_return_a_scene() {
+    let (code, err) = render_script("local r = require(\"refrakt\")\n", &[]);
+    assert_clean_failure(code, &err, &["scene.lua", "return scene"]);
+}
+
+#[test]
+fn material_is_required_for_a_solid() {
+    let src = format!("{HEADER}scene:add(r.node{{ name = \"ball\", shape = r.sphere{{ radius = 0.3 }} }})\nreturn scene\n");
+    let (code, err) = render_script(&src, &[]);
+    assert_clean_failure(code, &err, &["scene.lua:3:", "\"ball\" needs a material"]);
+}
+
+#[test]
+fn volume_beyond_the_adapter_is_refused_before_allocating() {
+    let src = format!("{HEADER}scene:add(r.node{{ shape = r.luneburg{{ radius = 0.5 }} }})\nreturn scene\n");
+    let (code, err) = render_script(&src, &["--volume", "2048"]);
+    assert_clean_failure(code, &err, &["lower the volume resolution"]);
+}
+
+#[test]
+fn bad_command_line_values_are_usage_errors() {
+    let (code, _, err) = refrakt(&["render", "x.lua", "--size", "0x10"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("width and height must be from 1 to 16384"), "{err}");
+    let (code, _, err) = refrakt(&["render", "x.lua", "--frames", "5..2"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("must not run backwards"), "{err}");
+}
+
+#[test]
+fn info_names_the_adapter() {
+    let (code, out, err) = refrakt(&["info"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("adapter:") && out.contains("chosen because"), "{out}");
+    let (code, _, err) = refrakt(&["info", "--adapter", "no-such-gpu-anywhere"]);
+    assert_clean_failure(code, &err, &["no adapter matches --adapter \"no-such-gpu-anywhere\""]);
+}
+
+#[test]
+fn render_writes_whole_files_and_no_temporaries() {
+    let src = format!("{HEADER}scene:add(r.node{{ shape = r.luneburg{{ radius = 0.5 }} }})\nreturn scene\n");
+    let (dir, path) = write_script("lens.lua", &src);
+    let out = dir.path().join("out");
+    let (code, _, err) = refrakt(&["render", path.to_str().unwrap(), "--out", out.to_str().unwrap(), "--size", "24x16", "--progress", "lines"]);
+    assert_eq!(code, 0, "{err}");
+    let mut names: Vec<String> = std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into()).collect();
+    names.sort();
+    assert_eq!(names, ["lens.exr", "lens.png"]);
+    let img = refrakt::output::exr::read(&out.join("lens.exr")).unwrap();
+    assert_eq!((img.width, img.height), (24, 16));
+    assert_eq!(img.layers[0].channels, ["R", "G", "B", "A"]);
+    assert_eq!(img.layer("depth").unwrap().channels, ["Z"]);
+    let png = image::open(out.join("lens.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (24, 16));
+}

@@ -1,0 +1,71 @@
+//! Helpers shared by the integration tests: a GPU renderer (lavapipe in CI), scenes written as
+//! Lua source, and small statistics.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+
+use refrakt::frame::FrameDesc;
+use refrakt::gpu::GpuContext;
+use refrakt::lua::{Limits, ScriptHost};
+use refrakt::pipeline::Renderer;
+use refrakt::scene::eval::{EvalOptions, evaluate};
+
+pub fn renderer() -> Renderer {
+    let ctx = GpuContext::new(None).expect("a GPU adapter (install mesa-vulkan-drivers for lavapipe)");
+    Renderer::new(ctx).expect("pipelines compile")
+}
+
+/// Writes `source` as `name` into a fresh temporary folder and returns (folder, script path).
+pub fn write_script(name: &str, source: &str) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(name);
+    std::fs::write(&path, source).unwrap();
+    (dir, path)
+}
+
+pub fn load(path: &Path) -> ScriptHost {
+    ScriptHost::load(path, &[], &Limits::default()).unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+/// The frame a Lua scene evaluates to at t = 0.
+pub fn frame_from_lua(source: &str) -> FrameDesc {
+    let (_dir, path) = write_script("scene.lua", source);
+    let host = load(&path);
+    host.update(0.0).unwrap();
+    let scene = host.scene().borrow();
+    evaluate(&scene, 0.0, &EvalOptions::default()).unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+pub fn mean(v: &[f32]) -> f32 {
+    v.iter().sum::<f32>() / v.len() as f32
+}
+
+pub fn max(v: &[f32]) -> f32 {
+    v.iter().copied().fold(0.0, f32::max)
+}
+
+/// A small deterministic generator for test inputs (xorshift).
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next_f32(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.next_f32()
+    }
+
+    pub fn unit_vector(&mut self) -> glam::Vec3 {
+        loop {
+            let v = glam::Vec3::new(self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0));
+            let l = v.length();
+            if l > 0.1 && l <= 1.0 {
+                return v / l;
+            }
+        }
+    }
+}

@@ -2,10 +2,12 @@
 //! no Lua and no glTF left in it. It is the boundary between the scene graph (CPU) and the GPU
 //! pipeline; `Renderer::frame` reads nothing else.
 
-use glam::{Mat4, Quat, UVec3, Vec3};
+use std::sync::Arc;
+
+use glam::{Mat4, Quat, UVec3, Vec2, Vec3};
 
 use crate::gpu::types::{self, field_kind};
-use crate::scene::Environment;
+use crate::scene::{Diffuse, Environment, Glass, MeshData};
 
 /// The camera, resolved to world space.
 #[derive(Clone, Debug, PartialEq)]
@@ -143,6 +145,66 @@ impl FieldDesc {
     }
 }
 
+/// A refractive triangle mesh placed in the world, to be voxelized into the volume.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshInstance {
+    pub name: String,
+    /// Where it was defined (`scene.lua:14`), for messages.
+    pub origin: String,
+    pub mesh: Arc<MeshData>,
+    pub world: Mat4,
+    pub glass: Glass,
+    /// Smooth boundary width, metres.
+    pub boundary: f32,
+    /// World-space bounding box.
+    pub bounds: (Vec3, Vec3),
+}
+
+/// An opaque diffuse surface placed in the world (planes, boxes and spheres arrive here as
+/// triangle meshes too).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Receiver {
+    pub name: String,
+    pub mesh: Arc<MeshData>,
+    pub world: Mat4,
+    pub diffuse: Diffuse,
+}
+
+/// How a light emits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightShape {
+    Point,
+    /// Cosines of the outer (zero) and inner (full intensity) half-angles.
+    Spot { cos_outer: f32, cos_inner: f32 },
+    /// Half the sun's angular diameter, radians.
+    Sun { half_angle: f32 },
+    /// Rectangle of `size` spanned by `right` and `up`, emitting along `direction`.
+    Rect { size: Vec2 },
+}
+
+/// A light in world space, in radiometric units (see `scene::light`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightDesc {
+    pub name: String,
+    pub shape: LightShape,
+    pub position: Vec3,
+    /// Unit direction the light travels: spot axis, sun direction, rect normal.
+    pub direction: Vec3,
+    /// Unit axes across the direction (rect extents; any orthonormal pair otherwise).
+    pub right: Vec3,
+    pub up: Vec3,
+    /// color × intensity / 683: W/sr (point, spot), W/m² (sun), W/(m²·sr) (rect).
+    pub radiant: Vec3,
+}
+
+/// A homogeneous scattering medium filling the volume box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FogDesc {
+    pub scattering: Vec3,
+    pub absorption: Vec3,
+    pub g: f32,
+}
+
 /// Everything the GPU pipeline needs for one frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrameDesc {
@@ -151,13 +213,25 @@ pub struct FrameDesc {
     pub camera: CameraDesc,
     pub environment: Environment,
     pub volume: VolumeDesc,
+    /// Analytic index fields, composited in scene order.
     pub fields: Vec<FieldDesc>,
+    /// Refractive meshes, voxelized into the same grid after the fields.
+    pub meshes: Vec<MeshInstance>,
+    /// Opaque diffuse surfaces.
+    pub receivers: Vec<Receiver>,
+    pub lights: Vec<LightDesc>,
+    pub fog: Option<FogDesc>,
+    /// Photon budget of the frame, split over the lights.
+    pub photons: u32,
     /// Camera rays per pixel.
     pub samples: u32,
 }
 
 impl FrameDesc {
+    /// Whether anything absorbs or scatters (so rays must sample the medium grids).
     pub fn has_media(&self) -> bool {
         self.fields.iter().any(FieldDesc::has_medium)
+            || self.meshes.iter().any(|m| m.glass.absorption.max_element() > 0.0 || m.glass.scattering.max_element() > 0.0)
+            || self.fog.is_some()
     }
 }

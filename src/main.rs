@@ -64,6 +64,9 @@ struct RenderArgs {
     /// Voxels along the longest side of the volume, overriding the scene's.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(8..=2048))]
     volume: Option<u32>,
+    /// Photons per frame, overriding the scene's budget.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=(1 << 30)))]
+    photons: Option<u32>,
     /// Camera rays per pixel, overriding the scene's (antialiasing).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=256))]
     samples: Option<u32>,
@@ -128,7 +131,7 @@ fn run(cli: Cli) -> Result<()> {
                 out: a.out,
                 name: a.name,
                 formats: a.format,
-                eval: EvalOptions { size: a.size, resolution: a.volume, camera: a.camera, samples: a.samples },
+                eval: EvalOptions { size: a.size, resolution: a.volume, camera: a.camera, samples: a.samples, photons: a.photons },
                 png: PngOptions { exposure: a.exposure, tonemap: a.tonemap, alpha: false },
                 skip_existing: a.skip_existing,
                 progress: a.progress,

@@ -6,7 +6,7 @@ use mlua::{Lua, Table, Value};
 
 use super::convert::{self as cv, FieldName, error_at};
 use super::objects::{LQuat, Obj, construct, new_glass, new_node};
-use crate::scene::{Camera, Environment, Scene, Shape, VolumeSettings};
+use crate::scene::{Camera, Diffuse, Environment, Fog, Light, LightKind, Material, Scene, Shape, VolumeSettings};
 
 fn shape(lua: &Lua, init: Shape, t: Option<Table>, required: &[&str]) -> mlua::Result<Obj<Shape>> {
     construct(lua, init, t, required)
@@ -49,7 +49,26 @@ pub fn module(lua: &Lua) -> mlua::Result<Table> {
             shape(lua, Shape::Slab { size: Vec3::ONE, ior: 1.5, gradient: 0.0, boundary: None }, t, &["size", "gradient"])
         })?,
     )?;
+    r.raw_set(
+        "plane",
+        lua.create_function(|lua, t: Option<Table>| shape(lua, Shape::Plane { size: glam::Vec2::ONE }, t, &["size"]))?,
+    )?;
     r.raw_set("glass", lua.create_function(|lua, t: Option<Table>| new_glass(lua, t))?)?;
+    r.raw_set(
+        "diffuse",
+        lua.create_function(|lua, t: Option<Table>| construct(lua, Material::Diffuse(Diffuse::default()), t, &[]))?,
+    )?;
+    r.raw_set("fog", lua.create_function(|lua, t: Option<Table>| construct(lua, Fog::default(), t, &[]))?)?;
+
+    // Lights (KHR_lights_punctual units: candela, lux).
+    let light = |kind: LightKind| move |lua: &Lua, t: Option<Table>| construct(lua, Light::new(kind.clone()), t, &[]);
+    r.raw_set("point", lua.create_function(light(LightKind::Point))?)?;
+    r.raw_set(
+        "spot",
+        lua.create_function(light(LightKind::Spot { angle: 30f32.to_radians(), blend: 0.15 }))?,
+    )?;
+    r.raw_set("sun", lua.create_function(light(LightKind::Sun { angular_diameter: 0.53f32.to_radians() }))?)?;
+    r.raw_set("rect", lua.create_function(light(LightKind::Rect { size: glam::Vec2::ONE }))?)?;
     r.raw_set("camera", lua.create_function(|lua, t: Option<Table>| construct(lua, Camera::default(), t, &[]))?)?;
     r.raw_set(
         "environment",

@@ -204,6 +204,20 @@ pub fn euler_degrees(e: Vec3) -> Quat {
     Quat::from_euler(glam::EulerRot::ZYX, e.z.to_radians(), e.y.to_radians(), e.x.to_radians())
 }
 
+/// A positive 2D size `{x, y}`.
+pub fn size2(lua: &Lua, name: FieldName, v: &Value) -> mlua::Result<glam::Vec2> {
+    let expected = "a size {x, y} of two numbers > 0";
+    let Value::Table(t) = v else { return Err(wrong(lua, name, expected, v)) };
+    if t.raw_len() != 2 {
+        return Err(wrong(lua, name, expected, v));
+    }
+    let x: Value = t.raw_get(1)?;
+    let y: Value = t.raw_get(2)?;
+    let x = positive(lua, name, &x).map_err(|_| wrong(lua, name, expected, v))?;
+    let y = positive(lua, name, &y).map_err(|_| wrong(lua, name, expected, v))?;
+    Ok(glam::Vec2::new(x, y))
+}
+
 /// `{w, h}` image size in pixels.
 pub fn image_size(lua: &Lua, name: FieldName, v: &Value) -> mlua::Result<(u32, u32)> {
     let expected = "an image size {width, height} of whole numbers from 1 to 16384";

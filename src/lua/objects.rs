@@ -14,7 +14,8 @@ use mlua::{AnyUserData, IntoLua, Lua, MetaMethod, Table, UserData, UserDataMetho
 use super::convert::{self as cv, FieldName, error_at, unknown_field};
 use super::sandbox::FileAccess;
 use crate::scene::environment::{self, EnvironmentSource};
-use crate::scene::{Camera, Environment, Glass, Material, Node, Origin, Scene, Shape, Shared, VolumeSettings, shared};
+use crate::scene::light::LUMENS_PER_WATT;
+use crate::scene::{Camera, Environment, Fog, Glass, Light, LightKind, Material, Node, Origin, Scene, Shape, Shared, VolumeSettings, shared};
 
 /// A scene-graph value a script can read and write field by field.
 pub trait LuaObject: Sized + 'static {
@@ -146,7 +147,7 @@ impl UserData for LQuat {
 // ---------------------------------------------------------------------------------------------
 // Scene.
 
-const SCENE_FIELDS: &[&str] = &["camera", "environment", "volume", "photons", "samples"];
+const SCENE_FIELDS: &[&str] = &["camera", "environment", "volume", "photons", "samples", "fog"];
 
 impl LuaObject for Scene {
     fn kind(&self) -> &'static str {
@@ -162,6 +163,7 @@ impl LuaObject for Scene {
             "volume" => Obj(self.volume.clone()).into_lua(lua),
             "photons" => Ok(Value::Integer(self.photons as i64)),
             "samples" => Ok(Value::Integer(self.samples as i64)),
+            "fog" => obj_value(lua, &self.fog),
             _ => Err(unknown_field(lua, "scene", key, SCENE_FIELDS)),
         }
     }
@@ -184,6 +186,12 @@ impl LuaObject for Scene {
             }
             "photons" => self.photons = cv::integer(lua, name, &value, 0, 1 << 30)? as u32,
             "samples" => self.samples = cv::integer(lua, name, &value, 1, 256)? as u32,
+            "fog" => {
+                self.fog = match &value {
+                    Value::Table(t) => Some(construct(lua, Fog::default(), Some(t.clone()), &[])?.0),
+                    _ => opt_obj(lua, name, &value, "a refrakt.fog{…}")?,
+                }
+            }
             _ => return Err(unknown_field(lua, "scene", key, SCENE_FIELDS)),
         }
         Ok(())
@@ -205,7 +213,7 @@ impl LuaObject for Scene {
 // Nodes.
 
 const NODE_FIELDS: &[&str] =
-    &["name", "translation", "rotation", "scale", "shape", "material", "camera", "visible", "children"];
+    &["name", "translation", "rotation", "scale", "shape", "material", "camera", "light", "visible", "children"];
 
 impl LuaObject for Node {
     fn kind(&self) -> &'static str {
@@ -223,6 +231,7 @@ impl LuaObject for Node {
             "shape" => obj_value(lua, &self.shape),
             "material" => obj_value(lua, &self.material),
             "camera" => obj_value(lua, &self.camera),
+            "light" => obj_value(lua, &self.light),
             "visible" => Ok(Value::Boolean(self.visible)),
             "children" => {
                 let t = lua.create_table()?;
@@ -249,6 +258,7 @@ impl LuaObject for Node {
             "shape" => self.shape = opt_obj(lua, name, &value, "a shape such as refrakt.sphere{…}")?,
             "material" => self.material = opt_obj(lua, name, &value, "a material such as refrakt.glass{…}")?,
             "camera" => self.camera = opt_obj(lua, name, &value, "a refrakt.camera{…}")?,
+            "light" => self.light = opt_obj(lua, name, &value, "a light such as refrakt.spot{…}")?,
             "visible" => self.visible = cv::boolean(lua, name, &value)?,
             "children" => {
                 let Value::Table(t) = &value else {
@@ -298,6 +308,12 @@ pub fn new_node(lua: &Lua, table: Option<Table>) -> mlua::Result<Obj<Node>> {
 const SPHERE_FIELDS: &[&str] = &["radius", "boundary"];
 const BOX_FIELDS: &[&str] = &["size", "boundary"];
 const SLAB_FIELDS: &[&str] = &["size", "ior", "gradient", "boundary"];
+const MESH_FIELDS: &[&str] = &["source", "triangles", "boundary"];
+const PLANE_FIELDS: &[&str] = &["size"];
+
+fn boundary_value(b: &Option<f32>) -> mlua::Result<Value> {
+    Ok(b.map_or(Value::Nil, |b| Value::Number(b as f64)))
+}
 
 impl LuaObject for Shape {
     fn kind(&self) -> &'static str {
@@ -308,22 +324,27 @@ impl LuaObject for Shape {
             Shape::Sphere { .. } | Shape::Luneburg { .. } => SPHERE_FIELDS,
             Shape::Box { .. } => BOX_FIELDS,
             Shape::Slab { .. } => SLAB_FIELDS,
+            Shape::Mesh { .. } => MESH_FIELDS,
+            Shape::Plane { .. } => PLANE_FIELDS,
         }
     }
     fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
-        let boundary = |b: &Option<f32>| Ok(b.map_or(Value::Nil, |b| Value::Number(b as f64)));
         match (self, key) {
             (Shape::Sphere { radius, .. } | Shape::Luneburg { radius, .. }, "radius") => Ok(Value::Number(*radius as f64)),
             (Shape::Box { size, .. } | Shape::Slab { size, .. }, "size") => vec_value(lua, *size),
+            (Shape::Plane { size }, "size") => lua.create_sequence_from([size.x, size.y])?.into_lua(lua),
             (Shape::Slab { ior, .. }, "ior") => Ok(Value::Number(*ior as f64)),
             (Shape::Slab { gradient, .. }, "gradient") => Ok(Value::Number(*gradient as f64)),
+            (Shape::Mesh { source, .. }, "source") => source.clone().into_lua(lua),
+            (Shape::Mesh { mesh, .. }, "triangles") => Ok(Value::Integer(mesh.triangles.len() as i64)),
             (
                 Shape::Sphere { boundary: b, .. }
                 | Shape::Luneburg { boundary: b, .. }
                 | Shape::Box { boundary: b, .. }
-                | Shape::Slab { boundary: b, .. },
+                | Shape::Slab { boundary: b, .. }
+                | Shape::Mesh { boundary: b, .. },
                 "boundary",
-            ) => boundary(b),
+            ) => boundary_value(b),
             _ => Err(unknown_field(lua, self.kind_name(), key, self.fields())),
         }
     }
@@ -336,15 +357,20 @@ impl LuaObject for Shape {
                 *radius = cv::positive(lua, name, &value)?
             }
             (Shape::Box { size, .. } | Shape::Slab { size, .. }, "size") => *size = cv::size3(lua, name, &value)?,
+            (Shape::Plane { size }, "size") => *size = cv::size2(lua, name, &value)?,
             (Shape::Slab { ior, .. }, "ior") => {
                 *ior = cv::number_in(lua, name, &value, Some(1.0), Some(4.0), "a number from 1 to 4")? as f32
             }
             (Shape::Slab { gradient, .. }, "gradient") => *gradient = cv::number(lua, name, &value)? as f32,
+            (Shape::Mesh { .. }, "source" | "triangles") => {
+                return Err(error_at(lua, format!("{name} is read-only (make a new mesh instead)")));
+            }
             (
                 Shape::Sphere { boundary, .. }
                 | Shape::Luneburg { boundary, .. }
                 | Shape::Box { boundary, .. }
-                | Shape::Slab { boundary, .. },
+                | Shape::Slab { boundary, .. }
+                | Shape::Mesh { boundary, .. },
                 "boundary",
             ) => {
                 *boundary = if value.is_nil() {
@@ -363,45 +389,62 @@ impl LuaObject for Shape {
 // Materials.
 
 const GLASS_FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g"];
+const DIFFUSE_FIELDS: &[&str] = &["color"];
 
 impl LuaObject for Material {
     fn kind(&self) -> &'static str {
         match self {
             Material::Glass(_) => "glass",
+            Material::Diffuse(_) => "diffuse",
         }
     }
     fn fields(&self) -> &'static [&'static str] {
-        GLASS_FIELDS
+        match self {
+            Material::Glass(_) => GLASS_FIELDS,
+            Material::Diffuse(_) => DIFFUSE_FIELDS,
+        }
     }
     fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
-        let Material::Glass(g) = self;
-        match key {
-            "ior" => Ok(Value::Number(g.ior as f64)),
-            "absorption" => vec_value(lua, g.absorption),
-            "scattering" => vec_value(lua, g.scattering),
-            "g" => Ok(Value::Number(g.g as f64)),
+        match (self, key) {
+            (Material::Glass(g), "ior") => Ok(Value::Number(g.ior as f64)),
+            (Material::Glass(g), "absorption") => vec_value(lua, g.absorption),
+            (Material::Glass(g), "scattering") => vec_value(lua, g.scattering),
+            (Material::Glass(g), "g") => Ok(Value::Number(g.g as f64)),
             // Transmittance over one metre (the color a 1 m thick piece has).
-            "color" => vec_value(lua, (-g.absorption).exp()),
-            "distance" => Ok(Value::Number(1.0)),
-            _ => Err(unknown_field(lua, "glass", key, GLASS_FIELDS)),
+            (Material::Glass(g), "color") => vec_value(lua, (-g.absorption).exp()),
+            (Material::Glass(_), "distance") => Ok(Value::Number(1.0)),
+            (Material::Diffuse(d), "color") => vec_value(lua, d.color),
+            _ => Err(unknown_field(lua, self.kind(), key, self.fields())),
         }
     }
     fn set(&mut self, lua: &Lua, key: &str, value: Value) -> mlua::Result<()> {
-        let Material::Glass(g) = self;
-        let name = FieldName { what: "glass", field: key };
-        match key {
-            "ior" => g.ior = cv::number_in(lua, name, &value, Some(1.0), Some(4.0), "a number from 1 to 4")? as f32,
-            "absorption" => g.absorption = cv::color(lua, name, &value)?,
-            "scattering" => g.scattering = cv::color(lua, name, &value)?,
-            "g" => g.g = cv::number_in(lua, name, &value, Some(-0.99), Some(0.99), "a number from −0.99 to 0.99")? as f32,
-            "color" | "distance" => {
+        let kind = self.kind();
+        let fields = self.fields();
+        let name = FieldName { what: kind, field: key };
+        match (self, key) {
+            (Material::Glass(g), "ior") => {
+                g.ior = cv::number_in(lua, name, &value, Some(1.0), Some(4.0), "a number from 1 to 4")? as f32
+            }
+            (Material::Glass(g), "absorption") => g.absorption = cv::color(lua, name, &value)?,
+            (Material::Glass(g), "scattering") => g.scattering = cv::color(lua, name, &value)?,
+            (Material::Glass(g), "g") => {
+                g.g = cv::number_in(lua, name, &value, Some(-0.99), Some(0.99), "a number from −0.99 to 0.99")? as f32
+            }
+            (Material::Glass(_), "color" | "distance") => {
                 return Err(error_at(
                     lua,
                     "glass.color and glass.distance are set together in refrakt.glass{color = {…}, distance = …} \
                      (the color light takes on after travelling that far); after that, set glass.absorption",
                 ));
             }
-            _ => return Err(unknown_field(lua, "glass", key, GLASS_FIELDS)),
+            (Material::Diffuse(d), "color") => {
+                let c = cv::color(lua, name, &value)?;
+                if c.max_element() > 1.0 {
+                    return Err(error_at(lua, format!("{name} is an albedo: components must be from 0 to 1, got {c}")));
+                }
+                d.color = c;
+            }
+            _ => return Err(unknown_field(lua, kind, key, fields)),
         }
         Ok(())
     }
@@ -431,14 +474,140 @@ pub fn new_glass(lua: &Lua, table: Option<Table>) -> mlua::Result<Obj<Material>>
         }
     }
     let obj = construct(lua, Material::Glass(Glass::default()), Some(rest), &[])?;
-    if let Some(c) = color {
-        let Material::Glass(g) = &mut *obj.0.borrow_mut();
+    if let (Some(c), Material::Glass(g)) = (color, &mut *obj.0.borrow_mut()) {
         if g.absorption != Vec3::ZERO {
             return Err(error_at(lua, "give glass either absorption or color + distance, not both"));
         }
         g.absorption = -Vec3::new(c.x.ln(), c.y.ln(), c.z.ln()) / distance;
     }
     Ok(obj)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Lights.
+
+const POINT_FIELDS: &[&str] = &["color", "intensity", "power"];
+const SPOT_FIELDS: &[&str] = &["color", "intensity", "power", "angle", "blend", "target"];
+const SUN_FIELDS: &[&str] = &["color", "intensity", "strength", "direction", "angular_diameter"];
+const RECT_FIELDS: &[&str] = &["color", "intensity", "size", "target"];
+
+/// Candela per watt of a point light radiating equally in all directions: 683 lm/W / 4π sr.
+const CANDELA_PER_WATT: f32 = LUMENS_PER_WATT / (4.0 * std::f32::consts::PI);
+
+impl LuaObject for Light {
+    fn kind(&self) -> &'static str {
+        match self.kind {
+            LightKind::Point => "point",
+            LightKind::Spot { .. } => "spot",
+            LightKind::Sun { .. } => "sun",
+            LightKind::Rect { .. } => "rect",
+        }
+    }
+    fn fields(&self) -> &'static [&'static str] {
+        match self.kind {
+            LightKind::Point => POINT_FIELDS,
+            LightKind::Spot { .. } => SPOT_FIELDS,
+            LightKind::Sun { .. } => SUN_FIELDS,
+            LightKind::Rect { .. } => RECT_FIELDS,
+        }
+    }
+    fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
+        let num = |x: f32| Ok(Value::Number(x as f64));
+        match (&self.kind, key) {
+            (_, "color") => vec_value(lua, self.color),
+            (_, "intensity") => num(self.intensity),
+            (LightKind::Point | LightKind::Spot { .. }, "power") => num(self.intensity / CANDELA_PER_WATT),
+            (LightKind::Sun { .. }, "strength") => num(self.intensity / LUMENS_PER_WATT),
+            (LightKind::Spot { angle, .. }, "angle") => num(angle.to_degrees()),
+            (LightKind::Spot { blend, .. }, "blend") => num(*blend),
+            (LightKind::Sun { angular_diameter }, "angular_diameter") => num(angular_diameter.to_degrees()),
+            (LightKind::Rect { size }, "size") => lua.create_sequence_from([size.x, size.y])?.into_lua(lua),
+            (LightKind::Spot { .. } | LightKind::Rect { .. }, "target") => self.target.map_or(Ok(Value::Nil), |t| vec_value(lua, t)),
+            (LightKind::Sun { .. }, "direction") => self.direction.map_or(Ok(Value::Nil), |d| vec_value(lua, d)),
+            _ => Err(unknown_field(lua, self.kind(), key, self.fields())),
+        }
+    }
+    fn set(&mut self, lua: &Lua, key: &str, value: Value) -> mlua::Result<()> {
+        let kind = self.kind();
+        let fields = self.fields();
+        let name = FieldName { what: kind, field: key };
+        match (&mut self.kind, key) {
+            (_, "color") => self.color = cv::color(lua, name, &value)?,
+            (_, "intensity") => self.intensity = cv::non_negative(lua, name, &value)?,
+            (LightKind::Point | LightKind::Spot { .. }, "power") => {
+                self.intensity = cv::non_negative(lua, name, &value)? * CANDELA_PER_WATT
+            }
+            (LightKind::Sun { .. }, "strength") => self.intensity = cv::non_negative(lua, name, &value)? * LUMENS_PER_WATT,
+            (LightKind::Spot { angle, .. }, "angle") => {
+                *angle = (cv::number_in(lua, name, &value, Some(0.1), Some(90.0), "a half-angle in degrees from 0.1 to 90")?
+                    as f32)
+                    .to_radians()
+            }
+            (LightKind::Spot { blend, .. }, "blend") => {
+                *blend = cv::number_in(lua, name, &value, Some(0.0), Some(1.0), "a number from 0 to 1")? as f32
+            }
+            (LightKind::Sun { angular_diameter }, "angular_diameter") => {
+                *angular_diameter =
+                    (cv::number_in(lua, name, &value, Some(0.0), Some(45.0), "an angle in degrees from 0 to 45")? as f32)
+                        .to_radians()
+            }
+            (LightKind::Rect { size }, "size") => *size = cv::size2(lua, name, &value)?,
+            (LightKind::Spot { .. } | LightKind::Rect { .. }, "target") => self.target = Some(cv::vec3(lua, name, &value)?),
+            (LightKind::Sun { .. }, "direction") => {
+                let d = cv::vec3(lua, name, &value)?;
+                if d.length_squared() < 1e-12 {
+                    return Err(error_at(lua, "sun.direction must not be the zero vector"));
+                }
+                self.direction = Some(d.normalize());
+            }
+            _ => return Err(unknown_field(lua, kind, key, fields)),
+        }
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Fog.
+
+const FOG_FIELDS: &[&str] = &["density", "color", "scattering", "absorption", "g"];
+
+impl LuaObject for Fog {
+    fn kind(&self) -> &'static str {
+        "fog"
+    }
+    fn fields(&self) -> &'static [&'static str] {
+        FOG_FIELDS
+    }
+    fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
+        match key {
+            "density" => Ok(Value::Number(self.scattering.max_element() as f64)),
+            "color" => vec_value(lua, self.scattering / self.scattering.max_element().max(1e-12)),
+            "scattering" => vec_value(lua, self.scattering),
+            "absorption" => vec_value(lua, self.absorption),
+            "g" => Ok(Value::Number(self.g as f64)),
+            _ => Err(unknown_field(lua, "fog", key, FOG_FIELDS)),
+        }
+    }
+    fn set(&mut self, lua: &Lua, key: &str, value: Value) -> mlua::Result<()> {
+        let name = FieldName { what: "fog", field: key };
+        match key {
+            // density (per metre) keeps the color; color (relative) keeps the density.
+            "density" => {
+                let d = cv::non_negative(lua, name, &value)?;
+                let color = self.scattering / self.scattering.max_element().max(1e-12);
+                self.scattering = if self.scattering.max_element() > 0.0 { color * d } else { Vec3::splat(d) };
+            }
+            "color" => {
+                let c = cv::color(lua, name, &value)?;
+                self.scattering = c / c.max_element().max(1e-12) * self.scattering.max_element();
+            }
+            "scattering" => self.scattering = cv::color(lua, name, &value)?,
+            "absorption" => self.absorption = cv::color(lua, name, &value)?,
+            "g" => self.g = cv::number_in(lua, name, &value, Some(-0.99), Some(0.99), "a number from −0.99 to 0.99")? as f32,
+            _ => return Err(unknown_field(lua, "fog", key, FOG_FIELDS)),
+        }
+        Ok(())
+    }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -1,11 +1,14 @@
-//! Evaluating the scene graph at one moment: world transforms, the active camera, and the
-//! volume box fitted around the refractive objects — flattened into a [`FrameDesc`].
+//! Evaluating the scene graph at one moment: world transforms, the active camera, lights, and
+//! the volume box fitted around the refractive objects — flattened into a [`FrameDesc`].
+
+use std::sync::Arc;
 
 use anyhow::{Result, anyhow, bail};
 use glam::{Mat4, UVec3, Vec3};
 
-use super::{Material, Node, Scene, Shape, Shared};
-use crate::frame::{CameraDesc, FieldDesc, FieldKind, FrameDesc, VolumeDesc};
+use super::light::LUMENS_PER_WATT;
+use super::{Glass, LightKind, Material, MeshData, Node, Scene, Shape, Shared, mesh};
+use crate::frame::{CameraDesc, FieldDesc, FieldKind, FogDesc, FrameDesc, LightDesc, LightShape, MeshInstance, Receiver, VolumeDesc};
 
 /// Choices the command line can override.
 #[derive(Clone, Debug, Default)]
@@ -18,6 +21,8 @@ pub struct EvalOptions {
     pub camera: Option<String>,
     /// `--samples N`: camera rays per pixel.
     pub samples: Option<u32>,
+    /// `--photons N`: the photon budget.
+    pub photons: Option<u32>,
 }
 
 /// A node with its world matrix.
@@ -38,78 +43,196 @@ fn flatten(nodes: &[Shared<Node>], parent: Mat4, out: &mut Vec<Placed>) {
     }
 }
 
+/// What the nodes contribute, before the volume (and so the voxel size) is known.
+#[derive(Default)]
+struct Contents {
+    fields: Vec<FieldDesc>,
+    meshes: Vec<MeshInstance>,
+    receivers: Vec<Receiver>,
+    lights: Vec<LightDesc>,
+}
+
 /// Evaluates the scene as it stands (after `update` ran) into a frame description.
 pub fn evaluate(scene: &Scene, time: f64, opts: &EvalOptions) -> Result<FrameDesc> {
     let mut placed = Vec::new();
     flatten(&scene.roots, Mat4::IDENTITY, &mut placed);
-    let volume_settings = scene.volume.borrow().clone();
-    let resolution = opts.resolution.unwrap_or(volume_settings.resolution);
+    let settings = scene.volume.borrow().clone();
+    let resolution = opts.resolution.unwrap_or(settings.resolution);
 
-    let mut fields = Vec::new();
+    let mut c = Contents::default();
     for p in &placed {
-        if let Some(f) = field_of(p)? {
-            fields.push(f);
+        place_shape(p, &mut c)?;
+        if let Some(light) = light_of(p)? {
+            c.lights.push(light);
         }
     }
-    let volume = fit_volume(&fields, &volume_settings, resolution)?;
+    let mut bounds: Vec<(Vec3, Vec3, Option<f32>)> = c.fields.iter().map(|f| (f.bounds.0, f.bounds.1, opt_boundary(f.boundary))).collect();
+    bounds.extend(c.meshes.iter().map(|m| (m.bounds.0, m.bounds.1, opt_boundary(m.boundary))));
+    let volume = fit_volume(&bounds, &settings, resolution)?;
     // Boundary widths are set in voxels; now that the voxel size is known, make them metres.
-    for f in &mut fields {
-        let voxels = if f.boundary < 0.0 { volume_settings.boundary } else { f.boundary };
-        f.boundary = voxels * volume.voxel_size;
+    let metres = |b: f32| if b < 0.0 { settings.boundary } else { b } * volume.voxel_size;
+    for f in &mut c.fields {
+        f.boundary = metres(f.boundary);
+    }
+    for m in &mut c.meshes {
+        m.boundary = metres(m.boundary);
     }
     let camera = camera_of(scene, &placed, opts)?;
-    let samples = opts.samples.unwrap_or(scene.samples);
-    Ok(FrameDesc { time, camera, environment: scene.environment.borrow().clone(), volume, fields, samples })
+    let fog = scene.fog.as_ref().map(|f| {
+        let f = f.borrow();
+        FogDesc { scattering: f.scattering, absorption: f.absorption, g: f.g }
+    });
+    Ok(FrameDesc {
+        time,
+        camera,
+        environment: scene.environment.borrow().clone(),
+        volume,
+        fields: c.fields,
+        meshes: c.meshes,
+        receivers: c.receivers,
+        lights: c.lights,
+        fog,
+        photons: opts.photons.unwrap_or(scene.photons),
+        samples: opts.samples.unwrap_or(scene.samples),
+    })
 }
 
-/// The analytic index field a node carries, if any. Boundary is still in voxels here.
-fn field_of(p: &Placed) -> Result<Option<FieldDesc>> {
+/// Boundaries are stored as voxels, negative meaning "the volume's default", until the voxel
+/// size is known.
+fn opt_boundary(b: f32) -> Option<f32> {
+    (b >= 0.0).then_some(b)
+}
+
+fn display_name(node: &Node) -> String {
+    if node.name.is_empty() { format!("(unnamed node made at {})", node.origin) } else { format!("\"{}\"", node.name) }
+}
+
+/// Sorts a node's shape into fields, refractive meshes or receivers.
+fn place_shape(p: &Placed, c: &mut Contents) -> Result<()> {
     let node = p.node.borrow();
-    let Some(shape) = &node.shape else { return Ok(None) };
+    let Some(shape) = &node.shape else { return Ok(()) };
     let shape = shape.borrow().clone();
-    let name = if node.name.is_empty() { format!("(unnamed node made at {})", node.origin) } else { format!("\"{}\"", node.name) };
-    let glass = match node.material.as_ref().map(|m| m.borrow().clone()) {
-        Some(Material::Glass(g)) => Some(g),
-        None => None,
-    };
-    let glass = match glass {
-        Some(g) => g,
-        None if shape.is_index_field() => super::Glass { ior: 1.0, ..Default::default() },
-        None => bail!(
-            "{}: the {} of node {name} needs a material, e.g. material = refrakt.glass{{ior = 1.5}}",
-            node.origin,
-            shape.kind_name()
-        ),
-    };
+    let name = display_name(&node);
     let (scale, _, _) = p.world.to_scale_rotation_translation();
     if !p.world.is_finite() || scale.min_element() <= 0.0 {
         bail!("{}: node {name} has a degenerate or non-finite transform (scale {scale})", node.origin);
     }
+    let material = node.material.as_ref().map(|m| m.borrow().clone());
+    match (material, &shape) {
+        (Some(Material::Diffuse(diffuse)), _) => {
+            let mesh = match &shape {
+                Shape::Plane { size } => Arc::new(mesh::plane(*size)),
+                Shape::Box { size, .. } => Arc::new(mesh::cuboid(*size)),
+                Shape::Sphere { radius, .. } => Arc::new(mesh::icosphere(*radius, 4)),
+                Shape::Mesh { mesh, .. } => mesh.clone(),
+                other => bail!(
+                    "{}: node {name}: a {} defines an index of refraction, so its material must be glass, not diffuse",
+                    node.origin,
+                    other.kind_name()
+                ),
+            };
+            c.receivers.push(Receiver { name: node.name.clone(), mesh, world: p.world, diffuse });
+        }
+        (Some(Material::Glass(glass)), Shape::Mesh { mesh, boundary, .. }) => {
+            c.meshes.push(mesh_instance(&node, mesh, p.world, glass, *boundary)?);
+        }
+        (Some(Material::Glass(_)), Shape::Plane { .. }) => {
+            bail!("{}: node {name}: a plane has no inside, so it cannot be glass; use a box or a mesh", node.origin)
+        }
+        (Some(Material::Glass(glass)), _) => c.fields.push(field_of(&node, &shape, p.world, scale, glass)),
+        (None, s) if s.is_index_field() => {
+            c.fields.push(field_of(&node, &shape, p.world, scale, Glass { ior: 1.0, ..Default::default() }))
+        }
+        (None, s) => bail!(
+            "{}: the {} of node {name} needs a material, e.g. material = refrakt.glass{{ior = 1.5}} or refrakt.diffuse{{color = {{0.8, 0.8, 0.8}}}}",
+            node.origin,
+            s.kind_name()
+        ),
+    }
+    Ok(())
+}
+
+fn mesh_instance(node: &Node, mesh: &Arc<MeshData>, world: Mat4, glass: Glass, boundary: Option<f32>) -> Result<MeshInstance> {
+    let (lo, hi) = mesh.bounds().ok_or_else(|| anyhow!("{}: the mesh of node {} has no vertices", node.origin, display_name(node)))?;
+    let h = 0.5 * (hi - lo);
+    let centre = Mat4::from_translation(0.5 * (lo + hi));
+    Ok(MeshInstance {
+        name: node.name.clone(),
+        origin: node.origin.0.clone(),
+        mesh: mesh.clone(),
+        world,
+        glass,
+        boundary: boundary.unwrap_or(-1.0),
+        bounds: world_bounds(&(world * centre), h),
+    })
+}
+
+/// The analytic index field a node carries. Boundary is still in voxels here.
+fn field_of(node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) -> FieldDesc {
     // Analytic fields measure distance in local units; a non-uniform scale is approximated by
     // the geometric mean (exact for uniform scale, which is what these shapes are for).
     let uniform = (scale.x * scale.y * scale.z).cbrt();
-    let (kind, half_size, ior, gradient) = match shape {
+    let (kind, half_size, ior, gradient) = match *shape {
         Shape::Sphere { radius, .. } => (FieldKind::Sphere, Vec3::splat(radius), glass.ior, 0.0),
         Shape::Box { size, .. } => (FieldKind::Box, size * 0.5, glass.ior, 0.0),
         Shape::Luneburg { radius, .. } => (FieldKind::Luneburg, Vec3::splat(radius), 1.0, 0.0),
         Shape::Slab { size, ior, gradient, .. } => (FieldKind::Slab, size * 0.5, ior, gradient),
+        Shape::Mesh { .. } | Shape::Plane { .. } => unreachable!("meshes and planes are not analytic fields"),
     };
-    let boundary_vox = shape.boundary();
-    let bounds = world_bounds(&p.world, half_size);
-    Ok(Some(FieldDesc {
+    FieldDesc {
         name: node.name.clone(),
         kind,
-        world_to_local: p.world.inverse(),
+        world_to_local: world.inverse(),
         half_size,
         ior,
         gradient,
-        // Negative marks "use the volume's default" until the voxel size is known.
-        boundary: boundary_vox.unwrap_or(-1.0),
+        boundary: shape.boundary().unwrap_or(-1.0),
         scale: uniform,
         absorption: glass.absorption,
         scattering: glass.scattering,
         g: glass.g,
-        bounds,
+        bounds: world_bounds(&world, half_size),
+    }
+}
+
+/// The light a node carries, in world space and radiometric units.
+fn light_of(p: &Placed) -> Result<Option<LightDesc>> {
+    let node = p.node.borrow();
+    let Some(light) = &node.light else { return Ok(None) };
+    let light = light.borrow().clone();
+    let (_, rotation, position) = p.world.to_scale_rotation_translation();
+    let mut direction = rotation * Vec3::NEG_Z;
+    if let Some(t) = light.target {
+        direction = (t - position).try_normalize().ok_or_else(|| {
+            anyhow!("{}: the light of node {} aims at its own position", node.origin, display_name(&node))
+        })?;
+    }
+    if let Some(d) = light.direction {
+        direction = d.try_normalize().ok_or_else(|| anyhow!("{}: light direction must not be zero", node.origin))?;
+    }
+    let (right, up) = match light.kind {
+        LightKind::Rect { .. } if light.target.is_none() && light.direction.is_none() => (rotation * Vec3::X, rotation * Vec3::Y),
+        _ => {
+            let right = direction.any_orthonormal_vector();
+            (right, direction.cross(right))
+        }
+    };
+    let shape = match light.kind {
+        LightKind::Point => LightShape::Point,
+        LightKind::Spot { angle, blend } => {
+            LightShape::Spot { cos_outer: angle.cos(), cos_inner: (angle * (1.0 - blend)).cos() }
+        }
+        LightKind::Sun { angular_diameter } => LightShape::Sun { half_angle: 0.5 * angular_diameter },
+        LightKind::Rect { size } => LightShape::Rect { size },
+    };
+    Ok(Some(LightDesc {
+        name: node.name.clone(),
+        shape,
+        position,
+        direction,
+        right,
+        up,
+        radiant: light.color * light.intensity / LUMENS_PER_WATT,
     }))
 }
 
@@ -130,10 +253,10 @@ fn world_bounds(m: &Mat4, h: Vec3) -> (Vec3, Vec3) {
     (lo, hi)
 }
 
-/// The volume box: fixed by the script, or fitted around the fields with the margin plus
-/// enough voxels of air for the smooth boundary and the gradient stencil.
-fn fit_volume(fields: &[FieldDesc], s: &super::VolumeSettings, resolution: u32) -> Result<VolumeDesc> {
-    let max_boundary = fields.iter().map(|f| if f.boundary < 0.0 { s.boundary } else { f.boundary }).fold(s.boundary, f32::max);
+/// The volume box: fixed by the script, or fitted around the refractive objects with the
+/// margin plus enough voxels of air for the smooth boundary and the gradient stencil.
+fn fit_volume(objects: &[(Vec3, Vec3, Option<f32>)], s: &super::VolumeSettings, resolution: u32) -> Result<VolumeDesc> {
+    let max_boundary = objects.iter().filter_map(|o| o.2).fold(s.boundary, f32::max);
     let (lo, hi) = match s.bounds {
         Some((lo, hi)) => {
             if !lo.is_finite() || !hi.is_finite() {
@@ -144,10 +267,10 @@ fn fit_volume(fields: &[FieldDesc], s: &super::VolumeSettings, resolution: u32) 
             }
             (lo, hi)
         }
-        None if fields.is_empty() => (Vec3::splat(-0.5), Vec3::splat(0.5)),
+        None if objects.is_empty() => (Vec3::splat(-0.5), Vec3::splat(0.5)),
         None => {
-            let lo = fields.iter().map(|f| f.bounds.0).fold(Vec3::splat(f32::INFINITY), Vec3::min);
-            let hi = fields.iter().map(|f| f.bounds.1).fold(Vec3::splat(f32::NEG_INFINITY), Vec3::max);
+            let lo = objects.iter().map(|o| o.0).fold(Vec3::splat(f32::INFINITY), Vec3::min);
+            let hi = objects.iter().map(|o| o.1).fold(Vec3::splat(f32::NEG_INFINITY), Vec3::max);
             // Pad: the margin, half the boundary (which extends outside the surface) and two
             // voxels for the central differences, in a voxel size that itself depends on the pad.
             let pad_voxels = 0.5 * max_boundary + 2.0;

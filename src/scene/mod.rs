@@ -11,6 +11,10 @@
 
 pub mod environment;
 pub mod eval;
+pub mod light;
+pub mod material;
+pub mod mesh;
+pub mod shape;
 
 use std::cell::RefCell;
 use std::path::PathBuf;
@@ -19,6 +23,10 @@ use std::rc::Rc;
 use glam::{Mat4, Quat, Vec3};
 
 pub use environment::{EnvImage, Environment, EnvironmentSource};
+pub use light::{Light, LightKind};
+pub use material::{Diffuse, Fog, Glass, Material, Texture2d};
+pub use mesh::MeshData;
+pub use shape::Shape;
 
 pub type Shared<T> = Rc<RefCell<T>>;
 
@@ -53,78 +61,6 @@ impl Default for Transform {
 impl Transform {
     pub fn matrix(&self) -> Mat4 {
         Mat4::from_scale_rotation_translation(self.scale, self.rotation, self.translation)
-    }
-}
-
-/// A refractive or absorbing material: index, absorption (Beer–Lambert), scattering.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Glass {
-    pub ior: f32,
-    /// Absorption coefficient per metre, per channel.
-    pub absorption: Vec3,
-    /// Scattering coefficient per metre, per channel.
-    pub scattering: Vec3,
-    /// Henyey–Greenstein anisotropy of the scattering, in (−1, 1).
-    pub g: f32,
-}
-
-impl Default for Glass {
-    fn default() -> Self {
-        Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0 }
-    }
-}
-
-/// What a node's shape is made of.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Material {
-    /// Refractive/absorbing medium (glass, water, fog with ior = 1).
-    Glass(Glass),
-}
-
-/// Shapes. `Sphere` and `Box` are constant-index solids (their index comes from the material);
-/// `Luneburg` and `Slab` are index fields that define n themselves (a material, if given,
-/// contributes only absorption and scattering).
-#[derive(Clone, Debug, PartialEq)]
-pub enum Shape {
-    Sphere { radius: f32, boundary: Option<f32> },
-    Box { size: Vec3, boundary: Option<f32> },
-    /// n(r) = sqrt(2 − (r/R)²): parallel light entering focuses on the far pole.
-    Luneburg { radius: f32, boundary: Option<f32> },
-    /// n(y) = ior + gradient · y inside a box of `size`, y along the node's local +Y from its centre.
-    Slab { size: Vec3, ior: f32, gradient: f32, boundary: Option<f32> },
-}
-
-impl Shape {
-    pub fn kind_name(&self) -> &'static str {
-        match self {
-            Shape::Sphere { .. } => "sphere",
-            Shape::Box { .. } => "box",
-            Shape::Luneburg { .. } => "luneburg",
-            Shape::Slab { .. } => "slab",
-        }
-    }
-
-    /// Smooth boundary width override, in voxels.
-    pub fn boundary(&self) -> Option<f32> {
-        match self {
-            Shape::Sphere { boundary, .. }
-            | Shape::Box { boundary, .. }
-            | Shape::Luneburg { boundary, .. }
-            | Shape::Slab { boundary, .. } => *boundary,
-        }
-    }
-
-    /// Whether the shape defines its own index (so a material's `ior` does not apply).
-    pub fn is_index_field(&self) -> bool {
-        matches!(self, Shape::Luneburg { .. } | Shape::Slab { .. })
-    }
-
-    /// Half extents of the shape's local bounding box.
-    pub fn local_half_extent(&self) -> Vec3 {
-        match self {
-            Shape::Sphere { radius, .. } | Shape::Luneburg { radius, .. } => Vec3::splat(*radius),
-            Shape::Box { size, .. } | Shape::Slab { size, .. } => *size * 0.5,
-        }
     }
 }
 
@@ -199,6 +135,7 @@ pub struct Node {
     pub shape: Option<Shared<Shape>>,
     pub material: Option<Shared<Material>>,
     pub camera: Option<Shared<Camera>>,
+    pub light: Option<Shared<Light>>,
     pub visible: bool,
     pub origin: Origin,
 }
@@ -217,6 +154,8 @@ pub struct Scene {
     pub environment: Shared<Environment>,
     pub volume: Shared<VolumeSettings>,
     pub photons: u32,
+    /// A scattering medium filling the volume box (light shafts), if any.
+    pub fog: Option<Shared<Fog>>,
     /// Camera rays per pixel.
     pub samples: u32,
     pub roots: Vec<Shared<Node>>,
@@ -231,6 +170,7 @@ impl Default for Scene {
             environment: shared(Environment::default()),
             volume: shared(VolumeSettings::default()),
             photons: 70_000,
+            fog: None,
             samples: 4,
             roots: Vec::new(),
             base_dir: PathBuf::from("."),

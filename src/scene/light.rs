@@ -1,0 +1,42 @@
+//! Lights, in the units of glTF's KHR_lights_punctual so Blender scenes carry over: candela for
+//! point and spot lights, lux for the sun. Internally refrakt works in Blender's radiometric
+//! units (W/sr, W/m², radiance in W/(m²·sr)): photometric values are divided by 683 lm/W, as
+//! Blender's glTF importer does, so a frame composites over a Blender render at the same scale.
+
+use glam::{Vec2, Vec3};
+
+/// Luminous efficacy used to turn lumens into watts (the peak of the photopic curve).
+pub const LUMENS_PER_WATT: f32 = 683.0;
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum LightKind {
+    /// Emits equally in all directions from the node's origin.
+    Point,
+    /// A cone along the node's local −Z (or toward `target`): full intensity within
+    /// `angle · (1 − blend)`, falling smoothly to zero at `angle` (half-angle, radians).
+    Spot { angle: f32, blend: f32 },
+    /// Parallel light along the node's local −Z (or `direction`), from a disc of
+    /// `angular_diameter` radians (0: perfectly parallel).
+    Sun { angular_diameter: f32 },
+    /// A one-sided rectangle of `size` in the node's local XY plane, emitting toward −Z.
+    Rect { size: Vec2 },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Light {
+    pub kind: LightKind,
+    /// Linear RGB, multiplies the intensity.
+    pub color: Vec3,
+    /// Candela (point, spot), lux (sun), or nits (rect: luminance of the emitting surface).
+    pub intensity: f32,
+    /// World-space aim overriding the node's orientation (spot: a point to aim at).
+    pub target: Option<Vec3>,
+    /// World-space direction the light travels (sun), overriding the node's orientation.
+    pub direction: Option<Vec3>,
+}
+
+impl Light {
+    pub fn new(kind: LightKind) -> Self {
+        Self { kind, color: Vec3::ONE, intensity: 1.0, target: None, direction: None }
+    }
+}

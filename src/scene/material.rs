@@ -1,0 +1,91 @@
+//! Materials: what a shape is made of. Glass (and any refractive or absorbing medium) goes into
+//! the index volume; diffuse surfaces are opaque receivers of direct and caustic light.
+
+use std::sync::Arc;
+
+use glam::{Vec2, Vec3};
+
+/// A refractive or absorbing medium: index, absorption (Beer–Lambert), scattering.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Glass {
+    pub ior: f32,
+    /// Absorption coefficient per metre, per channel.
+    pub absorption: Vec3,
+    /// Scattering coefficient per metre, per channel.
+    pub scattering: Vec3,
+    /// Henyey–Greenstein anisotropy of the scattering, in (−1, 1).
+    pub g: f32,
+}
+
+impl Default for Glass {
+    fn default() -> Self {
+        Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0 }
+    }
+}
+
+/// A linear-light RGBA texture, row 0 at the top (glTF's convention for UV (0, 0)).
+#[derive(Debug, PartialEq)]
+pub struct Texture2d {
+    pub width: u32,
+    pub height: u32,
+    pub texels: Vec<[f32; 4]>,
+}
+
+impl Texture2d {
+    /// Bilinear lookup with repeat addressing (glTF's default sampler).
+    pub fn sample(&self, uv: Vec2) -> Vec3 {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let fx = uv.x * w as f32 - 0.5;
+        let fy = uv.y * h as f32 - 0.5;
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (tx, ty) = (fx - x0, fy - y0);
+        let texel = |x: i64, y: i64| {
+            let t = self.texels[(y.rem_euclid(h) * w + x.rem_euclid(w)) as usize];
+            Vec3::new(t[0], t[1], t[2])
+        };
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        texel(x0, y0).lerp(texel(x0 + 1, y0), tx).lerp(texel(x0, y0 + 1).lerp(texel(x0 + 1, y0 + 1), tx), ty)
+    }
+}
+
+/// An opaque Lambertian surface: receives direct light (shadowed by refractive objects) and the
+/// caustic light photons bring through them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Diffuse {
+    /// Albedo, linear RGB in [0, 1].
+    pub color: Vec3,
+    /// Multiplies `color` (glTF's baseColorTexture), sampled by the mesh's UVs.
+    pub texture: Option<Arc<Texture2d>>,
+}
+
+impl Default for Diffuse {
+    fn default() -> Self {
+        Self { color: Vec3::splat(0.8), texture: None }
+    }
+}
+
+/// What a node's shape is made of.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Material {
+    /// Refractive/absorbing medium (glass, water; fog or smoke with ior = 1).
+    Glass(Glass),
+    /// Opaque diffuse receiver.
+    Diffuse(Diffuse),
+}
+
+/// A homogeneous scattering medium filling the whole volume box, so light shafts show.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Fog {
+    /// Scattering coefficient per metre, per channel.
+    pub scattering: Vec3,
+    /// Absorption coefficient per metre, per channel.
+    pub absorption: Vec3,
+    /// Henyey–Greenstein anisotropy, in (−1, 1): > 0 scatters forward.
+    pub g: f32,
+}
+
+impl Default for Fog {
+    fn default() -> Self {
+        Self { scattering: Vec3::splat(0.05), absorption: Vec3::ZERO, g: 0.0 }
+    }
+}

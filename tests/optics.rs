@@ -166,7 +166,7 @@ fn linear_slab_bends_toward_higher_index_and_conserves_n_cos() {
         let dir = Vec3::new(a.cos() * az.cos(), a.sin(), a.cos() * az.sin());
         rays.push(ProbeRay { origin: (-dir * 0.35 + Vec3::new(0.0, -0.02, 0.0)).into(), dir: dir.into(), ..Default::default() });
     }
-    let opts = ProbeOptions { step: desc.volume.step, max_steps: steps, record_every: 1, records_per_ray: steps + 2, integrator: 0 };
+    let opts = ProbeOptions { step: desc.volume.step, max_steps: steps, record_every: 1, records_per_ray: steps + 2, integrator: 0, max_step: 0.0 };
     let out = r.probe(&rays, &opts).unwrap();
     for (i, ray) in rays.iter().enumerate() {
         let recs = &out[i * (steps as usize + 2)..(i + 1) * (steps as usize + 2) - 1];

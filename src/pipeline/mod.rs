@@ -6,6 +6,7 @@
 //! only when a resource they use was reallocated.
 
 pub mod gradient;
+pub mod octree;
 pub mod probe;
 pub mod resources;
 pub mod timing;
@@ -35,6 +36,7 @@ pub struct Renderer {
     shaders: ShaderLibrary,
     voxelize: voxelize::Voxelize,
     gradient: gradient::Gradient,
+    octree: octree::Octree,
     view: view::View,
     probe: probe::Probe,
     grids: Option<Grids>,
@@ -53,6 +55,7 @@ impl Renderer {
         let device = &ctx.device;
         let voxelize = voxelize::Voxelize::new(device, &shaders)?;
         let gradient = gradient::Gradient::new(device, &shaders)?;
+        let octree = octree::Octree::new(device, &shaders)?;
         let view = view::View::new(device, &shaders)?;
         let probe = probe::Probe::new(device, &shaders)?;
         let environment = EnvironmentTexture::new(&ctx);
@@ -62,6 +65,7 @@ impl Renderer {
             shaders,
             voxelize,
             gradient,
+            octree,
             view,
             probe,
             grids: None,
@@ -78,9 +82,10 @@ impl Renderer {
         let device = &self.ctx.device;
         let voxelize = voxelize::Voxelize::new(device, &self.shaders)?;
         let gradient = gradient::Gradient::new(device, &self.shaders)?;
+        let octree = octree::Octree::new(device, &self.shaders)?;
         let view = view::View::new(device, &self.shaders)?;
         let probe = probe::Probe::new(device, &self.shaders)?;
-        (self.voxelize, self.gradient, self.view, self.probe) = (voxelize, gradient, view, probe);
+        (self.voxelize, self.gradient, self.octree, self.view, self.probe) = (voxelize, gradient, octree, view, probe);
         Ok(())
     }
 
@@ -131,7 +136,7 @@ impl Renderer {
             self.counters.grid_allocations += 1;
         }
         if let Some(g) = self.grids.as_mut() {
-            g.placement = Some(desc.volume.to_gpu());
+            g.place(desc.volume.to_gpu());
         }
         if self.environment.update(&self.ctx, &desc.environment) {
             self.counters.environment_uploads += 1;
@@ -150,6 +155,7 @@ impl Renderer {
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         self.voxelize.encode(&self.ctx, &mut enc, &mut self.profiler, desc, grids); // fields → index_field, extinction_grid, scattering_grid
         self.gradient.encode(&self.ctx, &mut enc, &mut self.profiler, &desc.volume, grids); // index_field → ior_grid (∇n, n)
+        self.octree.encode(&self.ctx, &mut enc, &mut self.profiler, grids); // index_field, extinction_grid → octree
         self.ctx.queue.submit([enc.finish()]);
         self.counters.voxelizations += 1;
         Ok(())
@@ -183,7 +189,13 @@ impl Renderer {
     /// [`frame`](Self::frame) (tests, `refrakt trace`).
     pub fn probe(&mut self, rays: &[crate::gpu::types::ProbeRay], opts: &probe::ProbeOptions) -> Result<Vec<crate::gpu::types::ProbeRecord>> {
         let Some(grids) = self.grids.as_ref() else { bail!("probe needs a volume: call build_volume first") };
-        self.probe.run(&self.ctx, grids, rays, opts)
+        self.probe.trace(&self.ctx, grids, rays, opts)
+    }
+
+    /// The octree's straight step at each ray's origin (tests): see [`probe::Probe::octree_steps`].
+    pub fn probe_octree(&mut self, rays: &[crate::gpu::types::ProbeRay], step: f32, max_step: f32) -> Result<Vec<[f32; 4]>> {
+        let Some(grids) = self.grids.as_ref() else { bail!("probe needs a volume: call build_volume first") };
+        self.probe.octree_steps(&self.ctx, grids, rays, step, max_step)
     }
 
     /// The current grids (tests read them back to compare with the CPU twins).
@@ -244,6 +256,17 @@ pub(crate) mod layout {
         stage: &str,
         entries: &[wgpu::BindGroupLayoutEntry],
     ) -> anyhow::Result<(wgpu::ComputePipeline, wgpu::BindGroupLayout)> {
+        pipeline_entry(device, shaders, stage, "main", entries)
+    }
+
+    /// A compute pipeline for entry point `entry` of `stage` with one bind group of `entries`.
+    pub fn pipeline_entry(
+        device: &wgpu::Device,
+        shaders: &crate::gpu::shaders::ShaderLibrary,
+        stage: &str,
+        entry: &str,
+        entries: &[wgpu::BindGroupLayoutEntry],
+    ) -> anyhow::Result<(wgpu::ComputePipeline, wgpu::BindGroupLayout)> {
         let module = shaders.module(device, stage)?;
         let bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(stage), entries });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -255,7 +278,7 @@ pub(crate) mod layout {
             label: Some(stage),
             layout: Some(&pl),
             module: &module,
-            entry_point: Some("main"),
+            entry_point: Some(entry),
             compilation_options: Default::default(),
             cache: None,
         });

@@ -74,12 +74,18 @@ pub struct Grids {
     pub scattering_grid: Grid3d,
     /// Trilinear, clamped to the box edge.
     pub sampler: wgpu::Sampler,
+    /// The min/max pyramid (`shaders/octree.wgsl`), its shape, and that shape as a uniform.
+    pub octree: wgpu::Buffer,
+    pub octree_layout: crate::gpu::types::OctreeParams,
+    pub octree_params: wgpu::Buffer,
 }
 
 impl Grids {
     pub fn new(ctx: &GpuContext, dims: UVec3) -> Result<Self> {
         let device = &ctx.device;
         let voxels = dims.x as u64 * dims.y as u64 * dims.z as u64;
+        let octree_layout = super::octree::layout_for(crate::gpu::types::GridParams { dims: dims.into(), ..Default::default() });
+        let octree_cells = super::octree::cell_count(&octree_layout);
         allocating(ctx, &format!("a {}×{}×{} volume", dims.x, dims.y, dims.z), || Self {
             dims,
             generation: next_generation(),
@@ -99,7 +105,26 @@ impl Grids {
                 min_filter: wgpu::FilterMode::Linear,
                 ..Default::default()
             }),
+            octree: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("octree"),
+                size: octree_cells * 16,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            octree_layout,
+            octree_params: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("octree params"),
+                size: std::mem::size_of::<crate::gpu::types::OctreeParams>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
         })
+    }
+
+    /// Records where the grids sit this frame (the octree's shape depends only on the dims).
+    pub fn place(&mut self, grid: crate::gpu::types::GridParams) {
+        self.placement = Some(grid);
+        self.octree_layout.grid = grid;
     }
 }
 

@@ -6,6 +6,11 @@
 //
 // `leaf` fills level 0 from the voxels; `reduce` builds level L from level L−1, one dispatch per
 // level. The CPU twin is src/cpu/octree.rs.
+//
+// A level-0 cell spans the 2×2×2 voxels trilinear interpolation mixes inside it, but ∇n there
+// comes from central differences that reach one voxel further: the leaf takes its bounds over
+// the 4×4×4 block around the cell, so that in a flat cell ∇n is zero too (to within ε/h) and a
+// straight step through it is exactly what the ray equation would do.
 
 #import shared/types.wgsl
 
@@ -27,8 +32,10 @@ fn leaf(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     var v = vec4<f32>(1e30, -1e30, 1e30, -1e30);
-    for (var k = 0u; k < 8u; k++) {
-        let p = id + vec3<u32>(k & 1u, (k >> 1u) & 1u, k >> 2u);
+    let last = vec3<i32>(octree_params.grid.dims) - 1;
+    for (var k = 0u; k < 64u; k++) {
+        let offset = vec3<i32>(i32(k & 3u), i32((k >> 2u) & 3u), i32(k >> 4u)) - 1;
+        let p = vec3<u32>(clamp(vec3<i32>(id) + offset, vec3<i32>(0), last));
         let n = index_field[voxel_index(p)];
         let sigma = textureLoad(extinction_grid, p, 0).rgb;
         let s = max(sigma.r, max(sigma.g, sigma.b));

@@ -24,7 +24,7 @@ fn record(slot: u32, s: RayState, steps: u32) {
     records[slot] = ProbeRecord(s.x, s.g.w, s.v, steps);
 }
 
-fn step(s: ptr<function, RayState>) {
+fn advance(s: ptr<function, RayState>) {
     if params.integrator == INTEGRATOR_EULER {
         march_step_euler(ior_grid, grid_sampler, params.grid, s, params.step);
     } else if params.max_step > 0.0 {
@@ -49,7 +49,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     var steps = 0u;
     if span.x <= span.y && span.y > 0.0 {
         for (; steps < params.max_steps; steps++) {
-            step(&s);
+            advance(&s);
             let k = (steps + 1u) / params.record_every;
             if (steps + 1u) % params.record_every == 0u && k < params.records_per_ray - 1u {
                 record(base + k, s, steps + 1u);

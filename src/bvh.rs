@@ -1,6 +1,9 @@
 //! A bounding volume hierarchy over the opaque receivers' triangles, built on the CPU once per
 //! change and traversed on the GPU (`shaders/shared/bvh.wgsl`) by camera, shadow and photon rays.
 //!
+//! Interior nodes have `count = 0` and their first child in `first` (never 0, the root), so a
+//! root with `first = 0, count = 0` is the empty tree.
+//!
 //! Median split on the longest centroid axis, up to [`LEAF_SIZE`] triangles per leaf: receiver
 //! sets are small (floors, walls, props), so build speed and simplicity beat SAH quality here.
 //! [`Bvh::intersect`] is the CPU twin of the GPU traversal.
@@ -122,6 +125,9 @@ impl Bvh {
                 continue;
             }
             if node.count == 0 {
+                if node.first == 0 {
+                    continue; // the empty tree
+                }
                 stack.push(node.first);
                 stack.push(node.first + 1);
                 continue;

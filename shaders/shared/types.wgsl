@@ -41,7 +41,13 @@ struct ViewParams {
     step: f32,
     medium_eps: f32,
     samples: u32,
-    _pad0: f32,
+    light_count: u32,
+    max_step: f32,
+    eps_refract: f32,
+    _pad0: u32,
+    _pad1: u32,
+    ambient: vec3<f32>,
+    _pad2: u32,
 }
 
 struct Field {
@@ -111,6 +117,7 @@ struct ReceiverGpu {
     _pad0: u32,
     charts_a: vec4<i32>,
     charts_b: vec4<i32>,
+    charts_c: vec4<i32>,
 }
 
 struct Chart {

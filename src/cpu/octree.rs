@@ -15,12 +15,15 @@ pub fn build(params: &OctreeParams, n: &[f32], sigma: &[f32]) -> Vec<[f32; 4]> {
     let merge = |v: [f32; 4], w: [f32; 4]| [v[0].min(w[0]), v[1].max(w[1]), v[2].min(w[2]), v[3].max(w[3])];
     let empty = [1e30, -1e30, 1e30, -1e30];
     let d0 = level(0);
+    let last = d.as_ivec3() - 1;
     for z in 0..d0.z {
         for y in 0..d0.y {
             for x in 0..d0.x {
                 let mut v = empty;
-                for k in 0..8u32 {
-                    let p = UVec3::new(x + (k & 1), y + ((k >> 1) & 1), z + (k >> 2));
+                // The 4×4×4 block whose values reach the cell through ∇n's central differences.
+                for k in 0..64i32 {
+                    let offset = glam::IVec3::new(k & 3, (k >> 2) & 3, k >> 4) - 1;
+                    let p = (UVec3::new(x, y, z).as_ivec3() + offset).clamp(glam::IVec3::ZERO, last).as_uvec3();
                     let (nv, s) = (n[voxel(p)], sigma[voxel(p)]);
                     v = merge(v, [nv, nv, s, s]);
                 }

@@ -83,7 +83,16 @@ gpu_struct! {
         pub medium_eps: f32,
         /// Rays per pixel (a fixed R2 pattern of sub-pixel offsets: no flicker between frames).
         pub samples: u32,
-        pub _pad0: f32,
+        pub light_count: u32,
+        /// Longest straight step across a flat octree cell, metres.
+        pub max_step: f32,
+        /// n − 1 above which a medium counts as refractive (it blocks shadow rays).
+        pub eps_refract: f32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+        /// Mean environment radiance: the receivers' ambient light.
+        pub ambient: [f32; 3],
+        pub _pad2: u32,
     }
 }
 
@@ -180,13 +189,16 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// An opaque receiver: its albedo and the caustic charts of its six face directions
-    /// (+X, −X, +Y, −Y in `charts_a`, +Z, −Z in `charts_b.xy`; −1 where it has none).
+    /// An opaque receiver: its albedo and its caustic charts, one per side a surface faces: slot
+    /// 2·axis + (0 for +, 1 for −), plus 6 when it is the back of the triangles that face that
+    /// way (the inside of a room) — slots 0–3 in `charts_a`, 4–7 in `charts_b`, 8–11 in
+    /// `charts_c`; −1 where it has none.
     pub struct ReceiverGpu {
         pub albedo: [f32; 3],
         pub _pad0: u32,
         pub charts_a: [i32; 4],
         pub charts_b: [i32; 4],
+        pub charts_c: [i32; 4],
     }
 }
 

@@ -1,6 +1,7 @@
 // Diagnostic kernels: `main` traces given rays through the ior_grid with the integrator the view
 // and photon passes use, recording their state along the way; `octree_query` reports the
-// straight step the octree allows at given points. Tests compare both with the CPU twins and
+// straight step the octree allows at given points; `dda_cells` lists the cells a segment
+// (origin → origin + dir, in cell units) crosses, as the photons' deposits do. Tests compare both with the CPU twins and
 // with closed-form optics; `refrakt trace` prints them.
 //
 // records[ray · records_per_ray + k] holds the state after k · record_every steps, the last
@@ -10,6 +11,7 @@
 #import shared/grid.wgsl
 #import shared/ray.wgsl
 #import shared/octree.wgsl
+#import shared/dda.wgsl
 
 @group(0) @binding(0) var<uniform> params: ProbeParams;
 @group(0) @binding(1) var ior_grid: texture_3d<f32>;
@@ -75,4 +77,23 @@ fn octree_query(@builtin(global_invocation_id) id: vec3<u32>) {
     let cell = octree_cell(ray.origin);
     let step = octree_step(ray.origin, ray.dir, params.step, params.max_step);
     steps_out[r] = vec4<f32>(step, select(0.0, 1.0, cell.is_flat), cell.hi.x - cell.lo.x, 0.0);
+}
+
+// steps_out[r · records_per_ray + k] = (cell x, y, z, length inside) of the k-th cell crossed
+// by segment r (unused slots keep length 0).
+@compute @workgroup_size(64)
+fn dda_cells(@builtin(global_invocation_id) id: vec3<u32>) {
+    let r = id.x;
+    if r >= params.ray_count {
+        return;
+    }
+    let seg = rays[r];
+    var dda = dda_begin(seg.origin, seg.origin + seg.dir);
+    var k = 0u;
+    while dda_more(dda) && k < params.records_per_ray {
+        let cell = dda.cell;
+        let len = dda_advance(&dda);
+        steps_out[r * params.records_per_ray + k] = vec4<f32>(vec3<f32>(cell), len);
+        k++;
+    }
 }

@@ -1,6 +1,7 @@
 // Stage 1, voxelize: analytic index fields → the raw index grid n and the medium grids.
 //
-// Each field contributes a smooth coverage α ∈ [0, 1] (a C² step across its boundary, `boundary`
+// The volume starts as the scene's fog (or empty air). Each field contributes a smooth
+// coverage α ∈ [0, 1] (a C² step across its boundary, `boundary`
 // metres wide, centred on the surface) and its own index n_f and medium. Fields are composited in
 // scene order, later over earlier: n ← mix(n, n_f, α). A smooth α keeps ∇n finite, so the ray
 // equation bends rays at a surface the way Snell's law does in the limit of a thin boundary.
@@ -66,8 +67,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let x = grid.origin + (vec3<f32>(id) + 0.5) * grid.voxel_size;
     var n = 1.0;
-    var absorption = vec3<f32>(0.0);
-    var scattering = vec4<f32>(0.0);
+    var absorption = params.fog_absorption.rgb;
+    var scattering = params.fog_scattering;
     for (var i = 0u; i < params.field_count; i++) {
         let f = fields[i];
         let s = field_sample(f, x);

@@ -68,6 +68,8 @@ struct VoxelizeParams {
     _pad0: u32,
     _pad1: u32,
     _pad2: u32,
+    fog_absorption: vec4<f32>,
+    fog_scattering: vec4<f32>,
 }
 
 struct ProbeParams {

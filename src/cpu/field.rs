@@ -37,11 +37,11 @@ pub fn field_sample(f: &FieldDesc, x: Vec3) -> (f32, f32) {
     }
 }
 
-/// The composited medium at one point: (n, extinction rgb, scattering rgb + g).
-pub fn medium_at(fields: &[FieldDesc], x: Vec3) -> (f32, Vec3, Vec4) {
+/// The composited medium at one point over the fog (if any): (n, extinction rgb, scattering rgb + g).
+pub fn medium_at(fields: &[FieldDesc], fog: Option<&crate::frame::FogDesc>, x: Vec3) -> (f32, Vec3, Vec4) {
     let mut n = 1.0f32;
-    let mut absorption = Vec3::ZERO;
-    let mut scattering = Vec4::ZERO;
+    let mut absorption = fog.map_or(Vec3::ZERO, |f| f.absorption);
+    let mut scattering = fog.map_or(Vec4::ZERO, |f| f.scattering.extend(f.g));
     for f in fields {
         let (a, nf) = field_sample(f, x);
         n = n * (1.0 - a) + nf * a;
@@ -63,7 +63,7 @@ pub fn rasterize(fields: &[FieldDesc], volume: &VolumeDesc) -> Vec<f32> {
         for y in 0..d.y {
             for x in 0..d.x {
                 let i = UVec3::new(x, y, z);
-                out[index(d, i)] = medium_at(fields, volume.voxel_centre(i)).0;
+                out[index(d, i)] = medium_at(fields, None, volume.voxel_centre(i)).0;
             }
         }
     }

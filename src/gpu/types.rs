@@ -126,6 +126,10 @@ gpu_struct! {
         pub _pad0: u32,
         pub _pad1: u32,
         pub _pad2: u32,
+        /// The medium between objects (fog, or nothing): absorption rgb per metre (w unused)…
+        pub fog_absorption: [f32; 4],
+        /// …and scattering rgb per metre, w: Henyey–Greenstein g.
+        pub fog_scattering: [f32; 4],
     }
 }
 

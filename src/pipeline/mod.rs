@@ -331,6 +331,13 @@ impl Renderer {
         self.probe.octree_steps(&self.ctx, grids, rays, step, max_step)
     }
 
+    /// The cells segments cross, as the photon deposits traverse them (tests):
+    /// see [`probe::Probe::dda_cells`].
+    pub fn probe_dda(&mut self, segments: &[crate::gpu::types::ProbeRay], max_cells: u32) -> Result<Vec<[f32; 4]>> {
+        let Some(grids) = self.grids.as_ref() else { bail!("probe needs a volume: call build_volume first") };
+        self.probe.dda_cells(&self.ctx, grids, segments, max_cells)
+    }
+
     /// The current grids (tests read them back to compare with the CPU twins).
     pub fn grids(&self) -> Option<&Grids> {
         self.grids.as_ref()

@@ -38,6 +38,7 @@ impl ProbeOptions {
 pub struct Probe {
     trace: wgpu::ComputePipeline,
     query: wgpu::ComputePipeline,
+    dda: wgpu::ComputePipeline,
     bgl: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
 }
@@ -56,12 +57,15 @@ impl Probe {
         ];
         let (trace, bgl) = layout::pipeline_entry(device, shaders, "probe", "main", &entries)?;
         let (query, _) = layout::pipeline_entry(device, shaders, "probe", "octree_query", &entries)?;
+        let (dda, _) = layout::pipeline_entry(device, shaders, "probe", "dda_cells", &entries)?;
         let params = layout::uniform_buffer::<ProbeParams>(device, "probe params");
-        Ok(Self { trace, query, bgl, params })
+        Ok(Self { trace, query, dda, bgl, params })
     }
 
-    /// Runs `pipeline` over `rays`, returning the bytes it wrote to records (or steps).
-    fn run(&self, ctx: &GpuContext, grids: &Grids, rays: &[ProbeRay], params: ProbeParams, query: bool, out_size: u64) -> Result<Vec<u8>> {
+    /// Runs a kernel over `rays`, returning the bytes it wrote to records (`Kernel::Trace`) or
+    /// to the steps buffer.
+    fn run(&self, ctx: &GpuContext, grids: &Grids, rays: &[ProbeRay], params: ProbeParams, kernel: Kernel, out_size: u64) -> Result<Vec<u8>> {
+        let query = kernel != Kernel::Trace;
         let device = &ctx.device;
         ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
         let storage = |label, size: u64| {
@@ -94,7 +98,11 @@ impl Probe {
         let mut enc = device.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("probe"), timestamp_writes: None });
-            pass.set_pipeline(if query { &self.query } else { &self.trace });
+            pass.set_pipeline(match kernel {
+                Kernel::Trace => &self.trace,
+                Kernel::Octree => &self.query,
+                Kernel::Dda => &self.dda,
+            });
             pass.set_bind_group(0, &bg, &[]);
             pass.dispatch_workgroups((rays.len() as u32).div_ceil(64), 1, 1);
         }
@@ -123,7 +131,7 @@ impl Probe {
     pub fn trace(&self, ctx: &GpuContext, grids: &Grids, rays: &[ProbeRay], opts: &ProbeOptions) -> Result<Vec<ProbeRecord>> {
         let params = Self::params(grids, rays.len(), opts)?;
         let size = (rays.len() * params.records_per_ray as usize * std::mem::size_of::<ProbeRecord>()) as u64;
-        Ok(bytemuck::cast_slice(&self.run(ctx, grids, rays, params, false, size)?).to_vec())
+        Ok(bytemuck::cast_slice(&self.run(ctx, grids, rays, params, Kernel::Trace, size)?).to_vec())
     }
 
     /// The octree's straight step at each ray's origin along its direction, clamped to
@@ -132,6 +140,23 @@ impl Probe {
         let opts = ProbeOptions { max_step, ..ProbeOptions::endpoints(step, 0) };
         let params = Self::params(grids, rays.len(), &opts)?;
         let size = (rays.len() * 16) as u64;
-        Ok(bytemuck::cast_slice(&self.run(ctx, grids, rays, params, true, size)?).to_vec())
+        Ok(bytemuck::cast_slice(&self.run(ctx, grids, rays, params, Kernel::Octree, size)?).to_vec())
     }
+
+    /// The cells each segment (origin → origin + dir, cell units) crosses: up to `max_cells`
+    /// (cell x, y, z, length) per segment, unused slots with length 0.
+    pub fn dda_cells(&self, ctx: &GpuContext, grids: &Grids, segments: &[ProbeRay], max_cells: u32) -> Result<Vec<[f32; 4]>> {
+        let opts = ProbeOptions { records_per_ray: max_cells, ..ProbeOptions::endpoints(0.0, 0) };
+        let mut params = Self::params(grids, segments.len(), &opts)?;
+        params.records_per_ray = max_cells;
+        let size = (segments.len() * max_cells as usize * 16) as u64;
+        Ok(bytemuck::cast_slice(&self.run(ctx, grids, segments, params, Kernel::Dda, size)?).to_vec())
+    }
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Kernel {
+    Trace,
+    Octree,
+    Dda,
 }

@@ -60,7 +60,14 @@ impl Voxelize {
         if !fields.is_empty() {
             ctx.queue.write_buffer(&self.fields, 0, bytemuck::cast_slice(&fields));
         }
-        let params = VoxelizeParams { grid: desc.volume.to_gpu(), field_count: fields.len() as u32, ..Default::default() };
+        let fog = desc.fog.unwrap_or(crate::frame::FogDesc { scattering: glam::Vec3::ZERO, absorption: glam::Vec3::ZERO, g: 0.0 });
+        let params = VoxelizeParams {
+            grid: desc.volume.to_gpu(),
+            field_count: fields.len() as u32,
+            fog_absorption: fog.absorption.extend(0.0).into(),
+            fog_scattering: fog.scattering.extend(fog.g).into(),
+            ..Default::default()
+        };
         ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
 
         if self.bound.as_ref().is_none_or(|(g, _)| *g != grids.generation) {

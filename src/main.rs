@@ -27,7 +27,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene (a .lua script) to EXR/PNG frames.
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Show the GPU adapter refrakt would use, its limits, and why it was chosen.
     Info {
         #[command(flatten)]

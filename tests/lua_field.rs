@@ -125,6 +125,12 @@ fn errors_inside_the_function_carry_their_line() {
 }
 
 #[test]
+fn the_function_cannot_change_the_scene_being_evaluated() {
+    let e = field_error("scene:add(r.node{ shape = r.field{ size = {1, 1, 1}, n = function(x, y, z)\n  scene.photons = 5\n  return 1.5\nend } })");
+    assert!(e.contains("scene.lua:4: the scene cannot be changed while a frame is being evaluated"), "{e}");
+}
+
+#[test]
 fn field_constructor_errors() {
     let e = field_error("scene:add(r.node{ shape = r.field{ size = {1, 1, 1} } })");
     assert!(e.contains("scene.lua:3: field needs a field \"n\""), "{e}");

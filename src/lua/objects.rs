@@ -47,13 +47,22 @@ impl<T: LuaObject> UserData for Obj<T> {
         });
         m.add_meta_method(MetaMethod::NewIndex, |lua, this, (key, value): (Value, Value)| {
             let key = field_key(lua, &key, this.0.borrow().kind())?;
-            this.0.borrow_mut().set(lua, &key, value)
+            writable(lua, &this.0)?.set(lua, &key, value)
         });
         m.add_meta_method(MetaMethod::Eq, |_, this, other: AnyUserData| {
             Ok(other.borrow::<Obj<T>>().map(|o| Rc::ptr_eq(&o.0, &this.0)).unwrap_or(false))
         });
         m.add_meta_method(MetaMethod::ToString, |_, this, ()| Ok(format!("refrakt.{}", this.0.borrow().kind())));
     }
+}
+
+/// Borrows a graph object for writing. The graph is only ever borrowed while a frame is being
+/// evaluated, and the only script code that runs then is a field's `n` function: that gets an
+/// error instead of a panic.
+fn writable<'a, T>(lua: &Lua, o: &'a Shared<T>) -> mlua::Result<std::cell::RefMut<'a, T>> {
+    o.try_borrow_mut().map_err(|_| {
+        error_at(lua, "the scene cannot be changed while a frame is being evaluated (here: inside a field's n function); change it in update(scene, t)")
+    })
 }
 
 fn field_key(lua: &Lua, key: &Value, kind: &str) -> mlua::Result<String> {
@@ -217,7 +226,7 @@ impl LuaObject for Scene {
     fn methods<M: UserDataMethods<Obj<Self>>>(m: &mut M) {
         m.add_method("add", |lua, this, node: Value| {
             let node = expect_obj::<Node>(lua, FieldName { what: "scene:add", field: "node" }, &node, "a refrakt.node{…}")?;
-            this.0.borrow_mut().roots.push(node.clone());
+            writable(lua, &this.0)?.roots.push(node.clone());
             Ok(Obj(node))
         });
         m.add_method("find", |lua, this, name: String| {
@@ -226,7 +235,7 @@ impl LuaObject for Scene {
         });
         m.add_method("remove", |lua, this, node: Value| {
             let node = expect_obj::<Node>(lua, FieldName { what: "scene:remove", field: "node" }, &node, "a refrakt.node{…}")?;
-            Ok(this.0.borrow_mut().remove(&node))
+            Ok(writable(lua, &this.0)?.remove(&node))
         });
         // World coordinates of a point given in a node's local frame (default: its origin).
         m.add_method("to_world", |lua, this, (node, point): (Value, Value)| {
@@ -304,7 +313,7 @@ impl LuaObject for Node {
             if reaches(&child, this.0.as_ptr()) {
                 return Err(error_at(lua, "node:add would make a node its own ancestor"));
             }
-            this.0.borrow_mut().children.push(child.clone());
+            writable(lua, &this.0)?.children.push(child.clone());
             Ok(Obj(child))
         });
         m.add_method("find", |lua, this, name: String| {
@@ -314,7 +323,7 @@ impl LuaObject for Node {
         m.add_method("remove", |lua, this, child: Value| {
             let what = FieldName { what: "node:remove", field: "child" };
             let child = expect_obj::<Node>(lua, what, &child, "a refrakt.node{…}")?;
-            Ok(crate::scene::remove_from(&mut this.0.borrow_mut().children, &child))
+            Ok(crate::scene::remove_from(&mut writable(lua, &this.0)?.children, &child))
         });
     }
 }

@@ -15,6 +15,7 @@
 @group(0) @binding(2) var<storage, read_write> index_field: array<f32>;
 @group(0) @binding(3) var extinction_grid: texture_storage_3d<rgba16float, write>;
 @group(0) @binding(4) var scattering_grid: texture_storage_3d<rgba16float, write>;
+@group(0) @binding(5) var<storage, read> field_samples: array<f32>;
 
 // Quintic smoothstep on [0, 1]: C², so ∇n is continuous across the boundary.
 fn smootherstep(t: f32) -> f32 {
@@ -35,6 +36,22 @@ fn box_distance(p: vec3<f32>, half_size: vec3<f32>) -> f32 {
     return length(max(q, vec3<f32>(0.0))) + min(max(q.x, max(q.y, q.z)), 0.0);
 }
 
+// n of a sampled field (a script's n(x, y, z), evaluated on the CPU at voxel centres) at the
+// voxel containing x; `ok` is false outside its block of samples, where coverage is zero anyway.
+struct Sample {
+    n: f32,
+    ok: bool,
+}
+
+fn sampled_index(f: Field, x: vec3<f32>) -> Sample {
+    let v = vec3<i32>(floor((x - params.grid.origin) / params.grid.voxel_size)) - vec3<i32>(f.sample_first);
+    if any(v < vec3<i32>(0)) || any(v >= vec3<i32>(f.sample_dims)) {
+        return Sample(1.0, false);
+    }
+    let i = vec3<u32>(v);
+    return Sample(field_samples[f.sample_offset + i.x + f.sample_dims.x * (i.y + f.sample_dims.y * i.z)], true);
+}
+
 // (α, n_f) of one field at world point x.
 fn field_sample(f: Field, x: vec3<f32>) -> vec2<f32> {
     let p = (f.world_to_local * vec4<f32>(x, 1.0)).xyz;
@@ -50,6 +67,10 @@ fn field_sample(f: Field, x: vec3<f32>) -> vec2<f32> {
             let r = length(p) / f.half_size.x;
             let n = sqrt(max(2.0 - r * r, 1.0));
             return vec2<f32>(coverage((length(p) - f.half_size.x) * f.scale, f.boundary), n);
+        }
+        case FIELD_SAMPLED: {
+            let s = sampled_index(f, x);
+            return vec2<f32>(select(0.0, coverage(box_distance(p, f.half_size) * f.scale, f.boundary), s.ok), s.n);
         }
         default: {
             // FIELD_SLAB: n = n₀ + g·y along the local y axis (metres).

@@ -60,6 +60,10 @@ struct Field {
     scale: f32,
     absorption: vec4<f32>,
     scattering: vec4<f32>,
+    sample_first: vec3<u32>,
+    sample_offset: u32,
+    sample_dims: vec3<u32>,
+    _pad0: u32,
 }
 
 struct VoxelizeParams {
@@ -225,6 +229,7 @@ const FIELD_SPHERE: u32 = 0u;
 const FIELD_BOX: u32 = 1u;
 const FIELD_LUNEBURG: u32 = 2u;
 const FIELD_SLAB: u32 = 3u;
+const FIELD_SAMPLED: u32 = 4u;
 
 const VIEW_FLAG_MEDIA: u32 = 1u;
 const VIEW_FLAG_SCATTERING: u32 = 2u;

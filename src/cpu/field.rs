@@ -22,7 +22,7 @@ pub fn box_distance(p: Vec3, half_size: Vec3) -> f32 {
 /// (α, n_f) of one field at world point `x`.
 pub fn field_sample(f: &FieldDesc, x: Vec3) -> (f32, f32) {
     let p = f.world_to_local.transform_point3(x);
-    match f.kind {
+    match &f.kind {
         FieldKind::Sphere => (coverage((p.length() - f.half_size.x) * f.scale, f.boundary), f.ior),
         FieldKind::Box => (coverage(box_distance(p, f.half_size) * f.scale, f.boundary), f.ior),
         FieldKind::Luneburg => {
@@ -34,6 +34,11 @@ pub fn field_sample(f: &FieldDesc, x: Vec3) -> (f32, f32) {
             let n = f.ior + f.gradient * p.y * f.scale;
             (coverage(box_distance(p, f.half_size) * f.scale, f.boundary), n)
         }
+        // Outside its block of samples a sampled field's coverage is zero.
+        FieldKind::Sampled(samples) => match samples.at(x) {
+            Some(n) => (coverage(box_distance(p, f.half_size) * f.scale, f.boundary), n),
+            None => (0.0, 1.0),
+        },
     }
 }
 

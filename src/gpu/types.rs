@@ -115,6 +115,13 @@ gpu_struct! {
         pub absorption: [f32; 4],
         /// Scattering coefficient per metre, rgb; w: Henyey–Greenstein g.
         pub scattering: [f32; 4],
+        /// Sampled fields: the first voxel of their block of samples…
+        pub sample_first: [u32; 3],
+        /// …where the block starts in the samples buffer…
+        pub sample_offset: u32,
+        /// …and its size in voxels (x fastest).
+        pub sample_dims: [u32; 3],
+        pub _pad0: u32,
     }
 }
 
@@ -354,6 +361,8 @@ pub mod field_kind {
     pub const BOX: u32 = 1;
     pub const LUNEBURG: u32 = 2;
     pub const SLAB: u32 = 3;
+    /// A script's n(x, y, z), sampled on the CPU (`scene::index_fn`).
+    pub const SAMPLED: u32 = 4;
 }
 
 /// `ViewParams::flags` bits (mirrored in `types.wgsl`).

@@ -283,3 +283,36 @@ impl RadianceGrid {
         })
     }
 }
+
+/// A storage buffer that a stage refills every frame with a variable amount of data, growing to
+/// the next power of two when a frame needs more (so it is reallocated rarely, not per frame).
+pub struct GrowableBuffer {
+    pub buffer: wgpu::Buffer,
+    label: &'static str,
+    capacity: u64,
+}
+
+impl GrowableBuffer {
+    pub fn new(device: &wgpu::Device, label: &'static str, capacity: u64) -> Self {
+        let capacity = capacity.max(16);
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: capacity,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Self { buffer, label, capacity }
+    }
+
+    /// Uploads `bytes`; returns true when the buffer was reallocated (bind groups must be rebuilt).
+    pub fn write(&mut self, ctx: &GpuContext, bytes: &[u8]) -> bool {
+        let grown = bytes.len() as u64 > self.capacity;
+        if grown {
+            *self = Self::new(&ctx.device, self.label, (bytes.len() as u64).next_power_of_two());
+        }
+        if !bytes.is_empty() {
+            ctx.queue.write_buffer(&self.buffer, 0, bytes);
+        }
+        grown
+    }
+}

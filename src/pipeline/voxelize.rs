@@ -1,12 +1,14 @@
-//! Stage 1, voxelize (`shaders/voxelize.wgsl`): the frame's analytic index fields → the raw
-//! index grid and the extinction and scattering grids. CPU twin: `cpu::field`.
+//! Stage 1, voxelize (`shaders/voxelize.wgsl`): the frame's index fields → the raw index grid
+//! and the extinction and scattering grids. Analytic fields are evaluated on the GPU; fields a
+//! script defines by a function arrive as blocks of samples (`field_samples`). CPU twin:
+//! `cpu::field`.
 
 use anyhow::Result;
 
 use super::layout;
-use super::resources::{GRID_FORMAT, Grids};
+use super::resources::{GRID_FORMAT, GrowableBuffer, Grids};
 use super::timing::Profiler;
-use crate::frame::FrameDesc;
+use crate::frame::{FieldKind, FrameDesc};
 use crate::gpu::GpuContext;
 use crate::gpu::shaders::ShaderLibrary;
 use crate::gpu::types::{Field, VoxelizeParams};
@@ -15,8 +17,9 @@ pub struct Voxelize {
     pipeline: wgpu::ComputePipeline,
     bgl: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
-    fields: wgpu::Buffer,
-    fields_capacity: usize,
+    fields: GrowableBuffer,
+    /// n of sampled fields, one block after another (`Field::sample_offset`).
+    field_samples: GrowableBuffer,
     /// Bind group and the grid generation it was made for.
     bound: Option<(u64, wgpu::BindGroup)>,
 }
@@ -34,31 +37,30 @@ impl Voxelize {
                 layout::storage(2, false),
                 layout::storage_texture(3, GRID_FORMAT, d3),
                 layout::storage_texture(4, GRID_FORMAT, d3),
+                layout::storage(5, true),
             ],
         )?;
         let params = layout::uniform_buffer::<VoxelizeParams>(device, "voxelize params");
-        let (fields, fields_capacity) = Self::field_buffer(device, 8);
-        Ok(Self { pipeline, bgl, params, fields, fields_capacity, bound: None })
-    }
-
-    fn field_buffer(device: &wgpu::Device, capacity: usize) -> (wgpu::Buffer, usize) {
-        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("fields"),
-            size: (capacity * std::mem::size_of::<Field>()) as u64,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        (buffer, capacity)
+        let fields = GrowableBuffer::new(device, "fields", 8 * std::mem::size_of::<Field>() as u64);
+        let field_samples = GrowableBuffer::new(device, "field samples", 0);
+        Ok(Self { pipeline, bgl, params, fields, field_samples, bound: None })
     }
 
     pub fn encode(&mut self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder, profiler: &mut Profiler, desc: &FrameDesc, grids: &Grids) {
-        let fields: Vec<Field> = desc.fields.iter().map(|f| f.to_gpu()).collect();
-        if fields.len() > self.fields_capacity {
-            (self.fields, self.fields_capacity) = Self::field_buffer(&ctx.device, fields.len().next_power_of_two());
+        let mut samples: Vec<f32> = Vec::new();
+        let fields: Vec<Field> = desc
+            .fields
+            .iter()
+            .map(|f| {
+                let offset = samples.len() as u32;
+                if let FieldKind::Sampled(s) = &f.kind {
+                    samples.extend_from_slice(&s.values);
+                }
+                f.to_gpu(offset)
+            })
+            .collect();
+        if self.fields.write(ctx, bytemuck::cast_slice(&fields)) | self.field_samples.write(ctx, bytemuck::cast_slice(&samples)) {
             self.bound = None;
-        }
-        if !fields.is_empty() {
-            ctx.queue.write_buffer(&self.fields, 0, bytemuck::cast_slice(&fields));
         }
         let fog = desc.fog.unwrap_or(crate::frame::FogDesc { scattering: glam::Vec3::ZERO, absorption: glam::Vec3::ZERO, g: 0.0 });
         let params = VoxelizeParams {
@@ -76,10 +78,11 @@ impl Voxelize {
                 layout: &self.bgl,
                 entries: &[
                     wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: self.fields.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: self.fields.buffer.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 2, resource: grids.index_field.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&grids.extinction_grid.view) },
                     wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&grids.scattering_grid.view) },
+                    wgpu::BindGroupEntry { binding: 5, resource: self.field_samples.buffer.as_entire_binding() },
                 ],
             });
             self.bound = Some((grids.generation, bg));

@@ -154,7 +154,7 @@ fn slab_hit(o: Vec3, inv: Vec3, lo: Vec3, hi: Vec3, t_min: f32, t_max: f32) -> b
 }
 
 /// Möller–Trumbore ray/triangle intersection: (t, u, v), both faces.
-fn moller_trumbore(tri: &Triangle, o: Vec3, d: Vec3) -> Option<(f32, f32, f32)> {
+pub fn moller_trumbore(tri: &Triangle, o: Vec3, d: Vec3) -> Option<(f32, f32, f32)> {
     let e1 = tri.v[1] - tri.v[0];
     let e2 = tri.v[2] - tri.v[0];
     let p = d.cross(e2);

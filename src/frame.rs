@@ -234,6 +234,23 @@ pub struct LightDesc {
     pub radiant: Vec3,
 }
 
+/// Whether `p` is inside the closed surface of receiver `r`: an odd number of crossings along a
+/// ray (slightly off-axis, so it does not run along edges of axis-aligned meshes).
+fn encloses(r: &Receiver, p: Vec3) -> bool {
+    let dir = Vec3::new(1.0, 0.0123, 0.0071).normalize();
+    let crossings = r
+        .mesh
+        .triangles
+        .iter()
+        .filter(|t| t.iter().all(|&i| (i as usize) < r.mesh.positions.len()))
+        .filter(|t| {
+            let v = t.map(|i| r.world.transform_point3(r.mesh.positions[i as usize]));
+            crate::bvh::moller_trumbore(&crate::bvh::Triangle { v, receiver: 0 }, p, dir).is_some_and(|h| h.0 > 0.0)
+        })
+        .count();
+    crossings % 2 == 1
+}
+
 /// A homogeneous scattering medium filling the volume box.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FogDesc {
@@ -265,6 +282,25 @@ pub struct FrameDesc {
 }
 
 impl FrameDesc {
+    /// Things about the frame a user should hear of even though it renders: lights that cannot
+    /// light anything they probably meant, photons switched off.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        for l in self.lights.iter().filter(|l| !matches!(l.shape, LightShape::Sun { .. })) {
+            for r in self.receivers.iter().filter(|r| encloses(r, l.position)) {
+                out.push(format!(
+                    "light \"{}\" is inside receiver \"{}\": only the inside of its surfaces is lit (right for a \
+                     room; move the light out if \"{}\" is a solid object)",
+                    l.name, r.name, r.name
+                ));
+            }
+        }
+        if self.photons == 0 && !self.lights.is_empty() && (!self.receivers.is_empty() || self.fog.is_some()) {
+            out.push("photons = 0: no caustics or light shafts are traced (set scene.photons or --photons)".into());
+        }
+        out
+    }
+
     /// Whether anything absorbs or scatters (so rays must sample the medium grids).
     pub fn has_media(&self) -> bool {
         self.fields.iter().any(FieldDesc::has_medium)

@@ -172,6 +172,8 @@ fn main() -> ExitCode {
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(format!("refrakt={level},wgpu_core=error,wgpu_hal=off,naga=error"))),
         )
         .with_writer(std::io::stderr)
+        .without_time()
+        .with_target(false)
         .init();
     std::panic::set_hook(Box::new(|info| {
         eprintln!("refrakt: internal error (a bug in refrakt, please report it): {info}");

@@ -141,6 +141,7 @@ fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &mut Progress, 
         .unwrap_or_else(|| scene_path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or("frame".into()));
     let (first, last) = opts.frames.map_or((0, 0), |r| (r.first, r.last));
     progress.start(first, last);
+    let mut warned = std::collections::HashSet::new();
     for k in first..=last {
         if INTERRUPTED.load(Ordering::SeqCst) {
             bail!("interrupted after {} frame(s); the frames written are whole", k - first);
@@ -163,6 +164,11 @@ fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &mut Progress, 
             Some(k) => anyhow!("frame {k} (t = {t:.4} s): {e:#}"),
             None => e,
         })?;
+        for w in desc.warnings() {
+            if warned.insert(w.clone()) {
+                tracing::warn!("{w}");
+            }
+        }
         let image = renderer.frame(&desc)?;
         let mut png = opts.png;
         png.alpha = !desc.environment.visible;

@@ -134,3 +134,43 @@ fn render_writes_whole_files_and_no_temporaries() {
     let png = image::open(out.join("lens.png")).unwrap();
     assert_eq!((png.width(), png.height()), (24, 16));
 }
+
+const LIT: &str = "local r = require(\"refrakt\")\nlocal scene = r.scene{ volume = { resolution = 24 } }\n\
+scene:add(r.node{ shape = r.sphere{ radius = 0.3 }, material = r.glass{ ior = 1.5 } })\n\
+scene:add(r.node{ name = \"floor\", translation = {0, -0.5, 0}, shape = r.plane{ size = {2, 2} }, material = r.diffuse{} })\n";
+
+#[test]
+fn negative_photon_budget_is_refused() {
+    let (code, err) = render_script(&format!("{LIT}scene.photons = -5\nreturn scene\n"), &[]);
+    assert_clean_failure(code, &err, &["scene.lua:5:", "scene.photons must be a whole number"]);
+    let (code, _, err) = refrakt(&["render", "x.lua", "--photons", "0"]);
+    assert_eq!(code, 2, "{err}");
+}
+
+#[test]
+fn zero_photons_render_without_caustics_and_say_so() {
+    let src = format!("{LIT}scene:add(r.node{{ light = r.sun{{ direction = {{0, -1, 0}}, intensity = 683 }} }})\nscene.photons = 0\nreturn scene\n");
+    let (code, err) = render_script(&src, &[]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("photons = 0: no caustics or light shafts"), "{err}");
+}
+
+#[test]
+fn non_finite_light_intensity_is_refused() {
+    for bad in ["1/0", "0/0", "-1"] {
+        let src = format!("{LIT}scene:add(r.node{{ light = r.point{{ intensity = {bad} }} }})\nreturn scene\n");
+        let (code, err) = render_script(&src, &[]);
+        assert_clean_failure(code, &err, &["scene.lua:5:", "point.intensity must be"]);
+    }
+}
+
+#[test]
+fn a_light_inside_a_closed_receiver_is_pointed_out() {
+    let src = format!(
+        "{LIT}scene:add(r.node{{ name = \"crate\", translation = {{1, 0, 0}}, shape = r.box{{ size = {{0.5, 0.5, 0.5}} }}, material = r.diffuse{{}} }})\n\
+         scene:add(r.node{{ name = \"bulb\", translation = {{1, 0, 0}}, light = r.point{{ intensity = 100 }} }})\nscene.photons = 2000\nreturn scene\n"
+    );
+    let (code, err) = render_script(&src, &[]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("light \"bulb\" is inside receiver \"crate\""), "{err}");
+}

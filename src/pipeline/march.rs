@@ -34,16 +34,18 @@ pub struct PhotonStats {
 
 /// Fixed-point scales: one photon of mean flux deposits `flux_scale` units; a crossing of one
 /// voxel deposits `radiance_scale`. Chosen so that every photon of the frame — at up to
-/// `MAX_RELATIVE_FLUX` times the mean flux — landing in one texel, or crossing one voxel twice,
-/// stays below 2³¹ (where accumulators saturate).
-const MAX_RELATIVE_FLUX: f32 = 16.0;
+/// `headroom` times the mean flux (importance sampling gives medium-only photons 4× the mean)
+/// — landing in one texel, or crossing one voxel twice, stays below 2³¹, where accumulators
+/// saturate. A mean photon then still deposits ≥ 2¹⁰ units up to 2¹⁶ photons per frame and
+/// ≥ 2⁷ at 2²², so rounding costs less than 1 %.
+pub const MAX_RELATIVE_FLUX: f32 = 16.0;
 
-pub fn flux_scale(photons: u32) -> f32 {
-    (2f32.powi(31) / (photons.max(1) as f32 * MAX_RELATIVE_FLUX)).min(2f32.powi(20))
+pub fn flux_scale(photons: u32, headroom: f32) -> f32 {
+    (2f32.powi(31) / (photons.max(1) as f32 * headroom)).min(2f32.powi(30))
 }
 
-pub fn radiance_scale(photons: u32) -> f32 {
-    flux_scale(photons) / (2.0 * 3f32.sqrt())
+pub fn radiance_scale(photons: u32, headroom: f32) -> f32 {
+    flux_scale(photons, headroom) / (2.0 * 3f32.sqrt())
 }
 
 pub struct March {
@@ -91,7 +93,7 @@ impl March {
     }
 
     /// The march's uniforms for a frame.
-    pub fn params(grids: &Grids, photons: u32, flux_unit: f32, deposit: bool, receiver_count: u32) -> MarchParams {
+    pub fn params(grids: &Grids, photons: u32, flux_unit: f32, deposit: bool, receiver_count: u32, headroom: f32) -> MarchParams {
         let grid = grids.octree_layout.grid;
         let diagonal = (glam::UVec3::from(grid.dims).as_vec3().length() + 1.0) * grid.voxel_size;
         let min_step = 0.5 * grid.voxel_size;
@@ -102,8 +104,8 @@ impl March {
             max_steps: ((8.0 * diagonal / min_step) as u32).max(64),
             min_step,
             max_step: 64.0 * grid.voxel_size,
-            radiance_scale: radiance_scale(photons),
-            flux_scale: flux_scale(photons),
+            radiance_scale: radiance_scale(photons, headroom),
+            flux_scale: flux_scale(photons, headroom),
             flux_unit,
             flags: if deposit { march_flags::DEPOSIT_RADIANCE } else { 0 },
             eps_refract: EPS_REFRACT,

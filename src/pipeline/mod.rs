@@ -52,13 +52,19 @@ pub struct RenderSettings {
     pub photon_seed: u32,
     /// Deposit into the radiance grid even when nothing scatters (tests of the deposits).
     pub always_deposit: bool,
-    /// Read the photon statistics back after each frame (`Renderer::photon_stats`).
-    pub collect_stats: bool,
+    /// How many times the mean photon flux one photon may carry before fixed-point deposits
+    /// could saturate (see `march::flux_scale`). Tests lower it to force saturation.
+    pub fixed_point_headroom: f32,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        Self { caustic_filter: CausticFilter::default(), photon_seed: 0x5eed_cafe, always_deposit: false, collect_stats: false }
+        Self {
+            caustic_filter: CausticFilter::default(),
+            photon_seed: 0x5eed_cafe,
+            always_deposit: false,
+            fixed_point_headroom: march::MAX_RELATIVE_FLUX,
+        }
     }
 }
 
@@ -270,7 +276,8 @@ impl Renderer {
             self.radiance.as_ref().expect("prepared"),
             self.target.as_ref().expect("prepared"),
         );
-        let march_params = march::March::params(grids, desc.photons, flux_unit, deposit, desc.receivers.len() as u32);
+        let march_params =
+            march::March::params(grids, desc.photons, flux_unit, deposit, desc.receivers.len() as u32, self.settings.fixed_point_headroom);
         self.profiler.begin_frame();
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         self.voxelize.encode(&self.ctx, &mut enc, &mut self.profiler, desc, grids); // fields → index_field, extinction_grid, scattering_grid
@@ -282,9 +289,7 @@ impl Renderer {
             self.march.encode(&self.ctx, &mut enc, &mut self.profiler, &march_params, grids, &self.photons, receivers, radiance); // photons, grids, receivers → radiance, caustic atlas
             let filter_unit = flux_unit / march_params.flux_scale;
             self.caustics.encode(&self.ctx, &mut enc, &mut self.profiler, receivers, self.settings.caustic_filter, filter_unit); // caustic atlas → caustic irradiance
-            if self.settings.collect_stats {
-                self.march.encode_stats_readback(&mut enc);
-            }
+            self.march.encode_stats_readback(&mut enc);
             self.counters.photon_passes += 1;
         }
         let inputs = view::ViewInputs {
@@ -304,7 +309,14 @@ impl Renderer {
         self.counters.voxelizations += 1;
         self.counters.frames += 1;
         let image = target.read(&self.ctx)?;
-        self.stats = if photons && self.settings.collect_stats { Some(self.march.read_stats(&self.ctx, &march_params)?) } else { None };
+        self.stats = if photons { Some(self.march.read_stats(&self.ctx, &march_params)?) } else { None };
+        if let Some(s) = self.stats.filter(|s| s.saturated > 0) {
+            tracing::warn!(
+                "{} photon deposits saturated the fixed-point range this frame; the caustic maps and the \
+                 radiance grid are clipped there (a bug in refrakt's scaling — please report the scene)",
+                s.saturated
+            );
+        }
         self.profiler.collect(&self.ctx)?;
         let errors = self.ctx.take_uncaptured_errors();
         if !errors.is_empty() {
@@ -313,7 +325,7 @@ impl Renderer {
         Ok(image)
     }
 
-    /// Photon statistics of the last frame (when `settings.collect_stats` is on).
+    /// Photon statistics of the last frame that traced photons.
     pub fn photon_stats(&self) -> Option<PhotonStats> {
         self.stats
     }

@@ -118,15 +118,18 @@ def medium_from_socket(socket, warnings, owner):
     return medium_from_node(socket.links[0].from_node, warnings, owner)
 
 
-def _output_node(tree):
+def _output_node(id_data):
+    """The active output node of a material's or world's nodes; None when it renders without
+    nodes (Blender 5 always uses nodes and deprecates `use_nodes`)."""
+    if bpy.app.version < (5, 0, 0) and not id_data.use_nodes:
+        return None
+    tree = id_data.node_tree
     return tree.get_output_node("CYCLES") if tree is not None else None
 
 
 def node_medium(id_data, warnings):
     """The medium connected to the Volume input of a material's or world's active output."""
-    if not id_data.use_nodes:
-        return Medium()
-    out = _output_node(id_data.node_tree)
+    out = _output_node(id_data)
     if out is None or "Volume" not in out.inputs:
         return Medium()
     return medium_from_socket(out.inputs["Volume"], warnings, id_data.name)
@@ -149,9 +152,7 @@ def material_extras(material, warnings):
 def glass_surface(material):
     """(ior, color) of a Glass or Refraction BSDF on the material's surface, which the glTF
     exporter does not understand (it reads only the Principled BSDF); None otherwise."""
-    if not material.use_nodes:
-        return None
-    out = _output_node(material.node_tree)
+    out = _output_node(material)
     if out is None or not out.inputs["Surface"].is_linked:
         return None
     node = out.inputs["Surface"].links[0].from_node
@@ -217,11 +218,11 @@ def environment(scene, directory, warnings):
     world = scene.world
     if world is None:
         return {**env, "color": [0.0, 0.0, 0.0], "intensity": 1.0}
-    if not world.use_nodes:
+    out = _output_node(world)
+    if out is None:
         return {**env, "color": list(world.color), "intensity": 1.0}
-    out = _output_node(world.node_tree)
-    surface = out.inputs["Surface"] if out is not None else None
-    if surface is None or not surface.is_linked:
+    surface = out.inputs["Surface"]
+    if not surface.is_linked:
         return {**env, "color": [0.0, 0.0, 0.0], "intensity": 1.0}
     background = surface.links[0].from_node
     if background.bl_idname != "ShaderNodeBackground":

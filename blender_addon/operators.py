@@ -11,7 +11,7 @@ import time
 import bpy
 from bpy.props import BoolProperty, StringProperty
 
-from . import binary, cli, frames, job, live, preferences, scene_export
+from . import binary, cli, compositor, frames, job, live, preferences, scene_export
 
 # The running render, if any: the panel shows it and the Cancel button reaches it.
 current_render = None
@@ -208,7 +208,7 @@ class REFRAKT_OT_load_frames(bpy.types.Operator):
         try:
             image, first, count = frames.load_sequence(directory, name)
             if self.compositor:
-                node = frames.wire_compositor(context.scene, image, first, count)
+                node = compositor.wire(context.scene, image, first, count)
                 passes = ", ".join(frames.pass_names(node))
             frames.show_in_image_editors(context.screen, image, first, count)
         except frames.FramesError as e:

@@ -66,7 +66,7 @@ def test_compositor_shows_every_pass_and_maps_frames(frames_on_disk, tmp_path):
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = *SIZE, 100
     assert bpy.ops.refrakt.load_frames(compositor=True) == {"FINISHED"}
-    node = scene.node_tree.nodes["refrakt frames"]
+    node = submodule("compositor").tree(scene).nodes["refrakt frames"]
     assert set(submodule("frames").pass_names(node)) >= {"Combined", "Alpha", "depth", "caustic", "direct", "volume"}
     # The beauty (alpha 1 in these frames) covers the render: the result is frame k's R = k.
     for k in (FIRST, 5, LAST):
@@ -90,25 +90,25 @@ def test_caustic_and_volume_passes_add_to_the_render(frames_on_disk, tmp_path):
 
 
 def test_wiring_again_keeps_the_users_compositing(frames_on_disk):
-    scene = bpy.context.scene
-    scene.use_nodes = True
-    tree = scene.node_tree
-    layers = next(n for n in tree.nodes if n.bl_idname == "CompositorNodeRLayers")
-    composite = next(n for n in tree.nodes if n.bl_idname == "CompositorNodeComposite")
+    compositor = submodule("compositor")
+    api = compositor.nodes_api()
+    tree = compositor.tree(bpy.context.scene)
+    output = api.output(tree)
+    layers = tree.nodes.new("CompositorNodeRLayers")
     blur = tree.nodes.new("CompositorNodeBlur")
     tree.links.new(layers.outputs["Image"], blur.inputs["Image"])
-    tree.links.new(blur.outputs["Image"], composite.inputs["Image"])
+    tree.links.new(blur.outputs["Image"], output)
 
     bpy.ops.refrakt.load_frames(compositor=True)
     count = len(tree.nodes)
     bpy.ops.refrakt.load_frames(compositor=True)
     assert len(tree.nodes) == count
-    # Composite ← over ← volume ← caustic ← the user's blur.
-    socket = composite.inputs["Image"].links[0].from_socket
+    # output ← over ← volume ← caustic ← the user's blur.
+    socket = output.links[0].from_socket
     chain = []
     while socket.node.name.startswith("refrakt "):
         chain.append(socket.node.name)
-        socket = socket.node.inputs[1].links[0].from_socket
+        socket = api.background_input(socket.node).links[0].from_socket
     assert chain == ["refrakt over", "refrakt volume", "refrakt caustic"] and socket.node == blur
 
 
@@ -128,7 +128,7 @@ def test_frames_rendered_by_the_real_refrakt(addon, real_refrakt, tmp_path):
     assert done.returncode == 0, done.stderr
     assert bpy.ops.refrakt.load_frames(directory=str(out), name="lens", compositor=True) == {"FINISHED"}
     scene = bpy.context.scene
-    node = scene.node_tree.nodes["refrakt frames"]
+    node = submodule("compositor").tree(scene).nodes["refrakt frames"]
     assert {"Combined", "Alpha", "depth"} <= set(submodule("frames").pass_names(node))
     assert node.frame_duration == 2
     scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 32, 18, 100

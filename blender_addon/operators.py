@@ -252,14 +252,12 @@ classes = (
 )
 
 
-def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
+register, _unregister_classes = bpy.utils.register_classes_factory(classes)
 
 
 def unregister():
+    # Leave no refrakt process running behind a disabled add-on.
     if current_render is not None and current_render.running:
         current_render.cancel()
     live.stop(None)
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()

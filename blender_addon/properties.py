@@ -257,9 +257,11 @@ attachments = (
 )
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(classes)
+
+
 def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
+    _register_classes()
     for owner, attr, group in attachments:
         setattr(owner, attr, PointerProperty(type=group))
 
@@ -267,5 +269,4 @@ def register():
 def unregister():
     for owner, attr, _ in reversed(attachments):
         delattr(owner, attr)
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()

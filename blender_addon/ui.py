@@ -6,10 +6,23 @@ import bpy
 from . import extras
 
 
-class RefraktRenderPanel:
+class PropertiesPanel:
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
+
+
+class RefraktRenderPanel(PropertiesPanel):
     bl_context = "render"
+
+
+class RefraktSubPanel(RefraktRenderPanel):
+    """A subpanel of Render Properties ▸ refrakt, drawing the scene's refrakt settings."""
+
+    bl_parent_id = "RENDER_PT_refrakt"
+
+    def draw(self, context):
+        self.layout.use_property_split = True
+        self.draw_settings(context, self.layout, context.scene.refrakt)
 
 
 class RENDER_PT_refrakt(RefraktRenderPanel, bpy.types.Panel):
@@ -46,26 +59,18 @@ def _wrap(text, width):
     return lines + [line] if line else lines
 
 
-class RENDER_PT_refrakt_light(RefraktRenderPanel, bpy.types.Panel):
+class RENDER_PT_refrakt_light(RefraktSubPanel, bpy.types.Panel):
     bl_label = "Photons"
-    bl_parent_id = "RENDER_PT_refrakt"
 
-    def draw(self, context):
-        s = context.scene.refrakt
-        layout = self.layout
-        layout.use_property_split = True
+    def draw_settings(self, context, layout, s):
         layout.prop(s, "photons")
         layout.prop(s, "samples")
 
 
-class RENDER_PT_refrakt_volume(RefraktRenderPanel, bpy.types.Panel):
+class RENDER_PT_refrakt_volume(RefraktSubPanel, bpy.types.Panel):
     bl_label = "Volume"
-    bl_parent_id = "RENDER_PT_refrakt"
 
-    def draw(self, context):
-        s = context.scene.refrakt
-        layout = self.layout
-        layout.use_property_split = True
+    def draw_settings(self, context, layout, s):
         layout.prop(s, "volume_resolution")
         layout.prop(s, "volume_bounds")
         col = layout.column()
@@ -75,15 +80,11 @@ class RENDER_PT_refrakt_volume(RefraktRenderPanel, bpy.types.Panel):
         layout.prop(s, "volume_step")
 
 
-class RENDER_PT_refrakt_fog(RefraktRenderPanel, bpy.types.Panel):
+class RENDER_PT_refrakt_fog(RefraktSubPanel, bpy.types.Panel):
     bl_label = "Fog"
-    bl_parent_id = "RENDER_PT_refrakt"
     bl_options = {"DEFAULT_CLOSED"}
 
-    def draw(self, context):
-        s = context.scene.refrakt
-        layout = self.layout
-        layout.use_property_split = True
+    def draw_settings(self, context, layout, s):
         layout.prop(s, "fog")
         if s.fog == "CUSTOM":
             layout.prop(s, "fog_density")
@@ -94,14 +95,10 @@ class RENDER_PT_refrakt_fog(RefraktRenderPanel, bpy.types.Panel):
             _show_medium(layout, extras.node_medium(context.scene.world, extras.Warnings()))
 
 
-class RENDER_PT_refrakt_output(RefraktRenderPanel, bpy.types.Panel):
+class RENDER_PT_refrakt_output(RefraktSubPanel, bpy.types.Panel):
     bl_label = "Output"
-    bl_parent_id = "RENDER_PT_refrakt"
 
-    def draw(self, context):
-        s = context.scene.refrakt
-        layout = self.layout
-        layout.use_property_split = True
+    def draw_settings(self, context, layout, s):
         layout.prop(s, "directory")
         layout.prop(s, "basename")
         layout.prop(s, "source")
@@ -110,15 +107,11 @@ class RENDER_PT_refrakt_output(RefraktRenderPanel, bpy.types.Panel):
         layout.label(text="Frame range, rate, resolution and camera come from the scene", icon="INFO")
 
 
-class RENDER_PT_refrakt_compositing(RefraktRenderPanel, bpy.types.Panel):
+class RENDER_PT_refrakt_compositing(RefraktSubPanel, bpy.types.Panel):
     bl_label = "Frames in Blender"
-    bl_parent_id = "RENDER_PT_refrakt"
 
-    def draw(self, context):
-        s = context.scene.refrakt
-        layout = self.layout
+    def draw_settings(self, context, layout, s):
         col = layout.column(heading="Over the Render", align=True)
-        col.use_property_split = True
         col.prop(s, "pass_beauty")
         col.prop(s, "pass_caustic")
         col.prop(s, "pass_volume")
@@ -127,26 +120,20 @@ class RENDER_PT_refrakt_compositing(RefraktRenderPanel, bpy.types.Panel):
         row.operator("refrakt.load_frames", text="Compositor", icon="NODE_COMPOSITING").compositor = True
 
 
-class RENDER_PT_refrakt_live(RefraktRenderPanel, bpy.types.Panel):
+class RENDER_PT_refrakt_live(RefraktSubPanel, bpy.types.Panel):
     bl_label = "Live Preview"
-    bl_parent_id = "RENDER_PT_refrakt"
     bl_options = {"DEFAULT_CLOSED"}
 
-    def draw(self, context):
-        s = context.scene.refrakt
+    def draw_settings(self, context, layout, s):
         state = context.window_manager.refrakt
-        layout = self.layout
-        layout.use_property_split = True
         layout.prop(s, "live_debounce")
         layout.operator("refrakt.live", text="Stop Live" if state.live else "Start Live", icon="PAUSE" if state.live else "PLAY", depress=state.live)
         if state.live_status:
             layout.label(text=state.live_status)
 
 
-class OBJECT_PT_refrakt(bpy.types.Panel):
+class OBJECT_PT_refrakt(PropertiesPanel, bpy.types.Panel):
     bl_label = "refrakt"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
     bl_context = "object"
 
     def draw(self, context):
@@ -170,10 +157,8 @@ class OBJECT_PT_refrakt(bpy.types.Panel):
         layout.prop(s, "boundary")
 
 
-class MATERIAL_PT_refrakt(bpy.types.Panel):
+class MATERIAL_PT_refrakt(PropertiesPanel, bpy.types.Panel):
     bl_label = "refrakt"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
     bl_context = "material"
 
     @classmethod
@@ -217,11 +202,4 @@ classes = (
 )
 
 
-def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(classes)

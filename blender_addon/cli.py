@@ -1,7 +1,9 @@
 """refrakt command lines for a Blender scene: the frame range, rate, size and camera are
 Blender's own settings, so what refrakt renders matches what F12 would."""
 
-from . import scene_export
+import os
+
+from . import extras, scene_export
 
 
 def render_size(scene):
@@ -14,12 +16,26 @@ def scene_file(scene, paths):
     return paths.lua if scene.refrakt.source == "LUA" else paths.glb
 
 
-def _common(scene):
+def _common(scene, paths):
     w, h = render_size(scene)
     args = ["--fps", f"{scene_export.fps(scene):.9g}", "--size", f"{w}x{h}"]
     if scene.camera is not None:
         args += ["--camera", scene.camera.name]
+    # refrakt reads files only below the scene's folder unless told otherwise: let it read the
+    # World's image where it lies.
+    image = extras.environment(scene, paths.directory, extras.Warnings()).get("image")
+    if image is not None:
+        folder = os.path.dirname(os.path.normpath(os.path.join(paths.directory, image)))
+        if not _inside(folder, paths.directory):
+            args += ["--allow-read", folder]
     return args
+
+
+def _inside(path, folder):
+    try:
+        return os.path.commonpath([path, folder]) == folder
+    except ValueError:  # another drive on Windows
+        return False
 
 
 def render(binary, scene, paths):
@@ -30,7 +46,7 @@ def render(binary, scene, paths):
         "--name", paths.name,
         "--format", "exr",
         "--progress", "json",
-    ] + _common(scene)
+    ] + _common(scene, paths)
     if scene.refrakt.skip_existing:
         args.append("--skip-existing")
     return args
@@ -42,4 +58,4 @@ def watch(binary, scene, paths):
         "--out", paths.preview,
         "--frame", str(scene.frame_current),
         "--progress", "json",
-    ] + _common(scene)
+    ] + _common(scene, paths)

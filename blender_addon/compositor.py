@@ -13,6 +13,8 @@ import bpy
 from . import frames
 
 PREFIX = frames.NODE_PREFIX
+# The nodes refrakt puts between the background and the output.
+CHAIN = {PREFIX + label for label in ("caustic", "volume", "over")}
 
 
 class _Nodes4:
@@ -121,10 +123,10 @@ def _user_background(api, tree_, output):
     """What fed the output before refrakt's nodes were put in front of it (found by walking back
     through them), or the Render Layers' image."""
     socket = output.links[0].from_socket if output.is_linked else None
-    while socket is not None and socket.node.name.startswith(PREFIX):
+    while socket is not None and socket.node.name in CHAIN:
         inp = api.background_input(socket.node)
         socket = inp.links[0].from_socket if inp.is_linked else None
-    if socket is not None:
+    if socket is not None and not socket.node.name.startswith(PREFIX):
         return socket
     layers = next((n for n in tree_.nodes if n.bl_idname == "CompositorNodeRLayers"), None)
     if layers is None:

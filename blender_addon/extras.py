@@ -213,8 +213,10 @@ def _world_box(obj):
 
 def environment(scene, directory, warnings):
     """The world as refrakt's environment: radiance = color × intensity in Blender's units, or an
-    equirectangular image (path relative to the exported file) with its Mapping Z rotation."""
-    env = {"visible": not scene.render.film_transparent}
+    equirectangular image (path relative to the exported file) with its Mapping Z rotation.
+    Refracted and reflected rays always see it; the camera sees it only when asked, because a
+    frame that shows it cannot be laid over Blender's render of the same world."""
+    env = {"visible": scene.refrakt.show_environment}
     world = scene.world
     if world is None:
         return {**env, "color": [0.0, 0.0, 0.0], "intensity": 1.0}

@@ -68,6 +68,13 @@ class RefraktSceneSettings(bpy.types.PropertyGroup):
         "empty: fitted to the refractive objects each frame",
     )
 
+    show_environment: BoolProperty(
+        name="World in Frames",
+        description="Show the World where refrakt's frames see no object. Off: those pixels are "
+        "transparent, so the frames composite exactly over Blender's own render",
+        default=False,
+    )
+
     fog: EnumProperty(
         name="Fog",
         description="A scattering medium filling the volume, so light shafts show",

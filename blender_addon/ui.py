@@ -101,6 +101,7 @@ class RENDER_PT_refrakt_output(RefraktSubPanel, bpy.types.Panel):
     def draw_settings(self, context, layout, s):
         layout.prop(s, "directory")
         layout.prop(s, "basename")
+        layout.prop(s, "show_environment")
         layout.prop(s, "source")
         layout.prop(s, "skip_existing")
         layout.prop(s, "apply_modifiers")

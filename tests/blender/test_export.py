@@ -109,7 +109,7 @@ def test_scene_and_node_extras(addon, saved_blend):
     assert extras["fog"] == {"scattering": pytest.approx([0.2, 0.1, 0.05]), "absorption": pytest.approx([0.05] * 3), "g": pytest.approx(0.3)}
     env = extras["environment"]
     assert env["color"] == pytest.approx(list(scenes.WORLD_COLOR), rel=1e-6)
-    assert env["intensity"] == pytest.approx(scenes.WORLD_STRENGTH) and env["visible"] is True
+    assert env["intensity"] == pytest.approx(scenes.WORLD_STRENGTH) and env["visible"] is False
 
     assert gltf.node("Lens")["extras"]["refrakt"] == {"field": "luneburg", "radius": pytest.approx(0.7, rel=1e-3)}
     # Local Z (Blender's up) becomes the node's local Y in glTF: size (x, z, y).
@@ -118,6 +118,31 @@ def test_scene_and_node_extras(addon, saved_blend):
     }
     assert gltf.node("Bounds")["extras"]["refrakt"] == {"role": "ignore"}
     assert "extras" not in gltf.node("Ball")
+
+
+def test_environment_image_and_rotation(addon, saved_blend, tmp_path):
+    scenes.round_trip_scene()
+    sky = bpy.data.images.new("sky", 8, 4, float_buffer=True)
+    sky.filepath_raw = str(tmp_path / "sky.exr")
+    sky.file_format = "OPEN_EXR"
+    sky.save()
+    world = bpy.context.scene.world
+    nodes, links = world.node_tree.nodes, world.node_tree.links
+    texture = nodes.new("ShaderNodeTexEnvironment")
+    texture.image = sky
+    mapping = nodes.new("ShaderNodeMapping")
+    mapping.inputs["Rotation"].default_value[2] = math.radians(90)
+    links.new(mapping.outputs[0], texture.inputs["Vector"])
+    links.new(texture.outputs["Color"], nodes["Background"].inputs["Color"])
+    paths, gltf = export(saved_blend)
+    env = gltf.json["scenes"][0]["extras"]["refrakt"]["environment"]
+    assert env["image"] == os.path.relpath(tmp_path / "sky.exr", paths.directory)
+    assert env["rotation"] == pytest.approx(90.0) and env["intensity"] == pytest.approx(scenes.WORLD_STRENGTH)
+    assert "color" not in env
+
+    sky.pack()  # not on disk any more: refrakt cannot read it
+    warnings = submodule("scene_export").export(bpy.context)
+    assert any("Environment Texture of an image file on disk" in w for w in warnings), warnings
 
 
 def test_glass_bsdf_becomes_khr_transmission(addon, saved_blend):

@@ -77,6 +77,24 @@ def test_render_size_follows_resolution_percentage(fake_refrakt, saved_blend):
     assert argv[argv.index("--size") + 1] == "32x18"
 
 
+def test_world_image_outside_the_folder_may_be_read(fake_refrakt, saved_blend, tmp_path):
+    scene = scenes.round_trip_scene()
+    scene.frame_end = 1
+    textures = tmp_path / "textures"
+    textures.mkdir()
+    sky = bpy.data.images.new("sky", 4, 2, float_buffer=True)
+    sky.filepath_raw, sky.file_format = str(textures / "sky.exr"), "OPEN_EXR"
+    sky.save()
+    nodes = scene.world.node_tree.nodes
+    texture = nodes.new("ShaderNodeTexEnvironment")
+    texture.image = sky
+    scene.world.node_tree.links.new(texture.outputs["Color"], nodes["Background"].inputs["Color"])
+    saved_blend()
+    assert bpy.ops.refrakt.render() == {"FINISHED"}
+    argv = json.loads(fake_refrakt.read_text().splitlines()[-1])
+    assert argv[argv.index("--allow-read") + 1] == str(textures)
+
+
 def test_cancel_midway_leaves_only_whole_frames(fake_refrakt, saved_blend, monkeypatch):
     scene = scenes.round_trip_scene()
     scene.frame_end = 30

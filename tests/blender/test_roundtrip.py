@@ -21,21 +21,29 @@ from conftest import refrakt_supports, submodule
 TRANSFORM_TOLERANCE = 1e-4
 
 
+def dump(refrakt, scene_file):
+    done = subprocess.run(
+        [refrakt, "dump", scene_file, "--frames", "1..6", "--fps", "24", "--size", "64x36", "--camera", "Camera"],
+        capture_output=True, text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    return {doc["frame"]: doc for doc in map(json.loads, done.stdout.splitlines())}
+
+
 @pytest.fixture
-def dumped(addon, real_refrakt, saved_blend):
+def exported(addon, real_refrakt, saved_blend):
     if not refrakt_supports(real_refrakt, "dump"):
         pytest.skip("this refrakt build has no `refrakt dump` (it comes with the glTF importer, issue 7)")
     scene = scenes.round_trip_scene()
     saved_blend()
     assert bpy.ops.refrakt.export() == {"FINISHED"}
-    paths = submodule("scene_export").paths(scene)
-    done = subprocess.run(
-        [real_refrakt, "dump", paths.glb, "--frames", "1..6", "--fps", "24", "--size", "64x36", "--camera", "Camera"],
-        capture_output=True, text=True,
-    )
-    assert done.returncode == 0, done.stderr
-    frames = {doc["frame"]: doc for doc in map(json.loads, done.stdout.splitlines())}
-    return scene, frames
+    return scene, submodule("scene_export").paths(scene)
+
+
+@pytest.fixture
+def dumped(exported, real_refrakt):
+    scene, paths = exported
+    return scene, dump(real_refrakt, paths.glb)
 
 
 def column_major(values):
@@ -104,3 +112,19 @@ def test_glass_material(dumped):
     sigma = [scenes.ABSORPTION_DENSITY * (1 - c) for c in scenes.ABSORPTION_COLOR]
     assert glass["absorption"] == pytest.approx(sigma, rel=1e-4, abs=1e-6)
     assert doc["photons"] == bpy.context.scene.refrakt.photons
+
+
+def test_lua_wrapper_is_the_same_scene(exported, real_refrakt):
+    """The generated wrapper (settings written out + r.gltf of the .glb) reads as the .glb does."""
+    _, paths = exported
+    from_glb, from_lua = dump(real_refrakt, paths.glb), dump(real_refrakt, paths.lua)
+    for k in scenes.FRAMES:
+        a, b = from_glb[k], from_lua[k]
+        for key in ("position", "forward", "up", "yfov"):
+            assert a["camera"][key] == pytest.approx(b["camera"][key], abs=1e-6)
+        for name in ("Ball", "Rig", "Cube"):
+            assert node(a, name)["world"] == pytest.approx(node(b, name)["world"], abs=1e-6)
+        assert (a["photons"], a["samples"]) == (b["photons"], b["samples"])
+        assert a["volume"]["dims"] == b["volume"]["dims"]
+        for key in ("min", "max"):
+            assert a["volume"][key] == pytest.approx(b["volume"][key], abs=1e-6)

@@ -159,7 +159,7 @@ class REFRAKT_OT_render(bpy.types.Operator):
             self.job.cancel()
             self._update(context)
             return {"RUNNING_MODAL"}
-        if event.type != "TIMER" or event.timer != self._timer:
+        if event.type != "TIMER":
             return {"PASS_THROUGH"}
         finished = self._update(context)
         wm = context.window_manager

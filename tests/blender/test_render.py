@@ -5,6 +5,7 @@ import os
 import subprocess
 import threading
 import time
+from types import SimpleNamespace
 
 import bpy
 import pytest
@@ -123,6 +124,48 @@ def test_cancel_midway_leaves_only_whole_frames(fake_refrakt, saved_blend, monke
     state = bpy.context.window_manager.refrakt
     assert state.status == f"Cancelled after {len(written)} frame(s); the frames written are whole"
     assert not state.error
+
+
+def test_modal_operator_polls_on_timer_and_cancels_on_esc(fake_refrakt, saved_blend, monkeypatch):
+    """Blender's interactive path (invoke → modal) with stand-in events, since headless Blender
+    has no event loop: timer ticks take refrakt's progress, other events pass through to the
+    UI, Esc stops refrakt after the frame in hand."""
+    scene = scenes.round_trip_scene()
+    scene.frame_end = 30
+    saved_blend()
+    monkeypatch.setenv("FAKE_REFRAKT_DELAY", "0.2")
+    render = submodule("operators").REFRAKT_OT_render
+
+    class Modal:  # the operator's own methods on a plain object (operators cannot be made by hand)
+        _start, _update, _finish, _load, modal = render._start, render._update, render._finish, render._load, render.modal
+        load_frames = True
+
+        def __init__(self):
+            self.reports = []
+
+        def report(self, kind, message):
+            self.reports.append((kind, message))
+
+    def event(kind, value="NOTHING"):
+        return SimpleNamespace(type=kind, value=value)
+
+    context, wm = bpy.context, bpy.context.window_manager
+    op = Modal()
+    assert op._start(context)
+    op._timer = wm.event_timer_add(0.2, window=context.window)
+    wm.progress_begin(0, 100)
+    assert op.modal(context, event("MOUSEMOVE")) == {"PASS_THROUGH"}
+    while op.job.done < 2:
+        assert op.modal(context, event("TIMER")) == {"PASS_THROUGH"}
+        time.sleep(0.02)
+    assert 0 < wm.refrakt.progress < 100 and wm.refrakt.running
+    assert op.modal(context, event("ESC", "PRESS")) == {"RUNNING_MODAL"}
+    assert wm.refrakt.status.startswith("Cancelling after the frame in hand")
+    while (result := op.modal(context, event("TIMER"))) == {"PASS_THROUGH"}:
+        time.sleep(0.02)
+    assert result == {"CANCELLED"} and not wm.refrakt.running
+    assert op.reports[-1][0] == {"WARNING"} and "the frames written are whole" in op.reports[-1][1]
+    assert 2 <= op.job.done < 30
 
 
 def test_missing_binary_gives_a_message(addon, saved_blend, tmp_path, monkeypatch):

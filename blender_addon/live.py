@@ -11,7 +11,7 @@ import time
 
 import bpy
 
-from . import cli, job, scene_export
+from . import binary, cli, job, scene_export
 
 # Kinds of data whose edits change what refrakt renders (an image reload, a UI change or a text
 # edit do not; the preview image reloading itself must not trigger another export).
@@ -127,6 +127,8 @@ def _on_timer():
         alive = session.tick(context)
     except scene_export.ExportError as e:
         session.error, alive = str(e), True  # keep watching the last good export
+    except binary.BinaryError as e:  # refrakt vanished while restarting the watcher
+        session.error, alive = str(e), False
     context.window_manager.refrakt.live_status = status(session)
     if not alive:
         stop(context)

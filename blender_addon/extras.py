@@ -253,43 +253,15 @@ def _relative(path, directory):
 
 
 def _mapping_rotation(texture):
-    """Degrees about the vertical axis from a Mapping node feeding the texture's Vector."""
+    """refrakt's environment rotation (degrees) from a Mapping node feeding the texture's Vector.
+
+    Blender's Mapping rotates the lookup direction: with Z rotation θ, what was seen along d is
+    seen along R_z(−θ)·d (for the Point and Vector types; the Texture type is the inverse).
+    refrakt's rotation θ' turns the environment itself: what was seen along d is seen along
+    R_y(θ')·d, and R_z in Blender's frame is R_y in refrakt's Y-up one. So θ' = −θ."""
     vector = texture.inputs["Vector"]
-    if vector.is_linked and vector.links[0].from_node.bl_idname == "ShaderNodeMapping":
-        return math.degrees(vector.links[0].from_node.inputs["Rotation"].default_value[2])
-    return 0.0
-
-
-def fog(scene, warnings):
-    s = scene.refrakt
-    if s.fog == "CUSTOM":
-        medium = Medium([s.fog_absorption] * 3, [s.fog_density * c for c in s.fog_color], s.fog_anisotropy)
-    elif s.fog == "WORLD" and scene.world is not None:
-        medium = node_medium(scene.world, warnings)
-        if medium.is_empty():
-            warnings.add(f"Fog is set to the World volume, but World '{scene.world.name}' has none")
-    else:
-        return None
-    return {"scattering": medium.scattering, "absorption": medium.absorption, "g": medium.g}
-
-
-def scene_extras(scene, directory, warnings):
-    s = scene.refrakt
-    volume = {
-        "resolution": s.volume_resolution,
-        "margin": s.volume_margin,
-        "boundary": s.volume_boundary,
-        "step": s.volume_step,
-    }
-    if s.volume_bounds is not None:
-        volume["min"], volume["max"] = _world_box(s.volume_bounds)
-    out = {
-        "photons": s.photons,
-        "samples": s.samples,
-        "volume": volume,
-        "environment": environment(scene, directory, warnings),
-    }
-    fog_settings = fog(scene, warnings)
-    if fog_settings is not None:
-        out["fog"] = fog_settings
-    return out
+    if not (vector.is_linked and vector.links[0].from_node.bl_idname == "ShaderNodeMapping"):
+        return 0.0
+    mapping = vector.links[0].from_node
+    angle = math.degrees(mapping.inputs["Rotation"].default_value[2])
+    return angle if mapping.vector_type == "TEXTURE" else -angle

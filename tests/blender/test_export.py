@@ -137,7 +137,8 @@ def test_environment_image_and_rotation(addon, saved_blend, tmp_path):
     paths, gltf = export(saved_blend)
     env = gltf.json["scenes"][0]["extras"]["refrakt"]["environment"]
     assert env["image"] == os.path.relpath(tmp_path / "sky.exr", paths.directory)
-    assert env["rotation"] == pytest.approx(90.0) and env["intensity"] == pytest.approx(scenes.WORLD_STRENGTH)
+    # Mapping turns the lookup direction, refrakt turns the environment: opposite signs.
+    assert env["rotation"] == pytest.approx(-90.0) and env["intensity"] == pytest.approx(scenes.WORLD_STRENGTH)
     assert "color" not in env
 
     sky.pack()  # not on disk any more: refrakt cannot read it

@@ -265,3 +265,38 @@ def _mapping_rotation(texture):
     mapping = vector.links[0].from_node
     angle = math.degrees(mapping.inputs["Rotation"].default_value[2])
     return angle if mapping.vector_type == "TEXTURE" else -angle
+
+
+def fog(scene, warnings):
+    s = scene.refrakt
+    if s.fog == "CUSTOM":
+        medium = Medium([s.fog_absorption] * 3, [s.fog_density * c for c in s.fog_color], s.fog_anisotropy)
+    elif s.fog == "WORLD" and scene.world is not None:
+        medium = node_medium(scene.world, warnings)
+        if medium.is_empty():
+            warnings.add(f"Fog is set to the World volume, but World '{scene.world.name}' has none")
+    else:
+        return None
+    return {"scattering": medium.scattering, "absorption": medium.absorption, "g": medium.g}
+
+
+def scene_extras(scene, directory, warnings):
+    s = scene.refrakt
+    volume = {
+        "resolution": s.volume_resolution,
+        "margin": s.volume_margin,
+        "boundary": s.volume_boundary,
+        "step": s.volume_step,
+    }
+    if s.volume_bounds is not None:
+        volume["min"], volume["max"] = _world_box(s.volume_bounds)
+    out = {
+        "photons": s.photons,
+        "samples": s.samples,
+        "volume": volume,
+        "environment": environment(scene, directory, warnings),
+    }
+    fog_settings = fog(scene, warnings)
+    if fog_settings is not None:
+        out["fog"] = fog_settings
+    return out

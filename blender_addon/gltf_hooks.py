@@ -4,12 +4,29 @@ refrakt settings travel as extras whether the export comes from refrakt's operat
 File > Export > glTF, and glass made with Blender's Glass BSDF and volume nodes reaches
 KHR_materials_* with the meaning Cycles gives those nodes."""
 
+import functools
+
 import bpy
 
 from . import extras
 
 # Problems met by the hooks during the current export, for the export operator to report.
 warnings = extras.Warnings()
+# Exceptions raised in the hooks: the exporter would only log them and go on without our
+# extras, so they are kept here and the export operator fails with them.
+failures = []
+
+
+def _guarded(hook):
+    @functools.wraps(hook)
+    def run(self, gltf2_object, blender_object, export_settings):
+        try:
+            hook(self, gltf2_object, blender_object, export_settings)
+        except Exception as e:  # noqa: BLE001 (reported to the user by the export operator)
+            name = getattr(blender_object, "name", "?")
+            failures.append(f"{hook.__name__} on '{name}': {type(e).__name__}: {e}")
+
+    return run
 
 
 def _set_refrakt_extras(target, value):
@@ -33,15 +50,19 @@ class RefraktGltfExtension:
 
         self.Extension = Extension
         warnings.clear()
+        failures.clear()
 
+    @_guarded
     def gather_scene_hook(self, gltf2_scene, blender_scene, export_settings):
         directory = export_settings["gltf_filedirectory"]
         _set_refrakt_extras(gltf2_scene, extras.scene_extras(blender_scene, directory, warnings))
 
+    @_guarded
     def gather_node_hook(self, gltf2_node, blender_object, export_settings):
         if blender_object is not None:
             _set_refrakt_extras(gltf2_node, extras.node_extras(blender_object, bpy.context.scene))
 
+    @_guarded
     def gather_material_hook(self, gltf2_material, blender_material, export_settings):
         medium = extras.material_extras(blender_material, warnings)
         _set_refrakt_extras(gltf2_material, medium)

@@ -117,6 +117,9 @@ def export(context, target=None):
         result = bpy.ops.export_scene.gltf(filepath=tmp, **gltf_options(scene))
         if "FINISHED" not in result:
             raise ExportError(f"Blender's glTF exporter did not finish ({', '.join(result)})")
+        if gltf_hooks.failures:
+            raise ExportError("refrakt's glTF export hook failed (a bug in the add-on, please report it): "
+                              + "; ".join(gltf_hooks.failures))
         data = read_glb_json(tmp)
         if not any("refrakt" in (s.get("extras") or {}) for s in data.get("scenes", [])):
             raise ExportError(

@@ -174,6 +174,18 @@ def test_unreadable_volume_node_warns(addon, saved_blend):
     assert any("'Density' is driven by nodes" in w for w in warnings), warnings
 
 
+def test_a_failing_hook_is_reported_not_hidden(addon, saved_blend, monkeypatch):
+    scenes.round_trip_scene()
+    saved_blend()
+
+    def broken(*args):
+        raise KeyError("Strength")
+
+    monkeypatch.setattr(submodule("extras"), "scene_extras", broken)
+    with pytest.raises(RuntimeError, match=r"refrakt's glTF export hook failed .*gather_scene_hook on 'Scene': KeyError: 'Strength'"):
+        bpy.ops.refrakt.export()
+
+
 def test_wrapper_is_written_kept_when_edited_and_refreshed_when_not(addon, saved_blend):
     scene = scenes.round_trip_scene()
     paths, _ = export(saved_blend)

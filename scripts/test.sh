@@ -5,4 +5,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/setup.sh
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-$(mktemp -d)}"
-cargo test --locked --no-fail-fast 2>&1
+status=0
+cargo test --locked --no-fail-fast 2>&1 || status=$?
+# The Blender add-on, headless with the bpy module (uses the refrakt binary cargo test built).
+bash scripts/test_blender.sh 2>&1 || status=$?
+exit "$status"

@@ -1,0 +1,61 @@
+"""refrakt command lines for a Blender scene: the frame range, rate, size and camera are
+Blender's own settings, so what refrakt renders matches what F12 would."""
+
+import os
+
+from . import extras, scene_export
+
+
+def render_size(scene):
+    r = scene.render
+    k = r.resolution_percentage / 100.0
+    return max(1, round(r.resolution_x * k)), max(1, round(r.resolution_y * k))
+
+
+def scene_file(scene, paths):
+    return paths.lua if scene.refrakt.source == "LUA" else paths.glb
+
+
+def _common(scene, paths):
+    w, h = render_size(scene)
+    args = ["--fps", f"{scene_export.fps(scene):.9g}", "--size", f"{w}x{h}"]
+    if scene.camera is not None:
+        args += ["--camera", scene.camera.name]
+    # refrakt reads files only below the scene's folder unless told otherwise: let it read the
+    # World's image where it lies.
+    image = extras.environment(scene, paths.directory, extras.Warnings()).get("image")
+    if image is not None:
+        folder = os.path.dirname(os.path.normpath(os.path.join(paths.directory, image)))
+        if not _inside(folder, paths.directory):
+            args += ["--allow-read", folder]
+    return args
+
+
+def _inside(path, folder):
+    try:
+        return os.path.commonpath([path, folder]) == folder
+    except ValueError:  # another drive on Windows
+        return False
+
+
+def render(binary, scene, paths):
+    args = [
+        binary, "render", scene_file(scene, paths),
+        "--frames", f"{scene.frame_start}..{scene.frame_end}",
+        "--out", paths.frames,
+        "--name", paths.name,
+        "--format", "exr",
+        "--progress", "json",
+    ] + _common(scene, paths)
+    if scene.refrakt.skip_existing:
+        args.append("--skip-existing")
+    return args
+
+
+def watch(binary, scene, paths):
+    return [
+        binary, "watch", scene_file(scene, paths),
+        "--out", paths.preview,
+        "--frame", str(scene.frame_current),
+        "--progress", "json",
+    ] + _common(scene, paths)

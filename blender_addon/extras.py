@@ -1,0 +1,302 @@
+"""Blender data → the `extras.refrakt` objects refrakt's glTF importer reads (docs/gltf.md):
+
+- `scenes[i].extras.refrakt`: photons, samples, volume, fog, environment;
+- `nodes[i].extras.refrakt`: an analytic index field, or `{"role": "ignore"}`;
+- `materials[i].extras.refrakt`: absorption, scattering, g, boundary of the medium inside.
+
+Everything is converted to refrakt's frame (Y up, as the glTF exporter's +Y Up option does) and
+units (metres, per-metre coefficients, radiance in Blender's radiometric units). Node settings
+that cannot be read (a texture on a volume density, an unknown shader) fall back to defaults and
+add a warning, which the export operator shows.
+"""
+
+import math
+import os
+
+import bpy
+from mathutils import Vector
+
+
+class Warnings(list):
+    """Messages for the user, one per problem (duplicates dropped)."""
+
+    def add(self, message):
+        if message not in self:
+            self.append(message)
+
+
+def to_yup(v):
+    """Blender's Z-up (x, y, z) → glTF's Y-up (x, z, −y), as the glTF exporter converts."""
+    return [v[0], v[2], -v[1]]
+
+
+def _value(socket, warnings, owner):
+    """A socket's constant value; a linked socket (a texture, a math node) cannot become one
+    number for the whole medium, so its unlinked default is used and the user is told."""
+    if socket.is_linked:
+        warnings.add(f"{owner}: '{socket.name}' is driven by nodes; refrakt uses its plain value {_fmt(socket.default_value)}")
+    value = socket.default_value
+    return list(value)[:3] if hasattr(value, "__len__") else float(value)
+
+
+def _fmt(value):
+    return ", ".join(f"{v:.3g}" for v in value[:3]) if hasattr(value, "__len__") else f"{value:.3g}"
+
+
+def _clamp01(c):
+    return [min(max(x, 0.0), 1.0) for x in c]
+
+
+class Medium:
+    """Absorption and scattering coefficients per metre (RGB) and the scattering anisotropy,
+    with Cycles' meaning of the volume nodes' settings."""
+
+    def __init__(self, absorption=(0.0, 0.0, 0.0), scattering=(0.0, 0.0, 0.0), g=0.0):
+        self.absorption = list(absorption)
+        self.scattering = list(scattering)
+        self.g = g
+
+    def scaled(self, k):
+        return Medium([k * a for a in self.absorption], [k * s for s in self.scattering], self.g)
+
+    def plus(self, other):
+        # Anisotropies of two scatterers combine weighted by how much each scatters.
+        wa, wb = sum(self.scattering), sum(other.scattering)
+        g = (self.g * wa + other.g * wb) / (wa + wb) if wa + wb > 0 else 0.0
+        return Medium(
+            [a + b for a, b in zip(self.absorption, other.absorption)],
+            [a + b for a, b in zip(self.scattering, other.scattering)],
+            g,
+        )
+
+    def is_empty(self):
+        return not any(self.absorption) and not any(self.scattering)
+
+
+def medium_from_node(node, warnings, owner):
+    """The medium a volume shader node describes; None for nodes refrakt cannot read.
+
+    Cycles: Volume Absorption gives σa = density·(1 − color); Volume Scatter σs = density·color;
+    Principled Volume σs = density·color, σa = density·(1 − color)·(1 − absorption color).
+    """
+    kind = node.bl_idname
+    if kind == "ShaderNodeVolumeAbsorption":
+        d = _value(node.inputs["Density"], warnings, owner)
+        c = _clamp01(_value(node.inputs["Color"], warnings, owner))
+        return Medium(absorption=[d * (1.0 - x) for x in c])
+    if kind == "ShaderNodeVolumeScatter":
+        d = _value(node.inputs["Density"], warnings, owner)
+        c = _clamp01(_value(node.inputs["Color"], warnings, owner))
+        return Medium(scattering=[d * x for x in c], g=_value(node.inputs["Anisotropy"], warnings, owner))
+    if kind == "ShaderNodeVolumePrincipled":
+        d = _value(node.inputs["Density"], warnings, owner)
+        c = _clamp01(_value(node.inputs["Color"], warnings, owner))
+        ac = _clamp01(_value(node.inputs["Absorption Color"], warnings, owner))
+        return Medium(
+            absorption=[d * (1.0 - x) * (1.0 - y) for x, y in zip(c, ac)],
+            scattering=[d * x for x in c],
+            g=_value(node.inputs["Anisotropy"], warnings, owner),
+        )
+    if kind == "ShaderNodeAddShader":
+        parts = [medium_from_socket(s, warnings, owner) for s in node.inputs if s.is_linked]
+        total = Medium()
+        for part in parts:
+            total = total.plus(part)
+        return total
+    if kind == "ShaderNodeMixShader":
+        fac = _value(node.inputs[0], warnings, owner)
+        a = medium_from_socket(node.inputs[1], warnings, owner)
+        b = medium_from_socket(node.inputs[2], warnings, owner)
+        return a.scaled(1.0 - fac).plus(b.scaled(fac))
+    warnings.add(f"{owner}: refrakt cannot read the volume node '{node.name}' ({node.bl_label}); it is left out")
+    return Medium()
+
+
+def medium_from_socket(socket, warnings, owner):
+    if not socket.is_linked:
+        return Medium()
+    return medium_from_node(socket.links[0].from_node, warnings, owner)
+
+
+def _output_node(id_data):
+    """The active output node of a material's or world's nodes; None when it renders without
+    nodes (Blender 5 always uses nodes and deprecates `use_nodes`)."""
+    if bpy.app.version < (5, 0, 0) and not id_data.use_nodes:
+        return None
+    tree = id_data.node_tree
+    return tree.get_output_node("CYCLES") if tree is not None else None
+
+
+def node_medium(id_data, warnings):
+    """The medium connected to the Volume input of a material's or world's active output."""
+    out = _output_node(id_data)
+    if out is None or "Volume" not in out.inputs:
+        return Medium()
+    return medium_from_socket(out.inputs["Volume"], warnings, id_data.name)
+
+
+def material_extras(material, warnings):
+    s = material.refrakt
+    if s.medium == "CUSTOM":
+        medium = Medium(s.absorption, s.scattering, s.anisotropy)
+    else:
+        medium = node_medium(material, warnings)
+    out = {}
+    if not medium.is_empty():
+        out = {"absorption": medium.absorption, "scattering": medium.scattering, "g": medium.g}
+    if s.boundary > 0.0:
+        out["boundary"] = s.boundary
+    return out or None
+
+
+def glass_surface(material):
+    """(ior, color) of a Glass or Refraction BSDF on the material's surface, which the glTF
+    exporter does not understand (it reads only the Principled BSDF); None otherwise."""
+    out = _output_node(material)
+    if out is None or not out.inputs["Surface"].is_linked:
+        return None
+    node = out.inputs["Surface"].links[0].from_node
+    if node.bl_idname not in ("ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction"):
+        return None
+    return float(node.inputs["IOR"].default_value), list(node.inputs["Color"].default_value)[:3]
+
+
+def attenuation(absorption):
+    """KHR_materials_volume's (attenuationColor, attenuationDistance) for per-metre absorption
+    σa: the color light keeps after 1 m, exp(−σa). The glTF exporter instead writes the Volume
+    Absorption color as is with distance 1/density, i.e. σ = −ln(color)·density, which is not
+    what Cycles renders (σ = (1 − color)·density)."""
+    return [math.exp(-a) for a in absorption], 1.0
+
+
+# --- objects -------------------------------------------------------------------------------
+
+def _local_half_extents(obj):
+    if obj.type == "EMPTY":
+        return [obj.empty_display_size] * 3
+    corners = [list(c) for c in obj.bound_box]
+    return [(max(c[i] for c in corners) - min(c[i] for c in corners)) / 2.0 for i in range(3)]
+
+
+def node_extras(obj, scene):
+    """A node's extras: an index field, or 'ignore' (the volume bounds object, or by choice)."""
+    s = obj.refrakt
+    if s.role == "IGNORE" or obj == scene.refrakt.volume_bounds:
+        return {"role": "ignore"}
+    if s.role != "FIELD":
+        return None
+    half = _local_half_extents(obj) if s.use_bounds else None
+    field = s.field.lower()
+    out = {"field": field}
+    if field in ("luneburg", "sphere"):
+        out["radius"] = max(half) if half else s.radius
+    else:
+        # Local axes too go to Y up: the slab's gradient runs along Blender's local Z, glTF's Y.
+        size = [2.0 * h for h in half] if half else list(s.size)
+        out["size"] = [size[0], size[2], size[1]]
+    if field != "luneburg":
+        out["ior"] = s.ior
+    if field == "slab":
+        out["gradient"] = s.gradient
+    if s.boundary > 0.0:
+        out["boundary"] = s.boundary
+    return out
+
+
+# --- scene ---------------------------------------------------------------------------------
+
+def _world_box(obj):
+    corners = [obj.matrix_world @ Vector(c) for c in obj.bound_box]
+    yup = [to_yup(c) for c in corners]
+    return [min(c[i] for c in yup) for i in range(3)], [max(c[i] for c in yup) for i in range(3)]
+
+
+def environment(scene, directory, warnings):
+    """The world as refrakt's environment: radiance = color × intensity in Blender's units, or an
+    equirectangular image (path relative to the exported file) with its Mapping Z rotation.
+    Refracted and reflected rays always see it; the camera sees it only when asked, because a
+    frame that shows it cannot be laid over Blender's render of the same world."""
+    env = {"visible": scene.refrakt.show_environment}
+    world = scene.world
+    if world is None:
+        return {**env, "color": [0.0, 0.0, 0.0], "intensity": 1.0}
+    out = _output_node(world)
+    if out is None:
+        return {**env, "color": list(world.color), "intensity": 1.0}
+    surface = out.inputs["Surface"]
+    if not surface.is_linked:
+        return {**env, "color": [0.0, 0.0, 0.0], "intensity": 1.0}
+    background = surface.links[0].from_node
+    if background.bl_idname != "ShaderNodeBackground":
+        warnings.add(f"World '{world.name}': refrakt reads a Background node on the World Output; "
+                     f"found '{background.bl_label}', using the viewport color")
+        return {**env, "color": list(world.color), "intensity": 1.0}
+    strength = _value(background.inputs["Strength"], warnings, world.name)
+    color = background.inputs["Color"]
+    if not color.is_linked:
+        return {**env, "color": list(color.default_value)[:3], "intensity": strength}
+    texture = color.links[0].from_node
+    image = getattr(texture, "image", None) if texture.bl_idname == "ShaderNodeTexEnvironment" else None
+    path = bpy.path.abspath(image.filepath, library=image.library) if image else ""
+    if not image or image.packed_file or not os.path.isfile(path):
+        warnings.add(f"World '{world.name}': the background color comes from '{texture.bl_label}', which refrakt "
+                     "can only read as an Environment Texture of an image file on disk; using the viewport color")
+        return {**env, "color": list(world.color), "intensity": strength}
+    return {**env, "image": _relative(path, directory), "intensity": strength, "rotation": _mapping_rotation(texture)}
+
+
+def _relative(path, directory):
+    try:
+        return os.path.relpath(path, directory).replace(os.sep, "/")
+    except ValueError:  # another drive on Windows
+        return path
+
+
+def _mapping_rotation(texture):
+    """refrakt's environment rotation (degrees) from a Mapping node feeding the texture's Vector.
+
+    Blender's Mapping rotates the lookup direction: with Z rotation θ, what was seen along d is
+    seen along R_z(−θ)·d (for the Point and Vector types; the Texture type is the inverse).
+    refrakt's rotation θ' turns the environment itself: what was seen along d is seen along
+    R_y(θ')·d, and R_z in Blender's frame is R_y in refrakt's Y-up one. So θ' = −θ."""
+    vector = texture.inputs["Vector"]
+    if not (vector.is_linked and vector.links[0].from_node.bl_idname == "ShaderNodeMapping"):
+        return 0.0
+    mapping = vector.links[0].from_node
+    angle = math.degrees(mapping.inputs["Rotation"].default_value[2])
+    return angle if mapping.vector_type == "TEXTURE" else -angle
+
+
+def fog(scene, warnings):
+    s = scene.refrakt
+    if s.fog == "CUSTOM":
+        medium = Medium([s.fog_absorption] * 3, [s.fog_density * c for c in s.fog_color], s.fog_anisotropy)
+    elif s.fog == "WORLD" and scene.world is not None:
+        medium = node_medium(scene.world, warnings)
+        if medium.is_empty():
+            warnings.add(f"Fog is set to the World volume, but World '{scene.world.name}' has none")
+    else:
+        return None
+    return {"scattering": medium.scattering, "absorption": medium.absorption, "g": medium.g}
+
+
+def scene_extras(scene, directory, warnings):
+    s = scene.refrakt
+    volume = {
+        "resolution": s.volume_resolution,
+        "margin": s.volume_margin,
+        "boundary": s.volume_boundary,
+        "step": s.volume_step,
+    }
+    if s.volume_bounds is not None:
+        volume["min"], volume["max"] = _world_box(s.volume_bounds)
+    out = {
+        "photons": s.photons,
+        "samples": s.samples,
+        "volume": volume,
+        "environment": environment(scene, directory, warnings),
+    }
+    fog_settings = fog(scene, warnings)
+    if fog_settings is not None:
+        out["fog"] = fog_settings
+    return out

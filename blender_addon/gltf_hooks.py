@@ -1,0 +1,89 @@
+"""Hooks that Blender's glTF exporter calls for each scene, node and material while this add-on
+is enabled (it looks for `glTF2ExportUserExtension` on every enabled add-on's module). So the
+refrakt settings travel as extras whether the export comes from refrakt's operator or from
+File > Export > glTF, and glass made with Blender's Glass BSDF and volume nodes reaches
+KHR_materials_* with the meaning Cycles gives those nodes."""
+
+import functools
+
+import bpy
+
+from . import extras
+
+# Problems met by the hooks during the current export, for the export operator to report.
+warnings = extras.Warnings()
+# Exceptions raised in the hooks: the exporter would only log them and go on without our
+# extras, so they are kept here and the export operator fails with them.
+failures = []
+
+
+def _guarded(hook):
+    @functools.wraps(hook)
+    def run(self, gltf2_object, blender_object, export_settings):
+        try:
+            hook(self, gltf2_object, blender_object, export_settings)
+        except Exception as e:  # noqa: BLE001 (reported to the user by the export operator)
+            name = getattr(blender_object, "name", "?")
+            failures.append(f"{hook.__name__} on '{name}': {type(e).__name__}: {e}")
+
+    return run
+
+
+def _set_refrakt_extras(target, value):
+    # Replace only our key, keeping custom properties the user exports alongside.
+    current = dict(target.extras) if isinstance(target.extras, dict) else {}
+    current.pop("refrakt", None)
+    if value is not None:
+        current["refrakt"] = value
+    target.extras = current or None
+
+
+def _has(ext, name):
+    # The exporter leaves extensions it found nothing for as empty ones (dropped on writing).
+    return name in ext and ext[name] is not None and bool(ext[name].extension)
+
+
+class RefraktGltfExtension:
+    def __init__(self):
+        # The exporter makes one instance per export.
+        from io_scene_gltf2.io.com.gltf2_io_extensions import Extension
+
+        self.Extension = Extension
+        warnings.clear()
+        failures.clear()
+
+    @_guarded
+    def gather_scene_hook(self, gltf2_scene, blender_scene, export_settings):
+        directory = export_settings["gltf_filedirectory"]
+        _set_refrakt_extras(gltf2_scene, extras.scene_extras(blender_scene, directory, warnings))
+
+    @_guarded
+    def gather_node_hook(self, gltf2_node, blender_object, export_settings):
+        if blender_object is not None:
+            _set_refrakt_extras(gltf2_node, extras.node_extras(blender_object, bpy.context.scene))
+
+    @_guarded
+    def gather_material_hook(self, gltf2_material, blender_material, export_settings):
+        medium = extras.material_extras(blender_material, warnings)
+        _set_refrakt_extras(gltf2_material, medium)
+        ext = gltf2_material.extensions
+        glass = extras.glass_surface(blender_material)
+        if glass is not None and not _has(ext, "KHR_materials_transmission"):
+            ior, color = glass
+            self._add(ext, "KHR_materials_transmission", {"transmissionFactor": 1.0})
+            self._add(ext, "KHR_materials_ior", {"ior": ior})
+            pbr = gltf2_material.pbr_metallic_roughness
+            if pbr is not None:
+                pbr.base_color_factor = color + [1.0]
+                pbr.metallic_factor = 0.0
+        if medium and any(medium.get("absorption", ())) and _has(ext, "KHR_materials_transmission"):
+            color, distance = extras.attenuation(medium["absorption"])
+            # Thickness matters only to rasterizers that fake refraction; without one a viewer
+            # takes the material as thin-walled and ignores the absorption.
+            data = dict(ext["KHR_materials_volume"].extension) if _has(ext, "KHR_materials_volume") else {}
+            data.setdefault("thicknessFactor", 1.0)
+            data.update(attenuationColor=color, attenuationDistance=distance)
+            self._add(ext, "KHR_materials_volume", data)
+
+    def _add(self, ext, name, data):
+        ext[name] = self.Extension(name, data, False)

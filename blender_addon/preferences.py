@@ -1,0 +1,42 @@
+"""Add-on preferences: where the refrakt executable is."""
+
+import bpy
+from bpy.props import StringProperty
+
+from . import binary
+
+
+class RefraktPreferences(bpy.types.AddonPreferences):
+    bl_idname = __package__
+
+    binary: StringProperty(
+        name="refrakt Executable",
+        description="Path to the refrakt executable; empty: find refrakt on PATH",
+        default="",
+        subtype="FILE_PATH",
+    )
+    check_report: StringProperty(default="", options={"SKIP_SAVE"})
+
+    def draw(self, context):
+        layout = self.layout
+        layout.prop(self, "binary")
+        row = layout.row()
+        row.operator("refrakt.check_binary", icon="CHECKMARK")
+        try:
+            row.label(text=f"Using {binary.resolve(self.binary)}")
+        except binary.BinaryError as e:
+            layout.label(text=str(e), icon="ERROR")
+        for line in self.check_report.splitlines():
+            layout.label(text=line)
+
+
+def get(context):
+    return context.preferences.addons[__package__].preferences
+
+
+def register():
+    bpy.utils.register_class(RefraktPreferences)
+
+
+def unregister():
+    bpy.utils.unregister_class(RefraktPreferences)

@@ -1,0 +1,210 @@
+"""The scene as refrakt reads it: a .glb written by Blender's glTF exporter (with this add-on's
+hooks adding refrakt's extras) and a Lua wrapper next to it that the user may extend."""
+
+import hashlib
+import json
+import os
+import struct
+import tempfile
+from dataclasses import dataclass
+
+import addon_utils
+import bpy
+
+from . import extras, gltf_hooks
+
+
+class ExportError(Exception):
+    """The export failed; the message says why and what to do."""
+
+
+@dataclass
+class Paths:
+    directory: str
+    name: str
+
+    @property
+    def glb(self):
+        return os.path.join(self.directory, self.name + ".glb")
+
+    @property
+    def lua(self):
+        return os.path.join(self.directory, self.name + ".lua")
+
+    @property
+    def frames(self):
+        return os.path.join(self.directory, "frames")
+
+    @property
+    def preview(self):
+        return os.path.join(self.directory, self.name + ".preview.exr")
+
+    def frame(self, k):
+        return os.path.join(self.frames, f"{self.name}.{k:04d}.exr")
+
+
+def paths(scene):
+    """Where the scene's files go. A path relative to an unsaved .blend has no folder to be
+    relative to, so it goes to the system's temporary folder instead."""
+    s = scene.refrakt
+    name = bpy.path.clean_name(s.basename or scene.name)
+    if s.directory.startswith("//") and not bpy.data.filepath:
+        directory = os.path.join(tempfile.gettempdir(), "refrakt", name)
+    else:
+        directory = bpy.path.abspath(s.directory)
+    return Paths(os.path.normpath(directory), name)
+
+
+def fps(scene):
+    """The frame rate the glTF exporter timed the animation with: it stamps frame k at
+    k / (fps · fps_base) seconds (Blender's real rate is fps / fps_base; the two differ only for
+    NTSC-style rates), and refrakt must sample at the same times for frame numbers to agree."""
+    return scene.render.fps * scene.render.fps_base
+
+
+def gltf_options(scene):
+    """Blender glTF exporter settings for refrakt: cameras, punctual lights in the standard
+    photometric units (refrakt divides by 683 lm/W as Blender's importer does), Y up, and one
+    animation baked from the scene's frame range, sampled every frame."""
+    return dict(
+        export_format="GLB",
+        use_active_scene=True,
+        export_cameras=True,
+        export_lights=True,
+        export_import_convert_lighting_mode="SPEC",
+        export_yup=True,
+        export_apply=scene.refrakt.apply_modifiers,
+        export_materials="EXPORT",
+        export_extras=False,
+        export_animations=True,
+        export_animation_mode="SCENE",
+        export_frame_range=True,
+        export_force_sampling=True,
+        export_frame_step=1,
+    )
+
+
+def read_glb_json(path):
+    """The JSON chunk of a .glb file."""
+    with open(path, "rb") as f:
+        magic, _version, _length = struct.unpack("<4sII", f.read(12))
+        if magic != b"glTF":
+            raise ExportError(f"{path} is not a binary glTF file")
+        chunk_length, chunk_type = struct.unpack("<I4s", f.read(8))
+        if chunk_type != b"JSON":
+            raise ExportError(f"{path} does not start with a JSON chunk")
+        return json.loads(f.read(chunk_length))
+
+
+def _skipped_lights(scene):
+    return [
+        o.name for o in scene.objects
+        if o.type == "LIGHT" and o.data.type == "AREA" and o.refrakt.role != "IGNORE"
+    ]
+
+
+def export(context, target=None):
+    """Writes the scene to `target` (default: its .glb path) through a temporary file and a
+    rename, so `refrakt watch` never reads half a file. Returns the warnings to show."""
+    scene = context.scene
+    where = paths(scene)
+    target = target or where.glb
+    os.makedirs(os.path.dirname(target), exist_ok=True)
+    if "io_scene_gltf2" not in context.preferences.addons:
+        addon_utils.enable("io_scene_gltf2", default_set=True)
+    tmp = os.path.join(os.path.dirname(target), f".{os.path.basename(target)}.tmp-{os.getpid()}.glb")
+    try:
+        result = bpy.ops.export_scene.gltf(filepath=tmp, **gltf_options(scene))
+        if "FINISHED" not in result:
+            raise ExportError(f"Blender's glTF exporter did not finish ({', '.join(result)})")
+        if gltf_hooks.failures:
+            raise ExportError("refrakt's glTF export hook failed (a bug in the add-on, please report it): "
+                              + "; ".join(gltf_hooks.failures))
+        data = read_glb_json(tmp)
+        if not any("refrakt" in (s.get("extras") or {}) for s in data.get("scenes", [])):
+            raise ExportError(
+                "The refrakt settings did not reach the glTF file: the exporter calls refrakt's hooks only "
+                "when the add-on is enabled in Preferences > Add-ons (not merely registered by a script)."
+            )
+        os.replace(tmp, target)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+    warnings = list(gltf_hooks.warnings)
+    warnings += [f"Area light '{n}' is not exported: glTF has point, spot and sun lights only" for n in _skipped_lights(scene)]
+    return warnings
+
+
+# --- the Lua wrapper -----------------------------------------------------------------------
+
+WRAPPER_MARK = "-- refrakt-wrapper "
+
+
+def lua_value(v, indent=""):
+    """A Python value (from the extras) as a Lua literal."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float)):
+        return repr(v) if isinstance(v, int) else f"{v:.6g}"
+    if isinstance(v, str):
+        return json.dumps(v)  # a JSON string is a valid Lua string literal for what paths hold
+    if isinstance(v, (list, tuple)):
+        return "{" + ", ".join(lua_value(x) for x in v) + "}"
+    inner = indent + "  "
+    return "{\n" + "".join(f"{inner}{k} = {lua_value(x, inner)},\n" for k, x in v.items()) + indent + "}"
+
+
+def wrapper_text(paths_, settings, blend_name):
+    """The wrapper script: the scene settings as exported from Blender, written out so the user
+    sees and can change them, and the glTF file as a subtree of the scene."""
+    constructors = {"environment": "r.environment", "fog": "r.fog"}
+    fields = "".join(
+        f"  {key} = {constructors.get(key, '')}{lua_value(value, '  ')},\n" for key, value in settings.items()
+    )
+    body = f"""-- {paths_.name}.lua: a refrakt scene around {paths_.name}.glb, exported from Blender ({blend_name}).
+-- The glTF file brings the nodes, cameras, lights, materials and animation; the settings
+-- below are the ones set in Blender's refrakt panel when this file was written.
+-- Extend it by hand: once you edit it, exporting again from Blender updates {paths_.name}.glb
+-- and leaves this file alone. Render it with `refrakt render {paths_.name}.lua --camera NAME`,
+-- or from Blender with Render: Lua Wrapper in the refrakt panel.
+local r = require("refrakt")
+
+local scene = r.scene{{
+{fields}}}
+
+scene:add(r.gltf("{paths_.name}.glb"))
+
+-- Your own nodes, e.g. a Luneburg lens:
+-- scene:add(r.node{{ name = "lens", translation = {{0, 1, 0}}, shape = r.luneburg{{ radius = 0.3 }} }})
+
+-- Animation on top of the glTF's (t in seconds; frame k is t = k / fps):
+-- function update(scene, t)
+--   scene:find("lens").translation = {{0, 1 + 0.1 * math.sin(t), 0}}
+-- end
+
+return scene
+"""
+    return f"{WRAPPER_MARK}{_checksum(body)}: generated; edit freely.\n{body}"
+
+
+def _checksum(body):
+    return hashlib.sha256(body.encode()).hexdigest()[:16]
+
+
+def is_untouched(text):
+    """Whether a wrapper is exactly as the add-on generated it (so it may be regenerated)."""
+    first, _, body = text.partition("\n")
+    return first.startswith(WRAPPER_MARK) and first[len(WRAPPER_MARK):].split(":")[0] == _checksum(body)
+
+
+def write_wrapper(scene, paths_):
+    """Writes the wrapper unless the user has edited it. Returns True when written."""
+    if os.path.exists(paths_.lua):
+        with open(paths_.lua, encoding="utf-8") as f:
+            if not is_untouched(f.read()):
+                return False
+    settings = extras.scene_extras(scene, paths_.directory, extras.Warnings())
+    blend = os.path.basename(bpy.data.filepath) or "unsaved file"
+    with open(paths_.lua, "w", encoding="utf-8") as f:
+        f.write(wrapper_text(paths_, settings, blend))
+    return True

@@ -1,0 +1,135 @@
+#!/usr/bin/env python3
+"""A stand-in for the `refrakt` executable that keeps refrakt's command-line contract (`info`,
+`render … --progress json`, `watch … --progress json`) without a GPU, so the add-on's side can be
+tested exactly: timing, events, cancellation, errors.
+
+Each frame k is a small EXR with refrakt's channels (R G B A, depth.Z, caustic.*, direct.*,
+volume.*) whose R channel holds k, written through a temporary name and a rename. The
+environment variables below steer it:
+
+  FAKE_REFRAKT_DELAY   seconds per frame (default 0.05)
+  FAKE_REFRAKT_FAIL_AT frame at which to fail with refrakt's kind of error
+  FAKE_REFRAKT_LOG     file to which each invocation's argv is appended as a JSON line
+"""
+
+import json
+import os
+import signal
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import exr_writer  # noqa: E402
+
+stop = False
+
+
+def on_term(_signum, _frame):
+    global stop
+    stop = True
+
+
+def emit(**event):
+    print(json.dumps(event), flush=True)
+
+
+def option(args, name, default=None):
+    return args[args.index(name) + 1] if name in args else default
+
+
+def frame_planes(k, w, h):
+    n = w * h
+    planes = {"R": [float(k)] * n, "G": [0.5] * n, "B": [0.25] * n, "A": [1.0] * n, "depth.Z": [2.0] * n}
+    for layer, value in (("caustic", 0.1), ("direct", 0.2), ("volume", 0.3)):
+        for c in "RGB":
+            planes[f"{layer}.{c}"] = [value] * n
+    return planes
+
+
+def fail(message, frame=None):
+    emit(event="error", message=message, frame=frame)
+    print(f"error: {message}", file=sys.stderr)
+    sys.exit(1)
+
+
+def check_scene(scene):
+    if not os.path.isfile(scene):
+        fail(f"{scene}: no such file")
+    with open(scene, "rb") as f:
+        head = f.read(4)
+    if scene.endswith(".glb") and head != b"glTF":
+        fail(f"{scene}: not a binary glTF file")
+
+
+def render(args):
+    scene = args[0]
+    check_scene(scene)
+    first, last = (int(x) for x in option(args, "--frames", "0..0").split(".."))
+    out = option(args, "--out", "render")
+    name = option(args, "--name", os.path.splitext(os.path.basename(scene))[0])
+    w, h = (int(x) for x in option(args, "--size", "8x4").split("x"))
+    delay = float(os.environ.get("FAKE_REFRAKT_DELAY", "0.05"))
+    fail_at = os.environ.get("FAKE_REFRAKT_FAIL_AT")
+    os.makedirs(out, exist_ok=True)
+    total = last - first + 1
+    emit(event="start", frames=total, first=first, last=last)
+    started = time.monotonic()
+    for i, k in enumerate(range(first, last + 1)):
+        if stop:
+            # As refrakt: the frame in hand was finished; say so and exit like Ctrl-C.
+            emit(event="error", message=f"interrupted after {i} frame(s); the frames written are whole", frame=None)
+            print(f"error: interrupted after {i} frame(s); the frames written are whole", file=sys.stderr)
+            sys.exit(130)
+        if fail_at is not None and k == int(fail_at):
+            fail(f"frame {k} (t = {k / 24:.4f} s): {scene}: node \"Cube\": scale has a zero component", k)
+        path = os.path.join(out, f"{name}.{k:04d}.exr")
+        if "--skip-existing" in args and os.path.exists(path):
+            emit(event="skip", frame=k, done=i + 1, total=total)
+            continue
+        t0 = time.monotonic()
+        time.sleep(delay)  # "rendering": a SIGTERM now ends the loop after this frame
+        exr_writer.write(path, w, h, frame_planes(k, w, h))
+        emit(event="frame", frame=k, done=i + 1, total=total, seconds=time.monotonic() - t0, files=[path])
+    emit(event="done", frames=total, seconds=time.monotonic() - started)
+
+
+def watch(args):
+    scene = args[0]
+    check_scene(scene)
+    out = option(args, "--out")
+    k = int(option(args, "--frame", "0"))
+    w, h = (int(x) for x in option(args, "--size", "8x4").split("x"))
+    seen = None
+    while not stop:
+        stamp = os.stat(scene).st_mtime_ns
+        if stamp != seen:
+            seen = stamp
+            exr_writer.write(out, w, h, frame_planes(k, w, h))
+            emit(event="frame", frame=k, done=1, total=1, seconds=0.01, files=[out])
+        time.sleep(0.02)
+
+
+def main():
+    signal.signal(signal.SIGTERM, on_term)
+    signal.signal(signal.SIGINT, on_term)
+    args = sys.argv[1:]
+    log = os.environ.get("FAKE_REFRAKT_LOG")
+    if log:
+        with open(log, "a") as f:
+            f.write(json.dumps(args) + "\n")
+    if not args:
+        fail("no command")
+    command, rest = args[0], args[1:]
+    if command == "info":
+        print("adapter:  fake refrakt for the add-on's tests (no GPU)")
+    elif command == "render":
+        render(rest)
+    elif command == "watch":
+        watch(rest)
+    else:
+        fail(f"unknown command {command}")
+    sys.exit(130 if stop else 0)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,214 @@
+"""The export operator: what the .glb says (checked with an independent glTF evaluator against
+Blender's own data) and the Lua wrapper next to it."""
+
+import math
+import os
+import tempfile
+
+import bpy
+import pytest
+from mathutils import Vector
+
+import scenes
+from conftest import submodule
+from gltf_eval import Gltf
+
+# Matrices go through float32 in the file: 1e-5 relative, a few 1e-6 m absolute at these sizes.
+MATRIX_TOLERANCE = 1e-4
+
+
+def export(saved_blend):
+    saved_blend()
+    assert bpy.ops.refrakt.export() == {"FINISHED"}
+    paths = submodule("scene_export").paths(bpy.context.scene)
+    return paths, Gltf(paths.glb)
+
+
+def assert_matrix_close(a, b, what):
+    worst = max(abs(a[r][c] - b[r][c]) for r in range(4) for c in range(4))
+    assert worst < MATRIX_TOLERANCE, f"{what}: matrices differ by {worst:.2e}\n{a}\n{b}"
+
+
+def test_world_matrices_at_several_frames_match_blender(addon, saved_blend):
+    scene = scenes.round_trip_scene()
+    paths, gltf = export(saved_blend)
+    fps = scene.render.fps / scene.render.fps_base
+    for frame in scenes.FRAMES:
+        scene.frame_set(frame)
+        t = frame / fps
+        for name in ("Ball", "Rig", "Cube"):
+            obj = bpy.data.objects[name]
+            expected = scenes.Z_UP_TO_Y_UP @ obj.matrix_world @ scenes.Z_UP_TO_Y_UP.inverted()
+            assert_matrix_close(gltf.world(name, t), expected, f"{name} at frame {frame}")
+        # Cameras and lights look down their local −Z in both conventions: compare where they
+        # are and where they look, in glTF's world.
+        for name in ("Camera", "Spot"):
+            obj = bpy.data.objects[name]
+            got, want = gltf.world(name, t), scenes.gltf_world(obj)
+            for axis in (Vector((0, 0, -1, 0)), Vector((0, 1, 0, 0)), Vector((0, 0, 0, 1))):
+                assert (got @ axis - want @ axis).length < MATRIX_TOLERANCE, f"{name} axis {axis} at frame {frame}"
+    # The cube really moves, so the comparison above covers animation, not a still.
+    assert (gltf.world("Cube", 1 / fps).translation - gltf.world("Cube", 6 / fps).translation).length > 0.5
+
+
+def test_lights_camera_and_glass(addon, saved_blend):
+    scene = scenes.round_trip_scene()
+    _, gltf = export(saved_blend)
+    # Blender's glTF exporter in its standard lighting mode: point/spot W → cd = W / 4π · 683,
+    # sun W/m² → lux = · 683; refrakt divides by 683 again (as Blender's importer does).
+    spot = gltf.light("Spot")
+    assert spot["type"] == "spot"
+    assert spot["intensity"] == pytest.approx(scenes.SPOT_WATTS / (4 * math.pi) * 683, rel=1e-5)
+    assert spot["spot"]["outerConeAngle"] == pytest.approx(math.radians(20.0), rel=1e-5)
+    assert spot["spot"]["innerConeAngle"] == pytest.approx(math.radians(20.0) * (1 - 0.15), rel=1e-5)
+    assert gltf.light("Sun")["intensity"] == pytest.approx(scenes.SUN_STRENGTH * 683, rel=1e-5)
+
+    camera = gltf.camera("Camera")["perspective"]
+    assert camera["yfov"] == pytest.approx(scenes.camera_fov_y(bpy.data.objects["Camera"], scene), rel=1e-5)
+    assert camera["aspectRatio"] == pytest.approx(64 / 36, rel=1e-5)
+
+    glass = gltf.material("Glass")
+    ext = glass["extensions"]
+    assert ext["KHR_materials_ior"]["ior"] == pytest.approx(scenes.GLASS_IOR, rel=1e-6)
+    assert ext["KHR_materials_transmission"]["transmissionFactor"] == pytest.approx(1.0)
+    # Cycles' Volume Absorption: σa = density · (1 − color) per metre.
+    sigma = [scenes.ABSORPTION_DENSITY * (1 - c) for c in scenes.ABSORPTION_COLOR]
+    assert glass["extras"]["refrakt"]["absorption"] == pytest.approx(sigma, rel=1e-6)
+    volume = ext["KHR_materials_volume"]
+    transmitted = [c ** (1 / volume["attenuationDistance"]) for c in volume["attenuationColor"]]
+    assert transmitted == pytest.approx([math.exp(-s) for s in sigma], rel=1e-6)
+    for name in ("KHR_materials_ior", "KHR_materials_transmission", "KHR_materials_volume", "KHR_lights_punctual"):
+        assert name in gltf.json["extensionsUsed"]
+
+
+def test_scene_and_node_extras(addon, saved_blend):
+    scene = scenes.round_trip_scene()
+    s = scene.refrakt
+    s.photons, s.samples, s.volume_resolution, s.volume_margin = 20000, 2, 48, 0.1
+    s.fog, s.fog_density, s.fog_color, s.fog_absorption, s.fog_anisotropy = "CUSTOM", 0.2, (1.0, 0.5, 0.25), 0.05, 0.3
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.7, location=(2, 0, 1))
+    lens = bpy.context.object
+    lens.name = "Lens"
+    lens.refrakt.role, lens.refrakt.field = "FIELD", "LUNEBURG"
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0, 0, 1))
+    slab = bpy.context.object
+    slab.name = "Slab"
+    slab.scale = (1, 1, 1)
+    slab.refrakt.role, slab.refrakt.field, slab.refrakt.use_bounds = "FIELD", "SLAB", False
+    slab.refrakt.size, slab.refrakt.ior, slab.refrakt.gradient = (1.0, 2.0, 3.0), 1.4, 0.25
+    bpy.ops.mesh.primitive_cube_add(size=4.0, location=(0, 0, 1))
+    bounds = bpy.context.object
+    bounds.name = "Bounds"
+    s.volume_bounds = bounds
+
+    _, gltf = export(saved_blend)
+    extras = gltf.json["scenes"][gltf.json.get("scene", 0)]["extras"]["refrakt"]
+    assert extras["photons"] == 20000 and extras["samples"] == 2
+    assert extras["volume"]["resolution"] == 48
+    assert extras["volume"]["min"] == pytest.approx([-2, -1, -2]) and extras["volume"]["max"] == pytest.approx([2, 3, 2])
+    assert extras["fog"] == {"scattering": pytest.approx([0.2, 0.1, 0.05]), "absorption": pytest.approx([0.05] * 3), "g": pytest.approx(0.3)}
+    env = extras["environment"]
+    assert env["color"] == pytest.approx(list(scenes.WORLD_COLOR), rel=1e-6)
+    assert env["intensity"] == pytest.approx(scenes.WORLD_STRENGTH) and env["visible"] is False
+
+    assert gltf.node("Lens")["extras"]["refrakt"] == {"field": "luneburg", "radius": pytest.approx(0.7, rel=1e-3)}
+    # Local Z (Blender's up) becomes the node's local Y in glTF: size (x, z, y).
+    assert gltf.node("Slab")["extras"]["refrakt"] == {
+        "field": "slab", "size": pytest.approx([1.0, 3.0, 2.0]), "ior": pytest.approx(1.4), "gradient": pytest.approx(0.25),
+    }
+    assert gltf.node("Bounds")["extras"]["refrakt"] == {"role": "ignore"}
+    assert "extras" not in gltf.node("Ball")
+
+
+def test_environment_image_and_rotation(addon, saved_blend, tmp_path):
+    scenes.round_trip_scene()
+    sky = bpy.data.images.new("sky", 8, 4, float_buffer=True)
+    sky.filepath_raw = str(tmp_path / "sky.exr")
+    sky.file_format = "OPEN_EXR"
+    sky.save()
+    world = bpy.context.scene.world
+    nodes, links = world.node_tree.nodes, world.node_tree.links
+    texture = nodes.new("ShaderNodeTexEnvironment")
+    texture.image = sky
+    mapping = nodes.new("ShaderNodeMapping")
+    mapping.inputs["Rotation"].default_value[2] = math.radians(90)
+    links.new(mapping.outputs[0], texture.inputs["Vector"])
+    links.new(texture.outputs["Color"], nodes["Background"].inputs["Color"])
+    paths, gltf = export(saved_blend)
+    env = gltf.json["scenes"][0]["extras"]["refrakt"]["environment"]
+    assert env["image"] == os.path.relpath(tmp_path / "sky.exr", paths.directory)
+    # Mapping turns the lookup direction, refrakt turns the environment: opposite signs.
+    assert env["rotation"] == pytest.approx(-90.0) and env["intensity"] == pytest.approx(scenes.WORLD_STRENGTH)
+    assert "color" not in env
+
+    sky.pack()  # not on disk any more: refrakt cannot read it
+    warnings = submodule("scene_export").export(bpy.context)
+    assert any("Environment Texture of an image file on disk" in w for w in warnings), warnings
+
+
+def test_glass_bsdf_becomes_khr_transmission(addon, saved_blend):
+    scenes.round_trip_scene()
+    m = bpy.data.materials.new("Water")
+    m.use_nodes = True
+    nodes = m.node_tree.nodes
+    nodes.remove(nodes["Principled BSDF"])
+    glass = nodes.new("ShaderNodeBsdfGlass")
+    glass.inputs["IOR"].default_value = 1.33
+    glass.inputs["Color"].default_value = (0.9, 0.95, 1.0, 1.0)
+    m.node_tree.links.new(glass.outputs[0], nodes["Material Output"].inputs["Surface"])
+    bpy.data.objects["Ball"].data.materials[0] = m
+    _, gltf = export(saved_blend)
+    water = gltf.material("Water")
+    assert water["extensions"]["KHR_materials_transmission"]["transmissionFactor"] == 1.0
+    assert water["extensions"]["KHR_materials_ior"]["ior"] == pytest.approx(1.33, rel=1e-6)
+    assert water["pbrMetallicRoughness"]["baseColorFactor"] == pytest.approx([0.9, 0.95, 1.0, 1.0])
+
+
+def test_unreadable_volume_node_warns(addon, saved_blend):
+    scenes.round_trip_scene()
+    tree = bpy.data.materials["Glass"].node_tree
+    texture = tree.nodes.new("ShaderNodeTexNoise")
+    tree.links.new(texture.outputs["Fac"], tree.nodes["Volume Absorption"].inputs["Density"])
+    saved_blend()
+    warnings = submodule("scene_export").export(bpy.context)
+    assert any("'Density' is driven by nodes" in w for w in warnings), warnings
+
+
+def test_a_failing_hook_is_reported_not_hidden(addon, saved_blend, monkeypatch):
+    scenes.round_trip_scene()
+    saved_blend()
+
+    def broken(*args):
+        raise KeyError("Strength")
+
+    monkeypatch.setattr(submodule("extras"), "scene_extras", broken)
+    with pytest.raises(RuntimeError, match=r"refrakt's glTF export hook failed .*gather_scene_hook on 'Scene': KeyError: 'Strength'"):
+        bpy.ops.refrakt.export()
+
+
+def test_wrapper_is_written_kept_when_edited_and_refreshed_when_not(addon, saved_blend):
+    scene = scenes.round_trip_scene()
+    paths, _ = export(saved_blend)
+    text = open(paths.lua).read()
+    assert f'scene:add(r.gltf("{paths.name}.glb"))' in text
+    assert "photons = 70000" in text and "resolution = 128" in text
+    # Untouched: a re-export brings the new settings.
+    scene.refrakt.photons = 12345
+    export(saved_blend)
+    assert "photons = 12345" in open(paths.lua).read()
+    # Edited by hand: left alone.
+    with open(paths.lua, "a") as f:
+        f.write("-- my own node\n")
+    scene.refrakt.photons = 999
+    export(saved_blend)
+    edited = open(paths.lua).read()
+    assert edited.endswith("-- my own node\n") and "photons = 12345" in edited
+
+
+def test_unsaved_file_exports_to_the_temporary_folder(addon):
+    scenes.round_trip_scene()
+    assert not bpy.data.filepath
+    paths = submodule("scene_export").paths(bpy.context.scene)
+    assert paths.directory.startswith(tempfile.gettempdir())
+    assert bpy.ops.refrakt.export() == {"FINISHED"}
+    assert os.path.isfile(paths.glb) and os.path.isfile(paths.lua)

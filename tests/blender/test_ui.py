@@ -1,0 +1,107 @@
+"""The panels' draw code, run against a recording layout (headless Blender draws no UI): every
+property it shows exists on its data, every button is a registered operator, and what is shown
+follows the settings (field options only for index fields, progress only while rendering)."""
+
+from types import SimpleNamespace
+
+import bpy
+import pytest
+
+import scenes
+
+
+class Layout:
+    """Stands in for bpy.types.UILayout and records what would be drawn."""
+
+    def __init__(self, log):
+        self.log = log
+        self.use_property_split = False
+        self.active = True
+        self.scale_y = 1.0
+
+    def _child(self, *args, **kwargs):
+        return Layout(self.log)
+
+    row = column = box = _child
+
+    def prop(self, data, name, **kwargs):
+        assert name in data.bl_rna.properties, f"{data.bl_rna.identifier} has no property {name!r}"
+        self.log.append(("prop", name))
+
+    def operator(self, idname, **kwargs):
+        category, name = idname.split(".")
+        assert hasattr(bpy.types, f"{category.upper()}_OT_{name}"), f"no operator {idname}"
+        self.log.append(("operator", idname))
+        return _Props()
+
+    def label(self, text="", **kwargs):
+        self.log.append(("label", text))
+
+    def progress(self, factor=0.0, text="", **kwargs):
+        assert 0.0 <= factor <= 1.0
+        self.log.append(("progress", text))
+
+
+class _Props:
+    """Operator properties set from a button (`…operator(…).compositor = True`)."""
+
+
+def draw(panel_name, context=None):
+    """What a registered panel draws, in order."""
+    context = context or bpy.context
+    log = []
+    panel = getattr(bpy.types, panel_name)
+    stub = SimpleNamespace(layout=Layout(log))
+    if hasattr(panel, "draw_settings"):  # subpanels: the shared draw calls draw_settings
+        stub.draw_settings = lambda *args: panel.draw_settings(stub, *args)
+    panel.draw(stub, context)
+    return log
+
+
+RENDER_PANELS = [
+    "RENDER_PT_refrakt", "RENDER_PT_refrakt_light", "RENDER_PT_refrakt_volume", "RENDER_PT_refrakt_fog",
+    "RENDER_PT_refrakt_output", "RENDER_PT_refrakt_compositing", "RENDER_PT_refrakt_live",
+]
+
+
+@pytest.mark.parametrize("fog", ["NONE", "WORLD", "CUSTOM"])
+def test_render_panels_draw(addon, fog):
+    scenes.round_trip_scene()
+    bpy.context.scene.refrakt.fog = fog
+    logs = {name: draw(name) for name in RENDER_PANELS}
+    assert ("operator", "refrakt.render") in logs["RENDER_PT_refrakt"]
+    assert ("operator", "refrakt.load_frames") in logs["RENDER_PT_refrakt_compositing"]
+    shown = {name for _, name in logs["RENDER_PT_refrakt_fog"]}
+    assert ("fog_density" in shown) == (fog == "CUSTOM")
+
+
+def test_progress_shows_while_rendering(addon):
+    state = bpy.context.window_manager.refrakt
+    state.running, state.progress, state.status = True, 40.0, "refrakt: frame 2/5"
+    try:
+        log = draw("RENDER_PT_refrakt")
+    finally:
+        state.running = False
+    assert ("progress", "refrakt: frame 2/5") in log and ("operator", "refrakt.cancel_render") in log
+
+
+class Context:
+    def __init__(self, **kw):
+        self.__dict__.update(kw)
+        self.scene = bpy.context.scene
+        self.window_manager = bpy.context.window_manager
+
+
+def test_object_panel_shows_field_settings_for_index_fields(addon):
+    bpy.ops.mesh.primitive_uv_sphere_add()
+    obj = bpy.context.object
+    assert draw("OBJECT_PT_refrakt", Context(object=obj)) == [("prop", "role")]
+    obj.refrakt.role, obj.refrakt.field = "FIELD", "SLAB"
+    shown = [name for _, name in draw("OBJECT_PT_refrakt", Context(object=obj))]
+    assert shown == ["role", "field", "use_bounds", "size", "ior", "gradient", "boundary"]
+
+
+def test_material_panel_shows_what_it_read_from_the_nodes(addon):
+    scenes.round_trip_scene()
+    log = draw("MATERIAL_PT_refrakt", Context(material=bpy.data.materials["Glass"]))
+    assert ("label", "Absorption /m: 0.4 0.2 0") in log

@@ -54,7 +54,7 @@ fn chart(r: &refrakt::pipeline::Renderer, index: usize, slot: usize) -> (refrakt
     let table = rec.layout.receivers[index];
     let slots = [table.charts_a, table.charts_b, table.charts_c].concat();
     let c = rec.layout.charts[slots[slot] as usize];
-    let all: Vec<[f32; 4]> = bytemuck::cast_slice(&refrakt::gpu::readback::read_buffer(&r.ctx, &rec.caustic_irradiance).unwrap()).to_vec();
+    let all: Vec<[f32; 4]> = bytemuck::cast_slice(&refrakt::gpu::readback::read_buffer(&r.ctx, &rec.caustic_irradiance.buffer).unwrap()).to_vec();
     (c, all[c.offset as usize..(c.offset + c.width * c.height) as usize].to_vec())
 }
 

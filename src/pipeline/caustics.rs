@@ -73,10 +73,10 @@ impl Caustics {
                 layout: &self.bgl,
                 entries: &[
                     wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: receivers.charts.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 2, resource: receivers.caustic_atlas.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 3, resource: receivers.caustic_sat.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 4, resource: receivers.caustic_irradiance.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: receivers.charts.buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 2, resource: receivers.caustic_atlas.buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 3, resource: receivers.caustic_sat.buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 4, resource: receivers.caustic_irradiance.buffer.as_entire_binding() },
                 ],
             });
             self.bound = Some((receivers.generation, bg));

@@ -140,12 +140,12 @@ impl March {
                     wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&grids.sampler) },
                     wgpu::BindGroupEntry { binding: 5, resource: grids.octree_params.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 6, resource: grids.octree.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 7, resource: receivers.bvh_nodes.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 8, resource: receivers.bvh_triangles.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 9, resource: receivers.receivers.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 10, resource: receivers.charts.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 7, resource: receivers.bvh_nodes.buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 8, resource: receivers.bvh_triangles.buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 9, resource: receivers.receivers.buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 10, resource: receivers.charts.buffer.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 11, resource: radiance.deposits.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 12, resource: receivers.caustic_atlas.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 12, resource: receivers.caustic_atlas.buffer.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 13, resource: self.stats.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 14, resource: layout::texture_view(&radiance.fluence.view) },
                     wgpu::BindGroupEntry { binding: 15, resource: layout::texture_view(&radiance.direction.view) },
@@ -154,7 +154,7 @@ impl March {
             self.bound = Some((generations, bg));
         }
         let (_, bg) = self.bound.as_ref().expect("bound above");
-        enc.clear_buffer(&receivers.caustic_atlas, 0, None);
+        enc.clear_buffer(&receivers.caustic_atlas.buffer, 0, None);
         enc.clear_buffer(&self.stats, 0, None);
         let deposit = params.flags & march_flags::DEPOSIT_RADIANCE != 0;
         if deposit {

@@ -84,7 +84,7 @@ pub struct Renderer {
     probe: probe::Probe,
     grids: Option<Grids>,
     environment: EnvironmentTexture,
-    receivers: Option<Receivers>,
+    receivers: Receivers,
     lights: LightBuffers,
     radiance: Option<RadianceGrid>,
     target: Option<FrameTarget>,
@@ -131,6 +131,7 @@ impl Renderer {
         let environment = EnvironmentTexture::new(&ctx);
         let profiler = Profiler::new(&ctx);
         let lights = LightBuffers::new(&ctx.device);
+        let receivers = Receivers::new(&ctx.device);
         Ok(Self {
             voxelize: s.voxelize,
             gradient: s.gradient,
@@ -144,7 +145,7 @@ impl Renderer {
             shaders,
             grids: None,
             environment,
-            receivers: None,
+            receivers,
             lights,
             radiance: None,
             target: None,
@@ -221,8 +222,7 @@ impl Renderer {
         if self.environment.update(&self.ctx, &desc.environment) {
             self.counters.environment_uploads += 1;
         }
-        if self.receivers.as_ref().is_none_or(|r| r.changed(desc)) {
-            self.receivers = Some(Receivers::new(&self.ctx, desc)?);
+        if self.receivers.update(&self.ctx, desc) {
             self.counters.receiver_uploads += 1;
         }
         self.lights.update(&self.ctx, &desc.lights, &desc.volume);
@@ -272,7 +272,7 @@ impl Renderer {
         let flux_unit = (self.lights.raster_power / desc.photons.max(1) as f32).max(1e-30);
         let (grids, receivers, radiance, target) = (
             self.grids.as_ref().expect("prepared"),
-            self.receivers.as_ref().expect("prepared"),
+            &self.receivers,
             self.radiance.as_ref().expect("prepared"),
             self.target.as_ref().expect("prepared"),
         );
@@ -357,7 +357,7 @@ impl Renderer {
 
     /// The current receivers and caustic maps (tests read them back).
     pub fn receivers(&self) -> Option<&Receivers> {
-        self.receivers.as_ref()
+        Some(&self.receivers)
     }
 
     /// The current radiance grid (tests read its deposits back).

@@ -8,10 +8,10 @@
 //! same way and overlap in projection share texels (a documented limit, rare for floors and
 //! walls). Charts are rebuilt only when the receivers change.
 
-use anyhow::Result;
 use glam::{Vec2, Vec3};
 
 use crate::bvh::{Bvh, Triangle};
+use super::resources::GrowableBuffer;
 use crate::frame::{FrameDesc, Receiver};
 use crate::gpu::GpuContext;
 use crate::gpu::types::{BvhNode, BvhTriangle, Chart, ReceiverGpu};
@@ -124,32 +124,23 @@ pub fn layout(receivers: &[Receiver], texel: f32) -> ReceiverLayout {
     ReceiverLayout { bvh, receivers: table, charts, texels: offset }
 }
 
-/// The receivers' GPU buffers and the caustic maps sized by their charts.
+/// The receivers' GPU buffers and the caustic maps sized by their charts. Buffers only grow:
+/// moving receivers re-upload, they do not reallocate.
 pub struct Receivers {
-    pub bvh_nodes: wgpu::Buffer,
-    pub bvh_triangles: wgpu::Buffer,
-    pub receivers: wgpu::Buffer,
-    pub charts: wgpu::Buffer,
+    pub bvh_nodes: GrowableBuffer,
+    pub bvh_triangles: GrowableBuffer,
+    pub receivers: GrowableBuffer,
+    pub charts: GrowableBuffer,
     /// 4 u32 per texel: photon count, flux r, g, b (fixed point), written by the march stage.
-    pub caustic_atlas: wgpu::Buffer,
+    pub caustic_atlas: GrowableBuffer,
     /// Summed-area table of the atlas (caustics stage).
-    pub caustic_sat: wgpu::Buffer,
+    pub caustic_sat: GrowableBuffer,
     /// Filtered irradiance per texel (caustics stage → view stage).
-    pub caustic_irradiance: wgpu::Buffer,
+    pub caustic_irradiance: GrowableBuffer,
     pub layout: ReceiverLayout,
+    /// Changes when a buffer was reallocated (consumers rebind).
     pub generation: u64,
-    key: Vec<(usize, glam::Mat4, [u32; 3])>,
-}
-
-fn storage(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buffer {
-    let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some(label),
-        size: (bytes.len() as u64).max(64),
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    ctx.queue.write_buffer(&buffer, 0, bytes);
-    buffer
+    key: Option<Vec<(usize, glam::Mat4, [u32; 3])>>,
 }
 
 /// What identifies the receivers of a frame (meshes by pointer, placement, albedo bits).
@@ -169,40 +160,48 @@ impl Receivers {
         0.5 * desc.volume.voxel_size
     }
 
-    pub fn new(ctx: &GpuContext, desc: &FrameDesc) -> Result<Self> {
-        let texel = Self::texel_for(desc);
-        let layout = layout(&desc.receivers, texel);
-        let mut nodes = layout.bvh.nodes.clone();
-        if layout.bvh.triangles.is_empty() {
-            nodes = vec![BvhNode::default()]; // first = 0, count = 0: the empty tree
-        }
-        let triangles: Vec<BvhTriangle> = layout.bvh.gpu_triangles();
-        let texels = layout.texels.max(1) as u64;
-        let zeros = |label: &str, size: u64| {
-            ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            })
-        };
-        Ok(Self {
-            bvh_nodes: storage(ctx, "bvh nodes", bytemuck::cast_slice(&nodes)),
-            bvh_triangles: storage(ctx, "bvh triangles", bytemuck::cast_slice(&triangles)),
-            receivers: storage(ctx, "receivers", bytemuck::cast_slice(&layout.receivers)),
-            charts: storage(ctx, "charts", bytemuck::cast_slice(&layout.charts)),
-            caustic_atlas: zeros("caustic atlas", texels * 16),
-            caustic_sat: zeros("caustic sat", texels * 16),
-            caustic_irradiance: zeros("caustic irradiance", texels * 16),
-            layout,
+    pub fn new(device: &wgpu::Device) -> Self {
+        let buffer = |label| GrowableBuffer::new(device, label, 64);
+        Self {
+            bvh_nodes: buffer("bvh nodes"),
+            bvh_triangles: buffer("bvh triangles"),
+            receivers: buffer("receivers"),
+            charts: buffer("charts"),
+            caustic_atlas: buffer("caustic atlas"),
+            caustic_sat: buffer("caustic sat"),
+            caustic_irradiance: buffer("caustic irradiance"),
+            layout: layout(&[], 1.0),
             generation: super::resources::next_generation(),
-            key: key_of(desc, texel),
-        })
+            key: None,
+        }
     }
 
-    /// Whether this frame's receivers differ from the ones uploaded.
-    pub fn changed(&self, desc: &FrameDesc) -> bool {
-        self.key != key_of(desc, Self::texel_for(desc))
+    /// Uploads this frame's receivers if they changed; true if they did.
+    pub fn update(&mut self, ctx: &GpuContext, desc: &FrameDesc) -> bool {
+        let texel = Self::texel_for(desc);
+        let key = key_of(desc, texel);
+        if self.key.as_ref() == Some(&key) {
+            return false;
+        }
+        self.layout = layout(&desc.receivers, texel);
+        let mut nodes = self.layout.bvh.nodes.clone();
+        if self.layout.bvh.triangles.is_empty() {
+            nodes = vec![BvhNode::default()]; // first = 0, count = 0: the empty tree
+        }
+        let triangles: Vec<BvhTriangle> = self.layout.bvh.gpu_triangles();
+        let texel_bytes = self.layout.texels.max(1) as u64 * 16;
+        let mut grown = self.bvh_nodes.write(ctx, bytemuck::cast_slice(&nodes));
+        grown |= self.bvh_triangles.write(ctx, bytemuck::cast_slice(&triangles));
+        grown |= self.receivers.write(ctx, bytemuck::cast_slice(&self.layout.receivers));
+        grown |= self.charts.write(ctx, bytemuck::cast_slice(&self.layout.charts));
+        grown |= self.caustic_atlas.reserve(ctx, texel_bytes);
+        grown |= self.caustic_sat.reserve(ctx, texel_bytes);
+        grown |= self.caustic_irradiance.reserve(ctx, texel_bytes);
+        if grown {
+            self.generation = super::resources::next_generation();
+        }
+        self.key = Some(key);
+        true
     }
 }
 

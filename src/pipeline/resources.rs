@@ -298,10 +298,19 @@ impl GrowableBuffer {
         let buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
             size: capacity,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
         Self { buffer, label, capacity }
+    }
+
+    /// Makes room for `bytes` without uploading; returns true when it reallocated.
+    pub fn reserve(&mut self, ctx: &GpuContext, bytes: u64) -> bool {
+        let grown = bytes > self.capacity;
+        if grown {
+            *self = Self::new(&ctx.device, self.label, bytes.next_power_of_two());
+        }
+        grown
     }
 
     /// Uploads `bytes`; returns true when the buffer was reallocated (bind groups must be rebuilt).

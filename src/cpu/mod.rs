@@ -2,4 +2,5 @@
 //! GPU bugs (run both on one input and compare) and to check the numerics against closed forms.
 
 pub mod field;
+pub mod mesh;
 pub mod ray;

@@ -53,6 +53,7 @@ pub fn module(lua: &Lua) -> mlua::Result<Table> {
         "plane",
         lua.create_function(|lua, t: Option<Table>| shape(lua, Shape::Plane { size: glam::Vec2::ONE }, t, &["size"]))?,
     )?;
+    super::meshes::register(lua, &r)?;
     r.raw_set("glass", lua.create_function(|lua, t: Option<Table>| new_glass(lua, t))?)?;
     r.raw_set(
         "diffuse",

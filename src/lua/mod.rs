@@ -4,6 +4,7 @@
 
 pub mod api;
 pub mod convert;
+pub mod meshes;
 pub mod objects;
 pub mod sandbox;
 

@@ -14,6 +14,7 @@ pub mod eval;
 pub mod light;
 pub mod material;
 pub mod mesh;
+pub mod obj;
 pub mod shape;
 
 use std::cell::RefCell;

@@ -45,11 +45,12 @@
 @group(1) @binding(2) var<storage, read> triangle_indices: array<u32>;
 
 const WG: u32 = 64u;
-const LARGE_WG: u32 = 128u;
-// Columns one thread handles before a triangle counts as large (a band column costs ~6
-// distance evaluations, a crossing column one test).
-const SMALL_CROSSING_COLUMNS: u32 = 64u;
-const SMALL_BAND_COLUMNS: u32 = 16u;
+const LARGE_WG: u32 = 64u;
+// Columns one thread handles before a triangle counts as large: a triangle a few voxels
+// across stays with its thread (a band column costs ~5 distance evaluations, a crossing
+// column one exact test), one spanning many voxels is shared by a workgroup.
+const SMALL_CROSSING_COLUMNS: u32 = 256u;
+const SMALL_BAND_COLUMNS: u32 = 64u;
 const BAND_PASS: u32 = 3u;
 // Fixed-point coordinates stay within ±2^18 (relative to the grid origin), so every
 // difference fits in 20 bits and every determinant below in 60 (see the twin's bounds test).

@@ -550,3 +550,50 @@ fn upload(ctx: &GpuContext, slot: &mut Slot, layout: &wgpu::BindGroupLayout, mes
         triangle_count: triangles.len() as u32,
     });
 }
+
+/// GPU time of the voxelize stage for one mesh, as [`benchmark`] measures it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VoxelizeTiming {
+    /// Volume dimensions the mesh was voxelized into.
+    pub dims: UVec3,
+    /// Triangles voxelized.
+    pub triangles: u32,
+    /// Median milliseconds of the mesh-solid kernels (`voxelize.meshes`).
+    pub meshes_ms: f64,
+    /// Median milliseconds of compositing into n, κ, σ (`voxelize`).
+    pub composite_ms: f64,
+}
+
+/// Times the voxelize stage on one glass mesh in a volume fitted to it with `resolution`
+/// voxels along its longest side, computing the mesh's solid afresh in each of `runs` runs
+/// (`refrakt bench`). `None` when the adapter has no timestamp queries.
+pub fn benchmark(renderer: &mut super::Renderer, mesh: Arc<MeshData>, resolution: u32, runs: u32) -> Result<Option<VoxelizeTiming>> {
+    use crate::scene::{Glass, Material, Node, Scene, Shape, eval, shared};
+    let triangles = mesh.solid_triangles().len() as u32;
+    let mut scene = Scene::default();
+    let mut node = Node::new("benchmark");
+    node.shape = Some(shared(Shape::Mesh { mesh, source: "benchmark".into(), boundary: None }));
+    node.material = Some(shared(Material::Glass(Glass::default())));
+    scene.roots.push(shared(node));
+    let desc = eval::evaluate(&scene, 0.0, &eval::EvalOptions { resolution: Some(resolution), ..Default::default() })?;
+    let mut meshes = Vec::new();
+    let mut composite = Vec::new();
+    // One run first to allocate and compile; it is not counted.
+    for run in 0..=runs {
+        renderer.forget_mesh_voxels();
+        let passes = renderer.time_volume(&desc)?;
+        if passes.is_empty() {
+            return Ok(None);
+        }
+        let ms = |label: &str| passes.iter().filter(|(l, _)| *l == label).map(|(_, ms)| ms).sum::<f64>();
+        if run > 0 {
+            meshes.push(ms("voxelize.meshes"));
+            composite.push(ms("voxelize"));
+        }
+    }
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    Ok(Some(VoxelizeTiming { dims: desc.volume.dims, triangles, meshes_ms: median(meshes), composite_ms: median(composite) }))
+}

@@ -13,17 +13,19 @@
 //   prefix_parity       per column: running XOR of the crossing marks → parity per voxel
 //   signed_distance     per voxel: the three axes vote inside/outside; ± band distance
 //
-// Inside/outside is the even–odd rule along rays parallel to the three axes, voted (Nooruddin
-// & Turk 2003, "Simplification and repair of polygonal models using volumetric techniques",
-// §4.1, with three ray directions). A ray's vote counts only if it crosses the surface an even
-// number of times over its whole line: a ray through a hole crosses an odd number of times and
-// abstains. A voxel is inside when most votes cast say so, so a hole never floods the outside,
-// and empties only voxels whose three lines all pass through holes. Crossings are decided exactly: vertices are snapped to fixed
-// point, and the point-in-triangle test and the side of the crossing are signs of integer
-// determinants (int64.wgsl). A column that passes exactly through an edge or a vertex counts
-// as if moved by the infinitesimal (−ε, −ε²) in its plane (the tie rule in `owns`), so every
-// line crosses a closed mesh an even number of times, shared edges are counted once, and
-// flipped triangles change nothing. The CPU twin (src/cpu/mesh.rs) gives identical bits.
+// Inside/outside is the even–odd rule along rays parallel to the three axes, voted (the parity
+// count of Nooruddin & Turk 2003, "Simplification and repair of polygonal models using
+// volumetric techniques", with three ray directions; docs/meshes.md states the guarantees). A
+// ray's vote counts only if it crosses the surface an even number of times over its whole
+// line: a ray through a hole crosses an odd number of times and abstains. A voxel is inside
+// when most votes cast say so, so a hole never floods the outside, and empties only voxels
+// whose three lines all pass through holes. Crossings are decided exactly: vertices are
+// snapped to fixed point, and the point-in-triangle test and the side of the crossing are
+// signs of integer determinants (int64.wgsl). A column that passes exactly through an edge or
+// a vertex counts as if moved by the infinitesimal (−ε, −ε²) in its plane (the tie rule in
+// `owns`), so every line crosses a closed mesh an even number of times, shared edges are
+// counted once, and flipped triangles change nothing. The CPU twin (src/cpu/mesh.rs) gives
+// identical bits.
 //
 // The distance band: every voxel centre within `reach` ≥ 0.9 voxel of a triangle gets its
 // exact distance to the nearest one (atomicMax on the inverted bits of a non-negative f32 is an

@@ -164,3 +164,27 @@ fn meshes_take_the_volume_default_or_their_own_boundary() {
     let h = desc.volume.voxel_size;
     assert!((desc.meshes[0].boundary - 2.0 * h).abs() < 1e-6 && desc.meshes[1].boundary == 0.0);
 }
+
+#[test]
+fn mesh_examples_load() {
+    for (name, triangles) in [("glass_blob.lua", 5120), ("wine_glass.lua", 3840)] {
+        let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples").join(name);
+        let host = ScriptHost::load(&path, &[], &Limits::default()).unwrap_or_else(|e| panic!("{e:#}"));
+        host.update(1.0).unwrap();
+        let desc = refrakt::scene::eval::evaluate(&host.scene().borrow(), 1.0, &Default::default()).unwrap();
+        assert_eq!(desc.meshes.len(), 1, "{name}");
+        assert_eq!(desc.meshes[0].mesh.triangles.len(), triangles, "{name}");
+        assert_eq!((desc.camera.width, desc.camera.height, desc.volume.dims.max_element()), (1024, 576, if name == "glass_blob.lua" { 128 } else { 192 }));
+    }
+    // Without the bunny, its example renders a stand-in (and says where to get the bunny);
+    // asked for one it cannot read, it stops and says why.
+    let bunny_lua = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/bunny.lua");
+    if std::env::var_os("REFRAKT_BUNNY").is_none() && !bunny_lua.with_file_name("bunny.obj").exists() {
+        let host = ScriptHost::load(&bunny_lua, &[], &Limits::default()).unwrap_or_else(|e| panic!("{e:#}"));
+        let desc = refrakt::scene::eval::evaluate(&host.scene().borrow(), 0.0, &Default::default()).unwrap();
+        assert_eq!(desc.meshes[0].mesh.triangles.len(), 5120, "the stand-in pebble");
+    }
+    let source = std::fs::read_to_string(&bunny_lua).unwrap().replace("r.getenv(\"REFRAKT_BUNNY\")", "\"missing/bunny.obj\"");
+    let e = script_error(&source);
+    assert!(e.contains("cannot open \"missing/bunny.obj\"") && e.contains("REFRAKT_BUNNY=/path/to/bunny.obj") && e.contains("--allow-read"), "{e}");
+}

@@ -222,14 +222,12 @@ pub fn torus(major: f32, minor: f32, major_segments: u32, minor_segments: u32) -
 /// to its first (a torus). Either direction of travel gives outward winding.
 pub fn lathe(profile: &[Vec2], segments: u32, closed: bool) -> MeshData {
     let mut points: Vec<Vec2> = profile.iter().map(|p| Vec2::new(p.x.max(0.0), p.y)).collect();
-    if !closed {
-        if let (Some(first), Some(last)) = (points.first().copied(), points.last().copied()) {
-            if first.x > 0.0 {
-                points.insert(0, Vec2::new(0.0, first.y));
-            }
-            if last.x > 0.0 {
-                points.push(Vec2::new(0.0, last.y));
-            }
+    if let (false, Some(first), Some(last)) = (closed, points.first().copied(), points.last().copied()) {
+        if first.x > 0.0 {
+            points.insert(0, Vec2::new(0.0, first.y));
+        }
+        if last.x > 0.0 {
+            points.push(Vec2::new(0.0, last.y));
         }
     }
     // Counter-clockwise in the (radius, height) half-plane, the solid on the left, gives

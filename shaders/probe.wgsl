@@ -1,6 +1,8 @@
-// Diagnostic kernel: traces given rays through the ior_grid with the integrator the view and
-// photon passes use, recording their state along the way. Tests compare it with the CPU twin
-// and with closed-form optics; `refrakt trace` prints it.
+// Diagnostic kernels: `main` traces given rays through the ior_grid with the integrator the view
+// and photon passes use, recording their state along the way; `octree_query` reports the
+// straight step the octree allows at given points; `dda_cells` lists the cells a segment
+// (origin → origin + dir, in cell units) crosses, as the photons' deposits do. Tests compare both with the CPU twins and
+// with closed-form optics; `refrakt trace` prints them.
 //
 // records[ray · records_per_ray + k] holds the state after k · record_every steps, the last
 // slot the state where the ray left the volume (or ran out of steps).
@@ -8,15 +10,30 @@
 #import shared/types.wgsl
 #import shared/grid.wgsl
 #import shared/ray.wgsl
+#import shared/octree.wgsl
+#import shared/dda.wgsl
 
 @group(0) @binding(0) var<uniform> params: ProbeParams;
 @group(0) @binding(1) var ior_grid: texture_3d<f32>;
 @group(0) @binding(2) var grid_sampler: sampler;
 @group(0) @binding(3) var<storage, read> rays: array<ProbeRay>;
 @group(0) @binding(4) var<storage, read_write> records: array<ProbeRecord>;
+@group(0) @binding(5) var<uniform> octree_params: OctreeParams;
+@group(0) @binding(6) var<storage, read> octree: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read_write> steps_out: array<vec4<f32>>;
 
 fn record(slot: u32, s: RayState, steps: u32) {
     records[slot] = ProbeRecord(s.x, s.g.w, s.v, steps);
+}
+
+fn advance(s: ptr<function, RayState>) {
+    if params.integrator == INTEGRATOR_EULER {
+        march_step_euler(ior_grid, grid_sampler, params.grid, s, params.step);
+    } else if params.max_step > 0.0 {
+        adaptive_step(ior_grid, grid_sampler, params.grid, s, params.step, params.max_step);
+    } else {
+        march_step(ior_grid, grid_sampler, params.grid, s, params.step);
+    }
 }
 
 @compute @workgroup_size(64)
@@ -34,11 +51,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     var steps = 0u;
     if span.x <= span.y && span.y > 0.0 {
         for (; steps < params.max_steps; steps++) {
-            if params.integrator == INTEGRATOR_EULER {
-                march_step_euler(ior_grid, grid_sampler, grid, &s, params.step);
-            } else {
-                march_step(ior_grid, grid_sampler, grid, &s, params.step);
-            }
+            advance(&s);
             let k = (steps + 1u) / params.record_every;
             if (steps + 1u) % params.record_every == 0u && k < params.records_per_ray - 1u {
                 record(base + k, s, steps + 1u);
@@ -50,4 +63,37 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
     }
     record(base + params.records_per_ray - 1u, s, steps);
+}
+
+// steps_out[r] = (step length from rays[r].origin along rays[r].dir, 1 if its cell is flat,
+// the flat cell's extent along x, 0).
+@compute @workgroup_size(64)
+fn octree_query(@builtin(global_invocation_id) id: vec3<u32>) {
+    let r = id.x;
+    if r >= params.ray_count {
+        return;
+    }
+    let ray = rays[r];
+    let cell = octree_cell(ray.origin);
+    let step = octree_step(ray.origin, ray.dir, params.step, params.max_step);
+    steps_out[r] = vec4<f32>(step, select(0.0, 1.0, cell.is_flat), cell.hi.x - cell.lo.x, 0.0);
+}
+
+// steps_out[r · records_per_ray + k] = (cell x, y, z, length inside) of the k-th cell crossed
+// by segment r (unused slots keep length 0).
+@compute @workgroup_size(64)
+fn dda_cells(@builtin(global_invocation_id) id: vec3<u32>) {
+    let r = id.x;
+    if r >= params.ray_count {
+        return;
+    }
+    let seg = rays[r];
+    var dda = dda_begin(seg.origin, seg.origin + seg.dir);
+    var k = 0u;
+    while dda_more(dda) && k < params.records_per_ray {
+        let cell = dda.cell;
+        let len = dda_advance(&dda);
+        steps_out[r * params.records_per_ray + k] = vec4<f32>(vec3<f32>(cell), len);
+        k++;
+    }
 }

@@ -1,31 +1,56 @@
-// Stage 6, view: camera rays bent through the index grid by the ray equation, attenuated per
-// color channel by Beer–Lambert, and shaded by the environment along the direction in which
-// they leave the volume.
+// Stage 6, view: camera rays through the volume along the ray equation (octree-adaptive steps,
+// the same integrator as the photons), attenuated per channel by Beer–Lambert, gathering the
+// light scattered toward the camera from the radiance grid (σ_s · phase · fluence, single
+// scattering as in Sun et al. 2008, §4.5), and ending on an opaque receiver — lit by the
+// lights (shadow rays, blocked by refractive media), by the caustic maps, and by the mean
+// environment — or in the environment along the direction they leave in.
 //
-// Writes two planes of vec4 per pixel into `frame`: [0] beauty (linear rgb, alpha = coverage of
-// refractive or absorbing media), [1] (depth of first entry into a medium along the camera axis,
-// 0, 0, 0). Each pixel averages `samples` rays at fixed sub-pixel offsets (the R2 sequence), so
-// edges are antialiased and an unchanged pixel renders identically in every frame.
+// Writes five planes of vec4 per pixel into `frame`:
+//   [0] beauty: linear rgb, alpha = coverage by refractive media or receivers
+//   [1] depth of the first medium or surface along the camera axis (x)
+//   [2] caustic: light receivers get from the caustic maps (rgb)
+//   [3] direct: light receivers get from the lights and the ambient environment (rgb)
+//   [4] volume: light scattered toward the camera in the volume (rgb)
+// beauty = caustic + direct + volume + the environment seen through (and around) the media.
+// Each pixel averages `samples` rays at fixed sub-pixel offsets (the R2 sequence), so edges are
+// antialiased, soft shadows are sampled, and an unchanged pixel renders identically every frame.
 
 #import shared/types.wgsl
 #import shared/grid.wgsl
 #import shared/ray.wgsl
+#import shared/octree.wgsl
+#import shared/bvh.wgsl
+#import shared/receivers.wgsl
+#import shared/lights.wgsl
 #import shared/environment.wgsl
 
 @group(0) @binding(0) var<uniform> params: ViewParams;
 @group(0) @binding(1) var ior_grid: texture_3d<f32>;
 @group(0) @binding(2) var extinction_grid: texture_3d<f32>;
-@group(0) @binding(3) var grid_sampler: sampler;
-@group(0) @binding(4) var env_map: texture_2d<f32>;
-@group(0) @binding(5) var env_sampler: sampler;
-@group(0) @binding(6) var<storage, read_write> frame: array<vec4<f32>>;
+@group(0) @binding(3) var scattering_grid: texture_3d<f32>;
+@group(0) @binding(4) var grid_sampler: sampler;
+@group(0) @binding(5) var env_map: texture_2d<f32>;
+@group(0) @binding(6) var env_sampler: sampler;
+@group(0) @binding(7) var<storage, read_write> frame: array<vec4<f32>>;
+@group(0) @binding(8) var<uniform> octree_params: OctreeParams;
+@group(0) @binding(9) var<storage, read> octree: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(11) var<storage, read> bvh_triangles: array<BvhTriangle>;
+@group(0) @binding(12) var<storage, read> receivers: array<ReceiverGpu>;
+@group(0) @binding(13) var<storage, read> charts: array<Chart>;
+@group(0) @binding(14) var<storage, read> caustic_irradiance: array<vec4<f32>>;
+@group(0) @binding(15) var<storage, read> lights: array<LightGpu>;
+@group(0) @binding(16) var fluence_grid: texture_3d<f32>;
+@group(0) @binding(17) var direction_grid: texture_3d<f32>;
 
-// Depth written where a ray meets no medium (Blender's convention for "infinitely far").
 const FAR_DEPTH: f32 = 1e10;
+const NO_HIT: f32 = 3.4e38;
+const INV_PI: f32 = 0.318309886;
+const FRAME_PLANES: u32 = 5u;
 
-// Sub-pixel offset of sample k: the R2 low-discrepancy sequence (Roberts 2018), centred so
-// that a single sample sits on the pixel centre.
-fn sample_offset(k: u32) -> vec2<f32> {
+// Sub-pixel offset of sample k: the R2 low-discrepancy sequence (Roberts 2018), centred so a
+// single sample sits on the pixel centre. Also drives soft-shadow samples.
+fn r2(k: u32) -> vec2<f32> {
     return fract(vec2<f32>(0.5) + f32(k) * vec2<f32>(0.7548776662, 0.5698402910));
 }
 
@@ -38,47 +63,254 @@ fn camera_ray(pixel: vec2<f32>) -> vec3<f32> {
     return normalize(cam.forward + ndc.x * cam.right + ndc.y * cam.up);
 }
 
-fn is_medium(g: vec4<f32>, extinction: vec3<f32>) -> bool {
-    return abs(g.w - 1.0) > params.medium_eps || any(extinction > vec3<f32>(0.0));
+fn has(flag: u32) -> bool {
+    return (params.flags & flag) != 0u;
+}
+
+// Henyey–Greenstein phase function for the angle θ between the light's travel and the scattered
+// direction.
+fn phase_hg(cos_theta: f32, g: f32) -> f32 {
+    let denom = 1.0 + g * g - 2.0 * g * cos_theta;
+    return (1.0 - g * g) / (4.0 * PI * denom * sqrt(denom));
+}
+
+// Radiance scattered toward the camera per unit length at x (viewed along d): σ_s · phase ·
+// fluence, the phase taken against the voxel's mean photon direction and blended toward
+// isotropic where the light arrives from many directions (|mean| < 1).
+fn in_scattering(x: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
+    let grid = params.grid;
+    let scattering = sample_grid(scattering_grid, grid_sampler, grid, x);
+    if all(scattering.rgb <= vec3<f32>(0.0)) {
+        return vec3<f32>(0.0);
+    }
+    let fluence = sample_grid(fluence_grid, grid_sampler, grid, x).rgb;
+    let mean_dir = sample_grid(direction_grid, grid_sampler, grid, x).xyz;
+    let a = min(length(mean_dir), 1.0);
+    let cos_theta = select(0.0, dot(mean_dir / max(a, 1e-6), -d), a > 0.0);
+    let phase = a * phase_hg(cos_theta, scattering.w) + (1.0 - a) / (4.0 * PI);
+    return scattering.rgb * phase * fluence;
+}
+
+// Transmittance along the straight segment from p along unit w for `dist`: exp(−∫σ_t), and
+// zero if it passes where n − 1 > eps_refract — light through glass arrives as caustic photons.
+fn shadow_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
+    let grid = params.grid;
+    let span = ray_box(p, w, grid.origin, grid_box_max(grid));
+    let t_end = min(span.y, dist);
+    if span.x > span.y || t_end <= 0.0 {
+        return vec3<f32>(1.0);
+    }
+    var t = max(span.x, 0.0);
+    var tr = vec3<f32>(1.0);
+    for (var k = 0u; k < params.max_steps && t < t_end; k++) {
+        let x = p + w * t;
+        let len = min(octree_step(x, w, params.step, params.max_step), t_end - t);
+        let mid = x + w * (0.5 * len);
+        if sample_ior(ior_grid, grid_sampler, grid, mid).w - 1.0 > params.eps_refract {
+            return vec3<f32>(0.0);
+        }
+        if has(VIEW_FLAG_MEDIA) {
+            tr *= exp(-sample_grid(extinction_grid, grid_sampler, grid, mid).rgb * len);
+        }
+        t += len;
+    }
+    return tr;
+}
+
+// Visibility of a light from p along w up to dist: opaque receivers, then media.
+fn visibility(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
+    if bvh_closest_hit(p, w, 1e-4, dist).t < dist {
+        return vec3<f32>(0.0);
+    }
+    return shadow_transmittance(p, w, dist);
+}
+
+// Irradiance at p (facing normal n) from light l, with one shadow sample (k picks it).
+fn direct_irradiance(l: LightGpu, p: vec3<f32>, n: vec3<f32>, k: u32) -> vec3<f32> {
+    let u = r2(k + 7u);
+    if l.kind == LIGHT_SUN {
+        var w = -l.direction;
+        if l.half_angle > 0.0 {
+            w = cone_direction(w, l.right, l.up, l.half_angle, u);
+        }
+        let c = dot(n, w);
+        if c <= 0.0 {
+            return vec3<f32>(0.0);
+        }
+        return l.radiant * c * visibility(p, w, NO_HIT);
+    }
+    var aim = l.position;
+    if l.kind == LIGHT_RECT {
+        aim += l.right * ((u.x - 0.5) * l.size_x) + l.up * ((u.y - 0.5) * l.size_y);
+    }
+    let to_light = aim - p;
+    let dist2 = dot(to_light, to_light);
+    let dist = sqrt(dist2);
+    let w = to_light / dist;
+    let c = dot(n, w);
+    if c <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    var intensity: vec3<f32>;
+    if l.kind == LIGHT_RECT {
+        // A one-sided Lambertian emitter of radiance L: I(θ) = L · A · cos θ (one sample).
+        intensity = l.radiant * (l.size_x * l.size_y) * max(dot(-w, l.direction), 0.0);
+    } else {
+        intensity = light_intensity(l, -w);
+    }
+    if all(intensity <= vec3<f32>(0.0)) {
+        return vec3<f32>(0.0);
+    }
+    return intensity * c / dist2 * visibility(p, w, dist);
+}
+
+// Bilinear lookup of a chart's filtered caustic irradiance.
+fn caustic_at(chart: Chart, p: vec3<f32>) -> vec3<f32> {
+    let f = chart_coords(chart, p) - 0.5;
+    let size = vec2<i32>(i32(chart.width), i32(chart.height));
+    let i0 = vec2<i32>(floor(f));
+    let t = f - floor(f);
+    var e = vec3<f32>(0.0);
+    for (var k = 0u; k < 4u; k++) {
+        let o = vec2<i32>(i32(k & 1u), i32(k >> 1u));
+        let c = clamp(i0 + o, vec2<i32>(0), size - 1);
+        let w = select(1.0 - t.x, t.x, o.x == 1) * select(1.0 - t.y, t.y, o.y == 1);
+        e += w * caustic_irradiance[chart.offset + u32(c.x) + chart.width * u32(c.y)].rgb;
+    }
+    return e;
+}
+
+struct Shading {
+    caustic: vec3<f32>,
+    direct: vec3<f32>,
+}
+
+// Radiance leaving a receiver toward the camera at the hit, split into caustic and direct.
+fn shade_receiver(hit: BvhHit, p: vec3<f32>, d: vec3<f32>, k: u32) -> Shading {
+    let n = bvh_triangle_normal(hit.triangle);
+    let back = dot(n, d) > 0.0;
+    let facing = select(n, -n, back);
+    let receiver = bvh_triangles[hit.triangle].receiver;
+    let albedo = receivers[receiver].albedo;
+    // Lift the shading point off the surface so its own triangle does not shadow it.
+    let q = p + facing * (1e-4 + 1e-3 * params.grid.voxel_size);
+    var e_direct = PI * params.ambient;
+    for (var i = 0u; i < params.light_count; i++) {
+        e_direct += direct_irradiance(lights[i], q, facing, k);
+    }
+    var e_caustic = vec3<f32>(0.0);
+    if has(VIEW_FLAG_CAUSTICS) {
+        let c = chart_for(receiver, facing, back);
+        if c >= 0 {
+            e_caustic = caustic_at(charts[u32(c)], p);
+        }
+    }
+    return Shading(albedo * INV_PI * e_caustic, albedo * INV_PI * e_direct);
 }
 
 struct ViewSample {
     radiance: vec3<f32>,
+    caustic: vec3<f32>,
+    direct: vec3<f32>,
+    volume: vec3<f32>,
     covered: bool,
     depth: f32,
 }
 
-fn trace_view(dir0: vec3<f32>) -> ViewSample {
+fn first_depth(s: ptr<function, ViewSample>, p: vec3<f32>) {
+    if !(*s).covered {
+        (*s).covered = true;
+        (*s).depth = dot(p - params.camera.position, params.camera.forward);
+    }
+}
+
+// Ends a view ray on a receiver: its shading, attenuated by the transmittance so far.
+fn end_on_receiver(out: ptr<function, ViewSample>, hit: BvhHit, p: vec3<f32>, d: vec3<f32>, transmittance: vec3<f32>, k: u32) {
+    first_depth(out, p);
+    let sh = shade_receiver(hit, p, d, k);
+    (*out).caustic = transmittance * sh.caustic;
+    (*out).direct = transmittance * sh.direct;
+    (*out).radiance = (*out).caustic + (*out).direct + (*out).volume;
+}
+
+fn is_medium(g: vec4<f32>, extinction: vec3<f32>) -> bool {
+    return abs(g.w - 1.0) > params.medium_eps || any(extinction > vec3<f32>(0.0));
+}
+
+fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
     let grid = params.grid;
     let origin = params.camera.position;
-    var out = ViewSample(vec3<f32>(0.0), false, FAR_DEPTH);
-    var dir = dir0;
+    var out = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH);
+    var d = dir0;
     var transmittance = vec3<f32>(1.0);
-    let span = ray_box(origin, dir, grid.origin, grid_box_max(grid));
-    if span.x <= span.y && span.y > 0.0 {
-        let h = params.step;
-        var s = ray_start(ior_grid, grid_sampler, grid, origin + dir * max(span.x, 0.0), dir);
+    // The receiver ahead along the current straight line, cast_from + hit.t·d.
+    var cast_from = origin;
+    var hit = bvh_closest_hit(origin, d, 0.0, NO_HIT);
+    var x = origin;
+    let span = ray_box(origin, d, grid.origin, grid_box_max(grid));
+    if span.x <= span.y && span.y > 0.0 && hit.t > max(span.x, 0.0) {
+        let box_max = grid_box_max(grid);
+        var s = ray_start(ior_grid, grid_sampler, grid, origin + d * max(span.x, 0.0), d);
         for (var i = 0u; i < params.max_steps; i++) {
             let x0 = s.x;
-            march_step(ior_grid, grid_sampler, grid, &s, h);
+            let ahead = hit.t - dot(x0 - cast_from, d);
+            var jump = octree_step(x0, d, params.step, params.max_step);
+            let bends = jump <= params.step;
+            jump = min(jump, ray_box(x0, d, grid.origin, box_max).y + 1e-4 * grid.voxel_size);
+            var end_on_hit = false;
+            if ahead <= jump {
+                s.x = x0 + d * ahead;
+                end_on_hit = true;
+            } else if bends {
+                march_step(ior_grid, grid_sampler, grid, &s, params.step);
+            } else {
+                s.x = x0 + d * jump;
+                s.g = sample_ior(ior_grid, grid_sampler, grid, s.x);
+                s.v = d * s.g.w;
+            }
+            let len = distance(x0, s.x);
+            let mid = 0.5 * (x0 + s.x);
             var extinction = vec3<f32>(0.0);
-            if (params.flags & VIEW_FLAG_MEDIA) != 0u {
-                // Beer–Lambert over the step, extinction taken at its midpoint.
-                extinction = sample_grid(extinction_grid, grid_sampler, grid, 0.5 * (x0 + s.x)).rgb;
-                transmittance *= exp(-extinction * h);
+            if has(VIEW_FLAG_MEDIA) {
+                // Beer–Lambert over the step, with the in-scattered light of its midpoint.
+                extinction = sample_grid(extinction_grid, grid_sampler, grid, mid).rgb;
+                if has(VIEW_FLAG_SCATTERING) {
+                    out.volume += transmittance * exp(-0.5 * extinction * len) * in_scattering(mid, d) * len;
+                }
+                transmittance *= exp(-extinction * len);
             }
-            if !out.covered && is_medium(s.g, extinction) {
-                out.covered = true;
-                out.depth = dot(x0 - origin, params.camera.forward);
+            if is_medium(s.g, extinction) {
+                first_depth(&out, x0);
             }
-            if !in_grid(grid, s.x) || all(transmittance < vec3<f32>(1e-4)) {
+            if end_on_hit {
+                end_on_receiver(&out, hit, s.x, d, transmittance, k);
+                return out;
+            }
+            let d_new = normalize(s.v);
+            if dot(d_new, d) < 1.0 - 1e-9 {
+                d = d_new;
+                cast_from = s.x;
+                hit = bvh_closest_hit(cast_from, d, 0.0, NO_HIT);
+            }
+            if all(transmittance < vec3<f32>(1e-4)) {
+                out.radiance = out.volume;
+                return out;
+            }
+            // (Checked after the step: the entry point itself may round to just outside.)
+            if !in_grid(grid, s.x) {
                 break;
             }
         }
-        dir = ray_dir(s);
+        x = s.x;
     }
+    if hit.t < NO_HIT {
+        let ahead = hit.t - dot(x - cast_from, d);
+        end_on_receiver(&out, hit, x + d * ahead, d, transmittance, k);
+        return out;
+    }
+    out.radiance = out.volume;
     if out.covered || params.env.visible != 0u {
-        out.radiance = transmittance * env_radiance(env_map, env_sampler, params.env, dir);
+        out.radiance += transmittance * env_radiance(env_map, env_sampler, params.env, d);
     }
     return out;
 }
@@ -88,18 +320,23 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= params.width || id.y >= params.height {
         return;
     }
-    var radiance = vec3<f32>(0.0);
+    var sum = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH);
     var coverage = 0.0;
-    var depth = FAR_DEPTH;
     for (var k = 0u; k < params.samples; k++) {
-        let s = trace_view(camera_ray(vec2<f32>(id.xy) + sample_offset(k)));
-        radiance += s.radiance;
+        let s = trace_view(camera_ray(vec2<f32>(id.xy) + r2(k)), k);
+        sum.radiance += s.radiance;
+        sum.caustic += s.caustic;
+        sum.direct += s.direct;
+        sum.volume += s.volume;
         coverage += select(0.0, 1.0, s.covered);
-        depth = min(depth, s.depth);
+        sum.depth = min(sum.depth, s.depth);
     }
     let inv = 1.0 / f32(params.samples);
     let pixel = id.x + id.y * params.width;
     let plane = params.width * params.height;
-    frame[pixel] = vec4<f32>(radiance * inv, coverage * inv);
-    frame[plane + pixel] = vec4<f32>(depth, 0.0, 0.0, 0.0);
+    frame[pixel] = vec4<f32>(sum.radiance * inv, coverage * inv);
+    frame[plane + pixel] = vec4<f32>(sum.depth, 0.0, 0.0, 0.0);
+    frame[2u * plane + pixel] = vec4<f32>(sum.caustic * inv, 0.0);
+    frame[3u * plane + pixel] = vec4<f32>(sum.direct * inv, 0.0);
+    frame[4u * plane + pixel] = vec4<f32>(sum.volume * inv, 0.0);
 }

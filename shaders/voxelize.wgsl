@@ -1,13 +1,14 @@
 // Stage 1, voxelize: analytic index fields and voxelized meshes → the raw index grid n and the
 // medium grids.
 //
-// Each object contributes a smooth coverage α ∈ [0, 1] (a C² step across its boundary, `boundary`
-// metres wide, centred on the surface) and its own index n_f and medium. Objects are composited
-// in order, later over earlier: n ← mix(n, n_f, α) — first the analytic fields in scene order,
-// then the meshes in scene order, so where glass objects overlap the later-listed one wins (a
-// mesh over any field). A smooth α keeps ∇n finite, so the ray equation bends rays at a surface
-// the way Snell's law does in the limit of a thin boundary. A field's α comes from its analytic
-// signed distance; a mesh's from the signed distance voxelize_mesh.wgsl left in the atlas.
+// The volume starts as the scene's fog (or empty air). Each object contributes a smooth
+// coverage α ∈ [0, 1] (a C² step across its boundary, `boundary` metres wide, centred on the
+// surface) and its own index n_f and medium. Objects are composited in order, later over
+// earlier: n ← mix(n, n_f, α) — first the index fields in scene order, then the meshes in scene
+// order, so where glass objects overlap the later-listed one wins (a mesh over any field). A
+// smooth α keeps ∇n finite, so the ray equation bends rays at a surface the way Snell's law does
+// in the limit of a thin boundary. A field's α comes from its analytic signed distance; a
+// mesh's from the signed distance voxelize_mesh.wgsl left in the atlas.
 //
 // The CPU twin is src/cpu/field.rs (fields) and src/cpu/mesh.rs (meshes).
 
@@ -18,8 +19,9 @@
 @group(0) @binding(2) var<storage, read_write> index_field: array<f32>;
 @group(0) @binding(3) var extinction_grid: texture_storage_3d<rgba16float, write>;
 @group(0) @binding(4) var scattering_grid: texture_storage_3d<rgba16float, write>;
-@group(0) @binding(5) var<storage, read> meshes: array<MeshVolume>;
-@group(0) @binding(6) var<storage, read> atlas: array<f32>;
+@group(0) @binding(5) var<storage, read> field_samples: array<f32>;
+@group(0) @binding(6) var<storage, read> meshes: array<MeshVolume>;
+@group(0) @binding(7) var<storage, read> atlas: array<f32>;
 
 // Quintic smoothstep on [0, 1]: C², so ∇n is continuous across the boundary.
 fn smootherstep(t: f32) -> f32 {
@@ -40,6 +42,22 @@ fn box_distance(p: vec3<f32>, half_size: vec3<f32>) -> f32 {
     return length(max(q, vec3<f32>(0.0))) + min(max(q.x, max(q.y, q.z)), 0.0);
 }
 
+// n of a sampled field (a script's n(x, y, z), evaluated on the CPU at voxel centres) at the
+// voxel containing x; `ok` is false outside its block of samples, where coverage is zero anyway.
+struct Sample {
+    n: f32,
+    ok: bool,
+}
+
+fn sampled_index(f: Field, x: vec3<f32>) -> Sample {
+    let v = vec3<i32>(floor((x - params.grid.origin) / params.grid.voxel_size)) - vec3<i32>(f.sample_first);
+    if any(v < vec3<i32>(0)) || any(v >= vec3<i32>(f.sample_dims)) {
+        return Sample(1.0, false);
+    }
+    let i = vec3<u32>(v);
+    return Sample(field_samples[f.sample_offset + i.x + f.sample_dims.x * (i.y + f.sample_dims.y * i.z)], true);
+}
+
 // (α, n_f) of one field at world point x.
 fn field_sample(f: Field, x: vec3<f32>) -> vec2<f32> {
     let p = (f.world_to_local * vec4<f32>(x, 1.0)).xyz;
@@ -55,6 +73,10 @@ fn field_sample(f: Field, x: vec3<f32>) -> vec2<f32> {
             let r = length(p) / f.half_size.x;
             let n = sqrt(max(2.0 - r * r, 1.0));
             return vec2<f32>(coverage((length(p) - f.half_size.x) * f.scale, f.boundary), n);
+        }
+        case FIELD_SAMPLED: {
+            let s = sampled_index(f, x);
+            return vec2<f32>(select(0.0, coverage(box_distance(p, f.half_size) * f.scale, f.boundary), s.ok), s.n);
         }
         default: {
             // FIELD_SLAB: n = n₀ + g·y along the local y axis (metres).
@@ -72,8 +94,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let x = grid.origin + (vec3<f32>(id) + 0.5) * grid.voxel_size;
     var n = 1.0;
-    var absorption = vec3<f32>(0.0);
-    var scattering = vec4<f32>(0.0);
+    var absorption = params.fog_absorption.rgb;
+    var scattering = params.fog_scattering;
     for (var i = 0u; i < params.field_count; i++) {
         let f = fields[i];
         let s = field_sample(f, x);

@@ -86,13 +86,40 @@ impl VolumeDesc {
     }
 }
 
-/// Kinds of analytic index field.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Kinds of index field.
+#[derive(Clone, Debug, PartialEq)]
 pub enum FieldKind {
     Sphere,
     Box,
     Luneburg,
     Slab,
+    /// A script's n(x, y, z), sampled on the CPU at voxel centres (`scene::index_fn`).
+    Sampled(Arc<IndexSamples>),
+}
+
+/// n sampled at the centres of a block of voxels of the volume: voxels `first` to
+/// `first + dims − 1`, x fastest. Outside the block the field's coverage is zero (so an empty
+/// block is a field that covers no voxel).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct IndexSamples {
+    pub first: UVec3,
+    pub dims: UVec3,
+    pub values: Arc<[f32]>,
+    /// The volume's placement the block refers to (min corner, voxel size).
+    pub origin: Vec3,
+    pub voxel_size: f32,
+}
+
+impl IndexSamples {
+    /// n at the voxel containing world point `x`, or `None` outside the block.
+    pub fn at(&self, x: Vec3) -> Option<f32> {
+        let i = ((x - self.origin) / self.voxel_size).floor().as_ivec3() - self.first.as_ivec3();
+        if i.cmplt(glam::IVec3::ZERO).any() || i.cmpge(self.dims.as_ivec3()).any() {
+            return None;
+        }
+        let i = i.as_uvec3();
+        Some(self.values[(i.x + self.dims.x * (i.y + self.dims.y * i.z)) as usize])
+    }
 }
 
 /// One analytic index field in world space.
@@ -120,7 +147,12 @@ pub struct FieldDesc {
 }
 
 impl FieldDesc {
-    pub fn to_gpu(&self) -> types::Field {
+    /// The GPU record; a sampled field's values start at `sample_offset` in the samples buffer.
+    pub fn to_gpu(&self, sample_offset: u32) -> types::Field {
+        let (first, dims) = match &self.kind {
+            FieldKind::Sampled(s) => (s.first, s.dims),
+            _ => (UVec3::ZERO, UVec3::ZERO),
+        };
         types::Field {
             world_to_local: self.world_to_local.to_cols_array_2d(),
             half_size: self.half_size.into(),
@@ -129,6 +161,7 @@ impl FieldDesc {
                 FieldKind::Box => field_kind::BOX,
                 FieldKind::Luneburg => field_kind::LUNEBURG,
                 FieldKind::Slab => field_kind::SLAB,
+                FieldKind::Sampled(_) => field_kind::SAMPLED,
             },
             ior: self.ior,
             ior_gradient: self.gradient,
@@ -136,6 +169,10 @@ impl FieldDesc {
             scale: self.scale,
             absorption: self.absorption.extend(0.0).into(),
             scattering: self.scattering.extend(self.g).into(),
+            sample_first: first.into(),
+            sample_offset,
+            sample_dims: dims.into(),
+            _pad0: 0,
         }
     }
 

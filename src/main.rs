@@ -27,7 +27,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene (a .lua script) to EXR/PNG frames.
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Show the GPU adapter refrakt would use, its limits, and why it was chosen.
     Info {
         #[command(flatten)]
@@ -52,6 +52,9 @@ struct RenderArgs {
     /// Frames per second of the scene clock.
     #[arg(long, default_value_t = 24.0)]
     fps: f64,
+    /// Render a still of the scene at this time, seconds (what frame k of --frames shows at k / fps).
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, conflicts_with = "frames", allow_hyphen_values = true)]
+    time: f64,
     /// Folder for the frames.
     #[arg(long, short, default_value = "render", value_name = "DIR")]
     out: PathBuf,
@@ -122,12 +125,16 @@ fn run(cli: Cli) -> Result<()> {
             if !(a.fps.is_finite() && a.fps > 0.0) {
                 anyhow::bail!("--fps must be a positive number, got {}", a.fps);
             }
+            if !a.time.is_finite() {
+                anyhow::bail!("--time must be a finite number of seconds, got {}", a.time);
+            }
             if !(a.script_timeout.is_finite() && a.script_timeout > 0.0) {
                 anyhow::bail!("--script-timeout must be a positive number of seconds");
             }
             let opts = RenderOptions {
                 frames: a.frames,
                 fps: a.fps,
+                time: a.time,
                 out: a.out,
                 name: a.name,
                 formats: a.format,

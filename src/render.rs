@@ -45,6 +45,8 @@ impl std::str::FromStr for FrameRange {
 pub struct RenderOptions {
     pub frames: Option<FrameRange>,
     pub fps: f64,
+    /// Scene time of a still (`--time`), seconds; frames of a range are at k / fps.
+    pub time: f64,
     pub out: PathBuf,
     pub name: Option<String>,
     pub formats: Vec<Format>,
@@ -118,14 +120,16 @@ pub fn write_frame(image: &Image, paths: &[(Format, PathBuf)], png: &PngOptions)
 
 pub fn run(scene_path: &Path, opts: &RenderOptions) -> Result<()> {
     let mut progress = Progress::new(opts.progress);
-    let result = render_all(scene_path, opts, &mut progress);
+    let mut current = None;
+    let result = render_all(scene_path, opts, &mut progress, &mut current);
     if let Err(e) = &result {
-        progress.error(&format!("{e:#}"), None);
+        progress.error(&format!("{e:#}"), current);
     }
     result
 }
 
-fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &mut Progress) -> Result<()> {
+/// Renders every frame; `current` names the frame in hand when one fails.
+fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &mut Progress, current: &mut Option<i64>) -> Result<()> {
     let started = Instant::now();
     let mut source = SceneSource::load(scene_path, &opts.allow_read, &opts.limits)?;
     let ctx = crate::gpu::GpuContext::new(opts.adapter.as_deref())?;
@@ -147,9 +151,15 @@ fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &mut Progress) 
             progress.skip(k);
             continue;
         }
+        *current = numbered;
         let t0 = Instant::now();
-        let t = k as f64 / opts.fps;
+        let t = numbered.map_or(opts.time, |k| k as f64 / opts.fps);
         let desc = source.frame_desc(t, &opts.eval).map_err(|e| match numbered {
+            Some(k) if k > first => anyhow!(
+                "frame {k} (t = {t:.4} s): {e:#} (frames {first} to {} are written; fix the scene and re-run with \
+                 --skip-existing to go on from frame {k})",
+                k - 1
+            ),
             Some(k) => anyhow!("frame {k} (t = {t:.4} s): {e:#}"),
             None => e,
         })?;

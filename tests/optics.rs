@@ -166,7 +166,7 @@ fn linear_slab_bends_toward_higher_index_and_conserves_n_cos() {
         let dir = Vec3::new(a.cos() * az.cos(), a.sin(), a.cos() * az.sin());
         rays.push(ProbeRay { origin: (-dir * 0.35 + Vec3::new(0.0, -0.02, 0.0)).into(), dir: dir.into(), ..Default::default() });
     }
-    let opts = ProbeOptions { step: desc.volume.step, max_steps: steps, record_every: 1, records_per_ray: steps + 2, integrator: 0 };
+    let opts = ProbeOptions { step: desc.volume.step, max_steps: steps, record_every: 1, records_per_ray: steps + 2, integrator: 0, max_step: 0.0 };
     let out = r.probe(&rays, &opts).unwrap();
     for (i, ray) in rays.iter().enumerate() {
         let recs = &out[i * (steps as usize + 2)..(i + 1) * (steps as usize + 2) - 1];
@@ -256,4 +256,37 @@ fn leapfrog_is_second_order_and_euler_first_order() {
     assert!(p_leapfrog > 1.8, "velocity Verlet should converge at second order, measured {p_leapfrog}");
     // At the same cost per step, the second-order step is far more accurate.
     assert!(leapfrog[1] * 10.0 < euler[1], "leapfrog {} vs euler {} at h = R/8", leapfrog[1], euler[1]);
+}
+
+#[test]
+fn adaptive_steps_keep_the_luneburg_focus_and_skip_the_air() {
+    // A lens in a box three times its size: most of every ray's path is air.
+    let desc = frame_from_lua(&lens_scene(64).replace("resolution = 64, margin = 0.05", "resolution = 64, margin = 0.6"));
+    let mut r = renderer();
+    r.build_volume(&desc).unwrap();
+    let radius = 0.5;
+    let rays = rays_into_sphere(300, radius, 0.9, 5);
+    let probe: Vec<ProbeRay> =
+        rays.iter().map(|(o, d, _)| ProbeRay { origin: (*o - *d).into(), dir: (*d).into(), ..Default::default() }).collect();
+    let h = desc.volume.step;
+    let fixed = r.probe(&probe, &ProbeOptions::endpoints(h, 100_000)).unwrap();
+    let adaptive = r.probe(&probe, &ProbeOptions { max_step: 64.0 * desc.volume.voxel_size, ..ProbeOptions::endpoints(h, 100_000) }).unwrap();
+    let (mut steps_fixed, mut steps_adaptive) = (0, 0);
+    let (mut err_fixed, mut err_adaptive) = (Vec::new(), Vec::new());
+    for (i, (_, _, p)) in rays.iter().enumerate() {
+        let (f, a) = (fixed[2 * i + 1], adaptive[2 * i + 1]);
+        steps_fixed += f.steps;
+        steps_adaptive += a.steps;
+        let expected = -*p / radius;
+        err_fixed.push(Vec3::from(f.v).normalize().angle_between(expected).to_degrees());
+        err_adaptive.push(Vec3::from(a.v).normalize().angle_between(expected).to_degrees());
+    }
+    eprintln!(
+        "adaptive: {steps_adaptive} steps vs {steps_fixed} fixed; exit direction error vs −P/R: mean {:.4}° (fixed {:.4}°), max {:.3}° (fixed {:.3}°)",
+        mean(&err_adaptive), mean(&err_fixed), max(&err_adaptive), max(&err_fixed)
+    );
+    assert!((steps_adaptive as f32) < 0.6 * steps_fixed as f32, "{steps_adaptive} vs {steps_fixed}");
+    // Straight jumps only cross cells where n (and so ∇n) is flat: the optics do not change.
+    assert!(mean(&err_adaptive) < 1.1 * mean(&err_fixed) + 0.005, "adaptive steps lose accuracy");
+    assert!(max(&err_adaptive) < 1.5 * max(&err_fixed), "adaptive steps lose accuracy on some ray");
 }

@@ -87,7 +87,7 @@ fn march_steps_match_cpu_twin_on_random_rays() {
         ("euler", integrator::EULER, cpu::ray::march_step_euler),
     ] {
         let steps = 60;
-        let opts = ProbeOptions { step: h, max_steps: steps, record_every: 1, records_per_ray: steps + 2, integrator: integ };
+        let opts = ProbeOptions { step: h, max_steps: steps, record_every: 1, records_per_ray: steps + 2, integrator: integ, max_step: 0.0 };
         let records = r.probe(&rays, &opts).unwrap();
         let mut worst = 0.0f32;
         for (i, ray) in rays.iter().enumerate() {

@@ -41,7 +41,13 @@ struct ViewParams {
     step: f32,
     medium_eps: f32,
     samples: u32,
-    _pad0: f32,
+    light_count: u32,
+    max_step: f32,
+    eps_refract: f32,
+    _pad0: u32,
+    _pad1: u32,
+    ambient: vec3<f32>,
+    _pad2: u32,
 }
 
 struct Field {
@@ -54,6 +60,10 @@ struct Field {
     scale: f32,
     absorption: vec4<f32>,
     scattering: vec4<f32>,
+    sample_first: vec3<u32>,
+    sample_offset: u32,
+    sample_dims: vec3<u32>,
+    _pad0: u32,
 }
 
 struct VoxelizeParams {
@@ -62,6 +72,8 @@ struct VoxelizeParams {
     mesh_count: u32,
     _pad1: u32,
     _pad2: u32,
+    fog_absorption: vec4<f32>,
+    fog_scattering: vec4<f32>,
 }
 
 struct MeshParams {
@@ -98,7 +110,7 @@ struct ProbeParams {
     ray_count: u32,
     records_per_ray: u32,
     integrator: u32,
-    _pad0: u32,
+    max_step: f32,
     _pad1: u32,
 }
 
@@ -116,12 +128,145 @@ struct ProbeRecord {
     steps: u32,
 }
 
+struct BvhNode {
+    min: vec3<f32>,
+    first: u32,
+    max: vec3<f32>,
+    count: u32,
+}
+
+struct BvhTriangle {
+    v0: vec3<f32>,
+    receiver: u32,
+    e1: vec3<f32>,
+    _pad0: u32,
+    e2: vec3<f32>,
+    _pad1: u32,
+}
+
+struct ReceiverGpu {
+    albedo: vec3<f32>,
+    _pad0: u32,
+    charts_a: vec4<i32>,
+    charts_b: vec4<i32>,
+    charts_c: vec4<i32>,
+}
+
+struct Chart {
+    origin: vec2<f32>,
+    texel: f32,
+    axis: u32,
+    width: u32,
+    height: u32,
+    offset: u32,
+    _pad0: u32,
+}
+
+struct LightGpu {
+    position: vec3<f32>,
+    kind: u32,
+    direction: vec3<f32>,
+    cos_outer: f32,
+    right: vec3<f32>,
+    cos_inner: f32,
+    up: vec3<f32>,
+    half_angle: f32,
+    radiant: vec3<f32>,
+    size_x: f32,
+    size_y: f32,
+    _pad0: f32,
+    _pad1: f32,
+    _pad2: f32,
+}
+
+struct Emitter {
+    origin: vec3<f32>,
+    light: u32,
+    axis: vec3<f32>,
+    cos_max: f32,
+    right: vec3<f32>,
+    half_width: f32,
+    up: vec3<f32>,
+    half_height: f32,
+    measure: f32,
+    first_cell: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+struct Photon {
+    origin: vec3<f32>,
+    flags: u32,
+    dir: vec3<f32>,
+    _pad0: u32,
+    flux: vec3<f32>,
+    _pad1: u32,
+}
+
+struct OctreeParams {
+    grid: GridParams,
+    level_count: u32,
+    eps_n: f32,
+    eps_sigma: f32,
+    _pad0: u32,
+    levels: array<vec4<u32>, 12>,
+}
+
+struct PhotonParams {
+    grid: GridParams,
+    emitter_count: u32,
+    cells: u32,
+    photon_count: u32,
+    seed: u32,
+    medium_importance: f32,
+    eps_refract: f32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+struct MarchParams {
+    grid: GridParams,
+    photon_count: u32,
+    max_steps: u32,
+    min_step: f32,
+    max_step: f32,
+    radiance_scale: f32,
+    flux_scale: f32,
+    flux_unit: f32,
+    flags: u32,
+    eps_refract: f32,
+    receiver_count: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+struct CausticParams {
+    chart_count: u32,
+    target_count: u32,
+    fixed_radius: u32,
+    max_radius: u32,
+    flux_unit: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
 const FIELD_SPHERE: u32 = 0u;
 const FIELD_BOX: u32 = 1u;
 const FIELD_LUNEBURG: u32 = 2u;
 const FIELD_SLAB: u32 = 3u;
+const FIELD_SAMPLED: u32 = 4u;
 
 const VIEW_FLAG_MEDIA: u32 = 1u;
+const VIEW_FLAG_SCATTERING: u32 = 2u;
+const VIEW_FLAG_CAUSTICS: u32 = 4u;
+
+const MARCH_FLAG_DEPOSIT_RADIANCE: u32 = 1u;
+
+const LIGHT_POINT: u32 = 0u;
+const LIGHT_SPOT: u32 = 1u;
+const LIGHT_SUN: u32 = 2u;
+const LIGHT_RECT: u32 = 3u;
 
 const INTEGRATOR_LEAPFROG: u32 = 0u;
 const INTEGRATOR_EULER: u32 = 1u;

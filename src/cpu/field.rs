@@ -22,7 +22,7 @@ pub fn box_distance(p: Vec3, half_size: Vec3) -> f32 {
 /// (α, n_f) of one field at world point `x`.
 pub fn field_sample(f: &FieldDesc, x: Vec3) -> (f32, f32) {
     let p = f.world_to_local.transform_point3(x);
-    match f.kind {
+    match &f.kind {
         FieldKind::Sphere => (coverage((p.length() - f.half_size.x) * f.scale, f.boundary), f.ior),
         FieldKind::Box => (coverage(box_distance(p, f.half_size) * f.scale, f.boundary), f.ior),
         FieldKind::Luneburg => {
@@ -34,14 +34,19 @@ pub fn field_sample(f: &FieldDesc, x: Vec3) -> (f32, f32) {
             let n = f.ior + f.gradient * p.y * f.scale;
             (coverage(box_distance(p, f.half_size) * f.scale, f.boundary), n)
         }
+        // Outside its block of samples a sampled field's coverage is zero.
+        FieldKind::Sampled(samples) => match samples.at(x) {
+            Some(n) => (coverage(box_distance(p, f.half_size) * f.scale, f.boundary), n),
+            None => (0.0, 1.0),
+        },
     }
 }
 
-/// The composited medium at one point: (n, extinction rgb, scattering rgb + g).
-pub fn medium_at(fields: &[FieldDesc], x: Vec3) -> (f32, Vec3, Vec4) {
+/// The composited medium at one point over the fog (if any): (n, extinction rgb, scattering rgb + g).
+pub fn medium_at(fields: &[FieldDesc], fog: Option<&crate::frame::FogDesc>, x: Vec3) -> (f32, Vec3, Vec4) {
     let mut n = 1.0f32;
-    let mut absorption = Vec3::ZERO;
-    let mut scattering = Vec4::ZERO;
+    let mut absorption = fog.map_or(Vec3::ZERO, |f| f.absorption);
+    let mut scattering = fog.map_or(Vec4::ZERO, |f| f.scattering.extend(f.g));
     for f in fields {
         let (a, nf) = field_sample(f, x);
         n = n * (1.0 - a) + nf * a;
@@ -63,7 +68,7 @@ pub fn rasterize(fields: &[FieldDesc], volume: &VolumeDesc) -> Vec<f32> {
         for y in 0..d.y {
             for x in 0..d.x {
                 let i = UVec3::new(x, y, z);
-                out[index(d, i)] = medium_at(fields, volume.voxel_centre(i)).0;
+                out[index(d, i)] = medium_at(fields, None, volume.voxel_centre(i)).0;
             }
         }
     }

@@ -20,19 +20,8 @@ macro_rules! embedded {
     };
 }
 
-/// Every WGSL file, embedded at build time. A new stage adds one line here.
-const EMBEDDED: &[(&str, &str)] = embedded!(
-    "shared/types.wgsl",
-    "shared/grid.wgsl",
-    "shared/ray.wgsl",
-    "shared/environment.wgsl",
-    "shared/int64.wgsl",
-    "voxelize.wgsl",
-    "voxelize_mesh.wgsl",
-    "gradient.wgsl",
-    "view.wgsl",
-    "probe.wgsl",
-);
+/// Every WGSL file under `shaders/`, embedded at build time (the list is made by `build.rs`).
+const EMBEDDED: &[(&str, &str)] = include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
 
 /// Where shader text comes from.
 #[derive(Clone, Debug)]

@@ -83,7 +83,16 @@ gpu_struct! {
         pub medium_eps: f32,
         /// Rays per pixel (a fixed R2 pattern of sub-pixel offsets: no flicker between frames).
         pub samples: u32,
-        pub _pad0: f32,
+        pub light_count: u32,
+        /// Longest straight step across a flat octree cell, metres.
+        pub max_step: f32,
+        /// n − 1 above which a medium counts as refractive (it blocks shadow rays).
+        pub eps_refract: f32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+        /// Mean environment radiance: the receivers' ambient light.
+        pub ambient: [f32; 3],
+        pub _pad2: u32,
     }
 }
 
@@ -106,6 +115,13 @@ gpu_struct! {
         pub absorption: [f32; 4],
         /// Scattering coefficient per metre, rgb; w: Henyey–Greenstein g.
         pub scattering: [f32; 4],
+        /// Sampled fields: the first voxel of their block of samples…
+        pub sample_first: [u32; 3],
+        /// …where the block starts in the samples buffer…
+        pub sample_offset: u32,
+        /// …and its size in voxels (x fastest).
+        pub sample_dims: [u32; 3],
+        pub _pad0: u32,
     }
 }
 
@@ -117,6 +133,10 @@ gpu_struct! {
         pub mesh_count: u32,
         pub _pad1: u32,
         pub _pad2: u32,
+        /// The medium between objects (fog, or nothing): absorption rgb per metre (w unused)…
+        pub fog_absorption: [f32; 4],
+        /// …and scattering rgb per metre, w: Henyey–Greenstein g.
+        pub fog_scattering: [f32; 4],
     }
 }
 
@@ -172,7 +192,8 @@ gpu_struct! {
         pub ray_count: u32,
         pub records_per_ray: u32,
         pub integrator: u32,
-        pub _pad0: u32,
+        /// > 0: adaptive steps up to this length through flat octree cells (metres).
+        pub max_step: f32,
         pub _pad1: u32,
     }
 }
@@ -197,18 +218,217 @@ gpu_struct! {
     }
 }
 
+gpu_struct! {
+    /// A node of the receivers' BVH: a leaf when `count > 0` (triangles `first..first+count`),
+    /// else an interior node whose children are `first` and `first + 1`.
+    pub struct BvhNode {
+        pub min: [f32; 3],
+        pub first: u32,
+        pub max: [f32; 3],
+        pub count: u32,
+    }
+}
+
+gpu_struct! {
+    /// A receiver triangle: a vertex and two edges, plus the receiver it belongs to.
+    pub struct BvhTriangle {
+        pub v0: [f32; 3],
+        pub receiver: u32,
+        pub e1: [f32; 3],
+        pub _pad0: u32,
+        pub e2: [f32; 3],
+        pub _pad1: u32,
+    }
+}
+
+gpu_struct! {
+    /// An opaque receiver: its albedo and its caustic charts, one per side a surface faces: slot
+    /// 2·axis + (0 for +, 1 for −), plus 6 when it is the back of the triangles that face that
+    /// way (the inside of a room) — slots 0–3 in `charts_a`, 4–7 in `charts_b`, 8–11 in
+    /// `charts_c`; −1 where it has none.
+    pub struct ReceiverGpu {
+        pub albedo: [f32; 3],
+        pub _pad0: u32,
+        pub charts_a: [i32; 4],
+        pub charts_b: [i32; 4],
+        pub charts_c: [i32; 4],
+    }
+}
+
+gpu_struct! {
+    /// A caustic map: a world-axis-aligned rectangle of texels over a receiver, seen along
+    /// `axis` (0..6: +X, −X, +Y, −Y, +Z, −Z). Texel (i, j) covers
+    /// `origin + (i, j) · texel` in the two other world axes (u = axis+1, v = axis+2 mod 3).
+    pub struct Chart {
+        pub origin: [f32; 2],
+        pub texel: f32,
+        pub axis: u32,
+        pub width: u32,
+        pub height: u32,
+        pub offset: u32,
+        pub _pad0: u32,
+    }
+}
+
+gpu_struct! {
+    /// A light in world space, radiometric (see `frame::LightDesc`).
+    pub struct LightGpu {
+        pub position: [f32; 3],
+        pub kind: u32,
+        pub direction: [f32; 3],
+        pub cos_outer: f32,
+        pub right: [f32; 3],
+        pub cos_inner: f32,
+        pub up: [f32; 3],
+        pub half_angle: f32,
+        pub radiant: [f32; 3],
+        pub size_x: f32,
+        pub size_y: f32,
+        pub _pad0: f32,
+        pub _pad1: f32,
+        pub _pad2: f32,
+    }
+}
+
+gpu_struct! {
+    /// How one light's photons are placed: a G×G raster of cells over the directions (point,
+    /// spot: an equal-area map of the cone around `axis` with cosine `cos_max`) or the area (sun:
+    /// a rectangle of half extents `half_width`, `half_height` across `axis`, centred on `origin`)
+    /// that can reach the volume. `measure` is each cell's solid angle (sr) or area (m²).
+    pub struct Emitter {
+        pub origin: [f32; 3],
+        pub light: u32,
+        pub axis: [f32; 3],
+        pub cos_max: f32,
+        pub right: [f32; 3],
+        pub half_width: f32,
+        pub up: [f32; 3],
+        pub half_height: f32,
+        pub measure: f32,
+        pub first_cell: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+    }
+}
+
+gpu_struct! {
+    /// A photon leaving its light: origin, unit direction, flux (W per channel), flags.
+    pub struct Photon {
+        pub origin: [f32; 3],
+        pub flags: u32,
+        pub dir: [f32; 3],
+        pub _pad0: u32,
+        pub flux: [f32; 3],
+        pub _pad1: u32,
+    }
+}
+
+gpu_struct! {
+    /// The min/max pyramid of the index grid: level L has `levels[L].xyz` cells starting at
+    /// cell `levels[L].w` of the octree buffer; level 0 cells span 2×2×2 voxel centres.
+    pub struct OctreeParams {
+        pub grid: GridParams,
+        pub level_count: u32,
+        /// A cell is flat when its n varies by less than this…
+        pub eps_n: f32,
+        /// …and its extinction (largest channel) by less than this, per metre.
+        pub eps_sigma: f32,
+        pub _pad0: u32,
+        pub levels: [[u32; 4]; 12],
+    }
+}
+
+gpu_struct! {
+    /// Uniforms of the photons stage (importance raster, CDF, emission).
+    pub struct PhotonParams {
+        pub grid: GridParams,
+        pub emitter_count: u32,
+        /// Cells per side of each emitter's raster.
+        pub cells: u32,
+        pub photon_count: u32,
+        pub seed: u32,
+        /// Importance of cells whose rays cross only the scattering medium (not glass).
+        pub medium_importance: f32,
+        /// n − 1 above which a medium counts as refractive.
+        pub eps_refract: f32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+    }
+}
+
+gpu_struct! {
+    /// Uniforms of the march stage.
+    pub struct MarchParams {
+        pub grid: GridParams,
+        pub photon_count: u32,
+        pub max_steps: u32,
+        /// Arc length of a step where n varies, metres.
+        pub min_step: f32,
+        /// Longest straight step through a flat cell, metres.
+        pub max_step: f32,
+        /// Fixed-point units per (photon flux / mean photon flux) · voxel length, radiance grid.
+        pub radiance_scale: f32,
+        /// Fixed-point units per (photon flux / mean photon flux), caustic maps and statistics.
+        pub flux_scale: f32,
+        /// W per unit of photon flux / mean photon flux.
+        pub flux_unit: f32,
+        pub flags: u32,
+        pub eps_refract: f32,
+        pub receiver_count: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+    }
+}
+
+gpu_struct! {
+    /// Uniforms of the caustics stage (filtering the receivers' caustic maps).
+    pub struct CausticParams {
+        pub chart_count: u32,
+        /// Photons a filter footprint should hold (density-adaptive kernel).
+        pub target_count: u32,
+        /// 0: adaptive; r > 0: fixed box of half-size r texels.
+        pub fixed_radius: u32,
+        pub max_radius: u32,
+        /// W per fixed-point unit of deposited flux.
+        pub flux_unit: f32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+        pub _pad2: u32,
+    }
+}
+
 /// Field kinds, as `Field::kind` (mirrored by constants in `types.wgsl`).
 pub mod field_kind {
     pub const SPHERE: u32 = 0;
     pub const BOX: u32 = 1;
     pub const LUNEBURG: u32 = 2;
     pub const SLAB: u32 = 3;
+    /// A script's n(x, y, z), sampled on the CPU (`scene::index_fn`).
+    pub const SAMPLED: u32 = 4;
 }
 
 /// `ViewParams::flags` bits (mirrored in `types.wgsl`).
 pub mod view_flags {
     /// Some object absorbs or scatters: sample the medium grid along rays.
     pub const MEDIA: u32 = 1;
+    /// Something scatters: gather in-scattered light from the radiance grid.
+    pub const SCATTERING: u32 = 2;
+    /// Photons were traced: receivers read their caustic maps.
+    pub const CAUSTICS: u32 = 4;
+}
+
+/// `MarchParams::flags` bits.
+pub mod march_flags {
+    /// Deposit flux along paths into the radiance grid (only needed when something scatters).
+    pub const DEPOSIT_RADIANCE: u32 = 1;
+}
+
+/// Light kinds (`LightGpu::kind`).
+pub mod light_kind {
+    pub const POINT: u32 = 0;
+    pub const SPOT: u32 = 1;
+    pub const SUN: u32 = 2;
+    pub const RECT: u32 = 3;
 }
 
 /// Probe integrators (`ProbeParams::integrator`).
@@ -255,5 +475,16 @@ mod tests {
         check::<ProbeParams>(&module);
         check::<ProbeRay>(&module);
         check::<ProbeRecord>(&module);
+        check::<BvhNode>(&module);
+        check::<BvhTriangle>(&module);
+        check::<ReceiverGpu>(&module);
+        check::<Chart>(&module);
+        check::<LightGpu>(&module);
+        check::<Emitter>(&module);
+        check::<Photon>(&module);
+        check::<OctreeParams>(&module);
+        check::<PhotonParams>(&module);
+        check::<MarchParams>(&module);
+        check::<CausticParams>(&module);
     }
 }

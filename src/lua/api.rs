@@ -1,11 +1,10 @@
 //! The `refrakt` module scripts `require`: constructors for every object of the scene graph, and
-//! small vector/quaternion helpers (angles in degrees on the Lua side).
+//! (from `vecmath`) vector, rotation and color helpers (angles in degrees on the Lua side).
 
-use glam::{Quat, Vec3};
-use mlua::{Lua, Table, Value};
+use glam::Vec3;
+use mlua::{Lua, Table};
 
-use super::convert::{self as cv, FieldName, error_at};
-use super::objects::{LQuat, Obj, construct, new_glass, new_node};
+use super::objects::{Obj, construct, new_glass, new_node};
 use crate::scene::{Camera, Diffuse, Environment, Fog, Light, LightKind, Material, Scene, Shape, VolumeSettings};
 
 fn shape(lua: &Lua, init: Shape, t: Option<Table>, required: &[&str]) -> mlua::Result<Obj<Shape>> {
@@ -53,6 +52,7 @@ pub fn module(lua: &Lua) -> mlua::Result<Table> {
         "plane",
         lua.create_function(|lua, t: Option<Table>| shape(lua, Shape::Plane { size: glam::Vec2::ONE }, t, &["size"]))?,
     )?;
+    r.raw_set("field", lua.create_function(|lua, t: Option<Table>| super::field::new_field(lua, t))?)?;
     super::meshes::register(lua, &r)?;
     r.raw_set("glass", lua.create_function(|lua, t: Option<Table>| new_glass(lua, t))?)?;
     r.raw_set(
@@ -77,47 +77,30 @@ pub fn module(lua: &Lua) -> mlua::Result<Table> {
     )?;
     r.raw_set("volume", lua.create_function(|lua, t: Option<Table>| construct(lua, VolumeSettings::default(), t, &[]))?)?;
 
-    // Rotations.
-    r.raw_set(
-        "euler",
-        lua.create_function(|lua, v: Value| {
-            Ok(LQuat(cv::rotation(lua, FieldName { what: "refrakt.euler", field: "angles" }, &v)?))
-        })?,
-    )?;
-    r.raw_set(
-        "axis_angle",
-        lua.create_function(|lua, (axis, degrees): (Value, Value)| {
-            let axis = cv::vec3(lua, FieldName { what: "refrakt.axis_angle", field: "axis" }, &axis)?;
-            let deg = cv::number(lua, FieldName { what: "refrakt.axis_angle", field: "degrees" }, &degrees)?;
-            if axis.length_squared() < 1e-12 {
-                return Err(error_at(lua, "refrakt.axis_angle: the axis must not be the zero vector"));
-            }
-            Ok(LQuat(Quat::from_axis_angle(axis.normalize(), (deg as f32).to_radians())))
-        })?,
-    )?;
-    r.raw_set(
-        "quat",
-        lua.create_function(|lua, v: Table| {
-            let get = |k: &str, i: usize| -> mlua::Result<f32> {
-                let mut x: Value = v.raw_get(k)?;
-                if x.is_nil() {
-                    x = v.raw_get(i)?;
-                }
-                Ok(cv::number(lua, FieldName { what: "refrakt.quat", field: k }, &x)? as f32)
-            };
-            let q = Quat::from_xyzw(get("x", 2)?, get("y", 3)?, get("z", 4)?, get("w", 1)?);
-            if q.length_squared() < 1e-12 {
-                return Err(error_at(lua, "refrakt.quat: a rotation quaternion must not be zero"));
-            }
-            Ok(LQuat(q.normalize()))
-        })?,
-    )?;
-    r.raw_set(
-        "slerp",
-        lua.create_function(|lua, (a, b, t): (mlua::UserDataRef<LQuat>, mlua::UserDataRef<LQuat>, Value)| {
-            let t = cv::number(lua, FieldName { what: "refrakt.slerp", field: "t" }, &t)? as f32;
-            Ok(LQuat(a.0.slerp(b.0, t)))
-        })?,
-    )?;
+    r.raw_set("ior", ior_table(lua)?)?;
+    super::vecmath::install(lua, &r)?;
     Ok(r)
+}
+
+/// Indices of refraction of common media at 589 nm (the sodium D line), so scripts can say
+/// `ior = r.ior.water`.
+const NAMED_IORS: &[(&str, f64)] = &[
+    ("air", 1.000293),
+    ("water", 1.333),
+    ("ice", 1.309),
+    ("fused_silica", 1.458),
+    ("acrylic", 1.491),
+    ("glass", 1.5),
+    ("crown", 1.5168),
+    ("flint", 1.62),
+    ("sapphire", 1.77),
+    ("diamond", 2.417),
+];
+
+fn ior_table(lua: &Lua) -> mlua::Result<Table> {
+    let t = lua.create_table()?;
+    for (name, n) in NAMED_IORS {
+        t.raw_set(*name, *n)?;
+    }
+    Ok(t)
 }

@@ -45,7 +45,8 @@ pub fn describe(v: &Value) -> String {
                 .collect();
             if items.is_empty() { "a table".into() } else { format!("{{{}}}", items.join(", ")) }
         }
-        Value::UserData(u) => match u.metatable().and_then(|m| m.get::<String>("__name")) {
+        // refrakt's objects name themselves (`refrakt.sphere`) through __tostring.
+        Value::UserData(_) => match v.to_string() {
             Ok(name) => format!("a {name}"),
             Err(_) => "userdata".into(),
         },

@@ -4,9 +4,11 @@
 
 pub mod api;
 pub mod convert;
+pub mod field;
 pub mod meshes;
 pub mod objects;
 pub mod sandbox;
+pub mod vecmath;
 
 use std::path::{Path, PathBuf};
 
@@ -109,8 +111,9 @@ impl ScriptHost {
     }
 }
 
-/// A script error as one readable paragraph; out-of-memory gets the last line that ran.
-fn script_error(lua: &Lua, e: &mlua::Error) -> anyhow::Error {
+/// A script error as one readable paragraph; out-of-memory gets the last line that ran, and a
+/// stack overflow a hint at its usual cause.
+pub(crate) fn script_error(lua: &Lua, e: &mlua::Error) -> anyhow::Error {
     let is_memory = matches!(e, mlua::Error::MemoryError(_))
         || matches!(e, mlua::Error::CallbackError { cause, .. } if matches!(**cause, mlua::Error::MemoryError(_)));
     if is_memory {
@@ -120,7 +123,11 @@ fn script_error(lua: &Lua, e: &mlua::Error) -> anyhow::Error {
              the limit is set with --script-memory"
         );
     }
-    anyhow!("{}", message(e))
+    let text = message(e);
+    if text.ends_with("stack overflow") {
+        return anyhow!("{text} (a function that calls itself without end?)");
+    }
+    anyhow!("{text}")
 }
 
 /// `require`: "refrakt" is the API; anything else is a module file below the scene's folder.

@@ -47,13 +47,22 @@ impl<T: LuaObject> UserData for Obj<T> {
         });
         m.add_meta_method(MetaMethod::NewIndex, |lua, this, (key, value): (Value, Value)| {
             let key = field_key(lua, &key, this.0.borrow().kind())?;
-            this.0.borrow_mut().set(lua, &key, value)
+            writable(lua, &this.0)?.set(lua, &key, value)
         });
         m.add_meta_method(MetaMethod::Eq, |_, this, other: AnyUserData| {
             Ok(other.borrow::<Obj<T>>().map(|o| Rc::ptr_eq(&o.0, &this.0)).unwrap_or(false))
         });
         m.add_meta_method(MetaMethod::ToString, |_, this, ()| Ok(format!("refrakt.{}", this.0.borrow().kind())));
     }
+}
+
+/// Borrows a graph object for writing. The graph is only ever borrowed while a frame is being
+/// evaluated, and the only script code that runs then is a field's `n` function: that gets an
+/// error instead of a panic.
+fn writable<'a, T>(lua: &Lua, o: &'a Shared<T>) -> mlua::Result<std::cell::RefMut<'a, T>> {
+    o.try_borrow_mut().map_err(|_| {
+        error_at(lua, "the scene cannot be changed while a frame is being evaluated (here: inside a field's n function); change it in update(scene, t)")
+    })
 }
 
 fn field_key(lua: &Lua, key: &Value, kind: &str) -> mlua::Result<String> {
@@ -99,8 +108,18 @@ fn opt_obj<T: LuaObject>(lua: &Lua, name: FieldName, v: &Value, expected: &str) 
     if v.is_nil() { Ok(None) } else { expect_obj(lua, name, v, expected).map(Some) }
 }
 
-fn vec_value(lua: &Lua, v: Vec3) -> mlua::Result<Value> {
-    lua.create_sequence_from([v.x, v.y, v.z])?.into_lua(lua)
+pub fn vec_value(lua: &Lua, v: Vec3) -> mlua::Result<Value> {
+    lua.create_sequence_from(v.to_array().map(decimal))?.into_lua(lua)
+}
+
+/// The f64 a script most likely wrote for a value stored as f32: the shortest decimal that
+/// rounds to it. So `glass.ior = 1.62` reads back as exactly 1.62, not 1.6200000047683716.
+fn decimal(x: f32) -> f64 {
+    x.to_string().parse().unwrap_or(x as f64)
+}
+
+fn number_value(x: f32) -> Value {
+    Value::Number(decimal(x))
 }
 
 fn obj_value<T: LuaObject>(lua: &Lua, o: &Option<Shared<T>>) -> mlua::Result<Value> {
@@ -118,6 +137,12 @@ fn obj_value<T: LuaObject>(lua: &Lua, o: &Option<Shared<T>>) -> mlua::Result<Val
 pub struct LQuat(pub Quat);
 
 impl UserData for LQuat {
+    fn add_fields<F: mlua::UserDataFields<Self>>(f: &mut F) {
+        f.add_field_method_get("w", |_, q| Ok(q.0.w));
+        f.add_field_method_get("x", |_, q| Ok(q.0.x));
+        f.add_field_method_get("y", |_, q| Ok(q.0.y));
+        f.add_field_method_get("z", |_, q| Ok(q.0.z));
+    }
     fn add_methods<M: UserDataMethods<Self>>(m: &mut M) {
         m.add_method("inverse", |_, q, ()| Ok(LQuat(q.0.inverse())));
         m.add_method("euler", |lua, q, ()| {
@@ -147,7 +172,7 @@ impl UserData for LQuat {
 // ---------------------------------------------------------------------------------------------
 // Scene.
 
-const SCENE_FIELDS: &[&str] = &["camera", "environment", "volume", "photons", "samples", "fog"];
+const SCENE_FIELDS: &[&str] = &["camera", "environment", "volume", "photons", "samples", "fog", "children"];
 
 impl LuaObject for Scene {
     fn kind(&self) -> &'static str {
@@ -164,6 +189,7 @@ impl LuaObject for Scene {
             "photons" => Ok(Value::Integer(self.photons as i64)),
             "samples" => Ok(Value::Integer(self.samples as i64)),
             "fog" => obj_value(lua, &self.fog),
+            "children" => node_list(lua, &self.roots),
             _ => Err(unknown_field(lua, "scene", key, SCENE_FIELDS)),
         }
     }
@@ -192,6 +218,7 @@ impl LuaObject for Scene {
                     _ => opt_obj(lua, name, &value, "a refrakt.fog{…}")?,
                 }
             }
+            "children" => self.roots = read_node_list(lua, name, &value)?,
             _ => return Err(unknown_field(lua, "scene", key, SCENE_FIELDS)),
         }
         Ok(())
@@ -199,12 +226,26 @@ impl LuaObject for Scene {
     fn methods<M: UserDataMethods<Obj<Self>>>(m: &mut M) {
         m.add_method("add", |lua, this, node: Value| {
             let node = expect_obj::<Node>(lua, FieldName { what: "scene:add", field: "node" }, &node, "a refrakt.node{…}")?;
-            this.0.borrow_mut().roots.push(node.clone());
+            writable(lua, &this.0)?.roots.push(node.clone());
             Ok(Obj(node))
         });
         m.add_method("find", |lua, this, name: String| {
             let hit = this.0.borrow().find(&name);
             obj_value(lua, &hit)
+        });
+        m.add_method("remove", |lua, this, node: Value| {
+            let node = expect_obj::<Node>(lua, FieldName { what: "scene:remove", field: "node" }, &node, "a refrakt.node{…}")?;
+            Ok(writable(lua, &this.0)?.remove(&node))
+        });
+        // World coordinates of a point given in a node's local frame (default: its origin).
+        m.add_method("to_world", |lua, this, (node, point): (Value, Value)| {
+            let what = FieldName { what: "scene:to_world", field: "node" };
+            let node = expect_obj::<Node>(lua, what, &node, "a refrakt.node{…}")?;
+            let p = if point.is_nil() { Vec3::ZERO } else { cv::vec3(lua, FieldName { field: "point", ..what }, &point)? };
+            let world = this.0.borrow().world_matrix(&node).ok_or_else(|| {
+                error_at(lua, "scene:to_world: that node is not in the scene (add it with scene:add or node:add first)")
+            })?;
+            vec_value(lua, world.transform_point3(p))
         });
     }
 }
@@ -233,13 +274,7 @@ impl LuaObject for Node {
             "camera" => obj_value(lua, &self.camera),
             "light" => obj_value(lua, &self.light),
             "visible" => Ok(Value::Boolean(self.visible)),
-            "children" => {
-                let t = lua.create_table()?;
-                for c in &self.children {
-                    t.push(Obj(c.clone()))?;
-                }
-                Ok(Value::Table(t))
-            }
+            "children" => node_list(lua, &self.children),
             _ => Err(unknown_field(lua, "node", key, NODE_FIELDS)),
         }
     }
@@ -261,13 +296,11 @@ impl LuaObject for Node {
             "light" => self.light = opt_obj(lua, name, &value, "a light such as refrakt.spot{…}")?,
             "visible" => self.visible = cv::boolean(lua, name, &value)?,
             "children" => {
-                let Value::Table(t) = &value else {
-                    return Err(error_at(lua, format!("{name} must be a list of nodes, got {}", cv::describe(&value))));
-                };
-                self.children.clear();
-                for child in t.clone().sequence_values::<Value>() {
-                    self.children.push(expect_obj::<Node>(lua, name, &child?, "a list of refrakt.node{…}")?);
+                let children = read_node_list(lua, name, &value)?;
+                if children.iter().any(|c| reaches(c, self)) {
+                    return Err(error_at(lua, "node.children would make a node its own ancestor"));
                 }
+                self.children = children;
             }
             _ => return Err(unknown_field(lua, "node", key, NODE_FIELDS)),
         }
@@ -277,22 +310,40 @@ impl LuaObject for Node {
         m.add_method("add", |lua, this, child: Value| {
             let child =
                 expect_obj::<Node>(lua, FieldName { what: "node:add", field: "child" }, &child, "a refrakt.node{…}")?;
-            if Rc::ptr_eq(&child, &this.0) || contains(&child, &this.0) {
+            if reaches(&child, this.0.as_ptr()) {
                 return Err(error_at(lua, "node:add would make a node its own ancestor"));
             }
-            this.0.borrow_mut().children.push(child.clone());
+            writable(lua, &this.0)?.children.push(child.clone());
             Ok(Obj(child))
         });
         m.add_method("find", |lua, this, name: String| {
             let scene = Scene { roots: this.0.borrow().children.clone(), ..Scene::default() };
             obj_value(lua, &scene.find(&name))
         });
+        m.add_method("remove", |lua, this, child: Value| {
+            let what = FieldName { what: "node:remove", field: "child" };
+            let child = expect_obj::<Node>(lua, what, &child, "a refrakt.node{…}")?;
+            Ok(crate::scene::remove_from(&mut writable(lua, &this.0)?.children, &child))
+        });
     }
 }
 
-/// Whether `node`'s subtree contains `target`.
-fn contains(node: &Shared<Node>, target: &Shared<Node>) -> bool {
-    node.borrow().children.iter().any(|c| Rc::ptr_eq(c, target) || contains(c, target))
+/// A list of nodes as a Lua sequence.
+fn node_list(lua: &Lua, nodes: &[Shared<Node>]) -> mlua::Result<Value> {
+    Ok(Value::Table(lua.create_sequence_from(nodes.iter().map(|n| Obj(n.clone())))?))
+}
+
+fn read_node_list(lua: &Lua, name: FieldName, value: &Value) -> mlua::Result<Vec<Shared<Node>>> {
+    let Value::Table(t) = value else {
+        return Err(error_at(lua, format!("{name} must be a list of nodes, got {}", cv::describe(value))));
+    };
+    t.clone().sequence_values::<Value>().map(|v| expect_obj::<Node>(lua, name, &v?, "a list of refrakt.node{…}")).collect()
+}
+
+/// Whether `target` is `node` or below it. Compared by address, so `target` itself may be
+/// borrowed (it is, while its `children` are being set).
+fn reaches(node: &Shared<Node>, target: *const Node) -> bool {
+    std::ptr::eq(node.as_ptr(), target) || node.borrow().children.iter().any(|c| reaches(c, target))
 }
 
 /// `refrakt.node{…}`: remembers where it was made, for messages about it later.
@@ -310,9 +361,10 @@ const BOX_FIELDS: &[&str] = &["size", "boundary"];
 const SLAB_FIELDS: &[&str] = &["size", "ior", "gradient", "boundary"];
 const MESH_FIELDS: &[&str] = &["source", "triangles", "boundary"];
 const PLANE_FIELDS: &[&str] = &["size"];
+const FIELD_FIELDS: &[&str] = &["size", "n", "boundary"];
 
 fn boundary_value(b: &Option<f32>) -> mlua::Result<Value> {
-    Ok(b.map_or(Value::Nil, |b| Value::Number(b as f64)))
+    Ok(b.map_or(Value::Nil, number_value))
 }
 
 impl LuaObject for Shape {
@@ -326,15 +378,17 @@ impl LuaObject for Shape {
             Shape::Slab { .. } => SLAB_FIELDS,
             Shape::Mesh { .. } => MESH_FIELDS,
             Shape::Plane { .. } => PLANE_FIELDS,
+            Shape::Field { .. } => FIELD_FIELDS,
         }
     }
     fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
         match (self, key) {
-            (Shape::Sphere { radius, .. } | Shape::Luneburg { radius, .. }, "radius") => Ok(Value::Number(*radius as f64)),
-            (Shape::Box { size, .. } | Shape::Slab { size, .. }, "size") => vec_value(lua, *size),
-            (Shape::Plane { size }, "size") => lua.create_sequence_from([size.x, size.y])?.into_lua(lua),
-            (Shape::Slab { ior, .. }, "ior") => Ok(Value::Number(*ior as f64)),
-            (Shape::Slab { gradient, .. }, "gradient") => Ok(Value::Number(*gradient as f64)),
+            (Shape::Sphere { radius, .. } | Shape::Luneburg { radius, .. }, "radius") => Ok(number_value(*radius)),
+            (Shape::Box { size, .. } | Shape::Slab { size, .. } | Shape::Field { size, .. }, "size") => vec_value(lua, *size),
+            (Shape::Field { n, .. }, "n") => super::field::function_value(n),
+            (Shape::Plane { size }, "size") => lua.create_sequence_from(size.to_array().map(decimal))?.into_lua(lua),
+            (Shape::Slab { ior, .. }, "ior") => Ok(number_value(*ior)),
+            (Shape::Slab { gradient, .. }, "gradient") => Ok(number_value(*gradient)),
             (Shape::Mesh { source, .. }, "source") => source.clone().into_lua(lua),
             (Shape::Mesh { mesh, .. }, "triangles") => Ok(Value::Integer(mesh.triangles.len() as i64)),
             (
@@ -342,7 +396,8 @@ impl LuaObject for Shape {
                 | Shape::Luneburg { boundary: b, .. }
                 | Shape::Box { boundary: b, .. }
                 | Shape::Slab { boundary: b, .. }
-                | Shape::Mesh { boundary: b, .. },
+                | Shape::Mesh { boundary: b, .. }
+                | Shape::Field { boundary: b, .. },
                 "boundary",
             ) => boundary_value(b),
             _ => Err(unknown_field(lua, self.kind_name(), key, self.fields())),
@@ -356,7 +411,10 @@ impl LuaObject for Shape {
             (Shape::Sphere { radius, .. } | Shape::Luneburg { radius, .. }, "radius") => {
                 *radius = cv::positive(lua, name, &value)?
             }
-            (Shape::Box { size, .. } | Shape::Slab { size, .. }, "size") => *size = cv::size3(lua, name, &value)?,
+            (Shape::Box { size, .. } | Shape::Slab { size, .. } | Shape::Field { size, .. }, "size") => {
+                *size = cv::size3(lua, name, &value)?
+            }
+            (Shape::Field { n, .. }, "n") => *n = super::field::index_fn(lua, name, &value)?,
             (Shape::Plane { size }, "size") => *size = cv::size2(lua, name, &value)?,
             (Shape::Slab { ior, .. }, "ior") => {
                 *ior = cv::number_in(lua, name, &value, Some(1.0), Some(4.0), "a number from 1 to 4")? as f32
@@ -370,7 +428,8 @@ impl LuaObject for Shape {
                 | Shape::Luneburg { boundary, .. }
                 | Shape::Box { boundary, .. }
                 | Shape::Slab { boundary, .. }
-                | Shape::Mesh { boundary, .. },
+                | Shape::Mesh { boundary, .. }
+                | Shape::Field { boundary, .. },
                 "boundary",
             ) => {
                 *boundary = if value.is_nil() {
@@ -406,10 +465,10 @@ impl LuaObject for Material {
     }
     fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
         match (self, key) {
-            (Material::Glass(g), "ior") => Ok(Value::Number(g.ior as f64)),
+            (Material::Glass(g), "ior") => Ok(number_value(g.ior)),
             (Material::Glass(g), "absorption") => vec_value(lua, g.absorption),
             (Material::Glass(g), "scattering") => vec_value(lua, g.scattering),
-            (Material::Glass(g), "g") => Ok(Value::Number(g.g as f64)),
+            (Material::Glass(g), "g") => Ok(number_value(g.g)),
             // Transmittance over one metre (the color a 1 m thick piece has).
             (Material::Glass(g), "color") => vec_value(lua, (-g.absorption).exp()),
             (Material::Glass(_), "distance") => Ok(Value::Number(1.0)),
@@ -512,7 +571,7 @@ impl LuaObject for Light {
         }
     }
     fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
-        let num = |x: f32| Ok(Value::Number(x as f64));
+        let num = |x: f32| Ok(number_value(x));
         match (&self.kind, key) {
             (_, "color") => vec_value(lua, self.color),
             (_, "intensity") => num(self.intensity),
@@ -521,7 +580,7 @@ impl LuaObject for Light {
             (LightKind::Spot { angle, .. }, "angle") => num(angle.to_degrees()),
             (LightKind::Spot { blend, .. }, "blend") => num(*blend),
             (LightKind::Sun { angular_diameter }, "angular_diameter") => num(angular_diameter.to_degrees()),
-            (LightKind::Rect { size }, "size") => lua.create_sequence_from([size.x, size.y])?.into_lua(lua),
+            (LightKind::Rect { size }, "size") => lua.create_sequence_from(size.to_array().map(decimal))?.into_lua(lua),
             (LightKind::Spot { .. } | LightKind::Rect { .. }, "target") => self.target.map_or(Ok(Value::Nil), |t| vec_value(lua, t)),
             (LightKind::Sun { .. }, "direction") => self.direction.map_or(Ok(Value::Nil), |d| vec_value(lua, d)),
             _ => Err(unknown_field(lua, self.kind(), key, self.fields())),
@@ -580,11 +639,11 @@ impl LuaObject for Fog {
     }
     fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
         match key {
-            "density" => Ok(Value::Number(self.scattering.max_element() as f64)),
+            "density" => Ok(number_value(self.scattering.max_element())),
             "color" => vec_value(lua, self.scattering / self.scattering.max_element().max(1e-12)),
             "scattering" => vec_value(lua, self.scattering),
             "absorption" => vec_value(lua, self.absorption),
-            "g" => Ok(Value::Number(self.g as f64)),
+            "g" => Ok(number_value(self.g)),
             _ => Err(unknown_field(lua, "fog", key, FOG_FIELDS)),
         }
     }
@@ -628,7 +687,7 @@ impl LuaObject for Camera {
             "target" => self.target.map_or(Ok(Value::Nil), |t| vec_value(lua, t)),
             "rotation" => LQuat(self.orientation()).into_lua(lua),
             "up" => vec_value(lua, self.up),
-            "fov" => Ok(Value::Number(self.fov_y.to_degrees() as f64)),
+            "fov" => Ok(number_value(self.fov_y.to_degrees())),
             "size" => lua.create_sequence_from([self.size.0, self.size.1])?.into_lua(lua),
             _ => Err(unknown_field(lua, "camera", key, CAMERA_FIELDS)),
         }
@@ -682,8 +741,8 @@ impl LuaObject for Environment {
             ("image", EnvironmentSource::Image { path, .. }) => path.display().to_string().into_lua(lua),
             ("preset", EnvironmentSource::Preset { name, .. }) => name.clone().into_lua(lua),
             ("color" | "image" | "preset", _) => Ok(Value::Nil),
-            ("intensity", _) => Ok(Value::Number(self.intensity as f64)),
-            ("rotation", _) => Ok(Value::Number(self.rotation.to_degrees() as f64)),
+            ("intensity", _) => Ok(number_value(self.intensity)),
+            ("rotation", _) => Ok(number_value(self.rotation.to_degrees())),
             ("visible", _) => Ok(Value::Boolean(self.visible)),
             _ => Err(unknown_field(lua, "environment", key, ENVIRONMENT_FIELDS)),
         }
@@ -727,11 +786,11 @@ impl LuaObject for VolumeSettings {
     fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
         match key {
             "resolution" => Ok(Value::Integer(self.resolution as i64)),
-            "margin" => Ok(Value::Number(self.margin as f64)),
+            "margin" => Ok(number_value(self.margin)),
             "min" => self.bounds.map_or(Ok(Value::Nil), |b| vec_value(lua, b.0)),
             "max" => self.bounds.map_or(Ok(Value::Nil), |b| vec_value(lua, b.1)),
-            "boundary" => Ok(Value::Number(self.boundary as f64)),
-            "step" => Ok(Value::Number(self.step as f64)),
+            "boundary" => Ok(number_value(self.boundary)),
+            "step" => Ok(number_value(self.step)),
             _ => Err(unknown_field(lua, "volume", key, VOLUME_FIELDS)),
         }
     }

@@ -1,11 +1,12 @@
 //! The sandbox scene scripts run in.
 //!
-//! Scripts get Lua's table, string, math, utf8 and coroutine libraries and nothing that reaches
-//! the system: no `io`, no `os.execute`, no `package.loadlib`, no `debug`, no bytecode (`load`
-//! takes text only, `string.dump` is gone). Files are read only through the refrakt API and only
-//! below the scene's folder (or a folder the user allowed with `--allow-read`); every file read
-//! is recorded, so `refrakt watch` knows exactly what to watch. A runaway script is stopped after
-//! a time budget per call and a memory limit, each with a message naming file:line.
+//! Scripts get Lua's table, string, math, utf8 and coroutine libraries, the clocks of `os`, and
+//! nothing that reaches the system: no `io`, no `os.execute`, no `package.loadlib`, no `debug`,
+//! no bytecode (`load` takes text only, `string.dump` is gone); each refuses with an error that
+//! says so. Files are read only through the refrakt API and only below the scene's folder (or a
+//! folder the user allowed with `--allow-read`); every file read is recorded, so `refrakt watch`
+//! knows exactly what to watch. A runaway script is stopped after a time budget per call (also
+//! inside coroutines and `pcall`) and a memory limit, each with a message naming file:line.
 
 use std::cell::{Cell, RefCell};
 use std::path::{Component, Path, PathBuf};
@@ -88,6 +89,12 @@ struct Budget {
     last_line: RefCell<String>,
 }
 
+impl Budget {
+    fn expired(&self) -> bool {
+        self.started.get().elapsed() > self.limit
+    }
+}
+
 /// Starts the time budget of a new top-level call (loading, or one `update`).
 pub fn start_budget(lua: &Lua) {
     if let Some(b) = lua.app_data_ref::<Budget>() {
@@ -102,7 +109,7 @@ pub fn last_line(lua: &Lua) -> Option<String> {
 
 /// A Lua state with only the safe libraries, the limits installed, and the file policy.
 pub fn new_state(access: FileAccess, limits: &Limits) -> mlua::Result<Lua> {
-    let libs = StdLib::TABLE | StdLib::STRING | StdLib::MATH | StdLib::UTF8 | StdLib::COROUTINE;
+    let libs = StdLib::TABLE | StdLib::STRING | StdLib::MATH | StdLib::UTF8 | StdLib::COROUTINE | StdLib::OS;
     let lua = Lua::new_with(libs, mlua::LuaOptions::default())?;
     lua.set_app_data(access);
     lua.set_app_data(Budget {
@@ -111,16 +118,18 @@ pub fn new_state(access: FileAccess, limits: &Limits) -> mlua::Result<Lua> {
         last_line: RefCell::new(String::new()),
     });
     lua.set_memory_limit(limits.memory_bytes)?;
-    lua.set_hook(HookTriggers::new().every_nth_instruction(4096), |lua, debug| {
+    // A global hook, not a per-thread one: Lua 5.4 copies the hook into every coroutine the
+    // script creates, and only the global kind still finds its callback there.
+    lua.set_global_hook(HookTriggers::new().every_nth_instruction(4096), |lua, debug| {
         let Some(budget) = lua.app_data_ref::<Budget>() else { return Ok(VmState::Continue) };
         if let Some(line) = debug.current_line() {
             let src = debug.source();
             *budget.last_line.borrow_mut() = format!("{}:{line}", src.short_src.as_deref().unwrap_or("?"));
         }
-        if budget.started.get().elapsed() > budget.limit {
+        if budget.expired() {
             let at = budget.last_line.borrow().clone();
             return Err(mlua::Error::RuntimeError(format!(
-                "{at}: the script ran for more than {:.0} s without finishing (an endless loop?); \
+                "{at}: the script ran for more than {} s without finishing (an endless loop?); \
                  the limit is set with --script-timeout",
                 budget.limit.as_secs_f64()
             )));
@@ -131,21 +140,94 @@ pub fn new_state(access: FileAccess, limits: &Limits) -> mlua::Result<Lua> {
     Ok(lua)
 }
 
-/// Removes or replaces what could reach outside the sandbox.
+/// Libraries scripts may not reach, and why (the error says so).
+const REFUSED_LIBRARIES: &[(&str, &str)] = &[
+    ("io", "scene scripts read files only through the refrakt API (environment images, meshes, require), below the scene's folder"),
+    ("debug", "it can break the sandbox and the time budget"),
+    ("package", "modules are loaded with require(\"name\"), from the scene's folder"),
+];
+
+/// The safe corner of `os`: clocks and dates, nothing that runs, removes or reads anything.
+const OS_ALLOWED: &[&str] = &["clock", "date", "difftime", "time"];
+
+/// Removes or replaces what could reach outside the sandbox. Whatever is taken away answers
+/// with an error that says so (`os.execute is not available in scene scripts: …`) rather than
+/// Lua's "attempt to call a nil value".
 fn restrict_globals(lua: &Lua) -> mlua::Result<()> {
     let g = lua.globals();
-    for name in ["dofile", "loadfile", "collectgarbage", "require", "package", "debug", "io"] {
-        g.raw_set(name, Value::Nil)?;
+    for (name, reason) in REFUSED_LIBRARIES {
+        g.raw_set(*name, refusing_table(lua, name, reason, lua.create_table()?)?)?;
     }
+    let full_os: Table = g.get("os")?;
+    let os = lua.create_table()?;
+    for name in OS_ALLOWED {
+        os.raw_set(*name, full_os.get::<Value>(*name)?)?;
+    }
+    g.raw_set("os", refusing_table(lua, "os", "scene scripts may use os.clock, os.date, os.difftime and os.time only", os)?)?;
     let string: Table = g.get("string")?;
-    string.raw_set("dump", Value::Nil)?;
-    // `load` of text only: precompiled bytecode can break the interpreter's safety.
-    let load = lua.create_function(|lua, (chunk, name, _mode, env): (mlua::LuaString, Option<String>, Value, Option<Table>)| {
-        let bytes = chunk.as_bytes();
+    string.raw_set("dump", refusing_function(lua, "string.dump", "precompiled bytecode can break the interpreter's safety")?)?;
+    g.raw_set("dofile", refusing_function(lua, "dofile", "load modules with require(\"name\"), from the scene's folder")?)?;
+    g.raw_set("loadfile", refusing_function(lua, "loadfile", "load modules with require(\"name\"), from the scene's folder")?)?;
+    g.raw_set("collectgarbage", refusing_function(lua, "collectgarbage", "the memory limit (--script-memory) governs memory")?)?;
+    g.raw_set("require", Value::Nil)?;
+    g.raw_set("load", text_only_load(lua)?)?;
+    g.raw_set(
+        "print",
+        lua.create_function(|lua, args: mlua::Variadic<Value>| {
+            let parts: Vec<String> = args.iter().map(|v| v.to_string().unwrap_or_else(|_| v.type_name().into())).collect();
+            eprintln!("[{}] {}", super::convert::location(lua), parts.join("\t"));
+            Ok(())
+        })?,
+    )?;
+    keep_budget_errors(lua)
+}
+
+fn refused(lua: &Lua, what: &str, reason: &str) -> mlua::Error {
+    error_at(lua, format!("{what} is not available in scene scripts: {reason} (see docs/lua-api.md, \"Sandbox\")"))
+}
+
+fn refusing_function(lua: &Lua, what: &'static str, reason: &'static str) -> mlua::Result<mlua::Function> {
+    lua.create_function(move |lua, _: mlua::MultiValue| -> mlua::Result<()> { Err(refused(lua, what, reason)) })
+}
+
+/// `table`, with any other key of library `name` answering with an error.
+fn refusing_table(lua: &Lua, name: &'static str, reason: &'static str, table: Table) -> mlua::Result<Table> {
+    let meta = lua.create_table()?;
+    meta.raw_set(
+        "__index",
+        lua.create_function(move |lua, (_, key): (Value, Value)| -> mlua::Result<()> {
+            let key = key.to_string().unwrap_or_else(|_| "?".into());
+            Err(refused(lua, &format!("{name}.{key}"), reason))
+        })?,
+    )?;
+    table.set_metatable(Some(meta))?;
+    Ok(table)
+}
+
+/// `load` of text only (precompiled bytecode can break the interpreter's safety); the chunk may
+/// be a string or a function returning pieces, as in standard Lua.
+fn text_only_load(lua: &Lua) -> mlua::Result<mlua::Function> {
+    lua.create_function(|lua, (chunk, name, _mode, env): (Value, Option<String>, Value, Option<Table>)| {
+        let bytes: Vec<u8> = match &chunk {
+            Value::String(s) => s.as_bytes().to_vec(),
+            Value::Function(f) => {
+                let mut all = Vec::new();
+                while let Some(piece) = f.call::<Option<mlua::LuaString>>(())? {
+                    if piece.as_bytes().is_empty() {
+                        break;
+                    }
+                    all.extend_from_slice(&piece.as_bytes());
+                }
+                all
+            }
+            other => {
+                return Err(error_at(lua, format!("load expects a string or a function, got {}", super::convert::describe(other))));
+            }
+        };
         if bytes.first() == Some(&0x1b) {
-            return Err(error_at(lua, "load: precompiled bytecode is not allowed in scene scripts"));
+            return Err(refused(lua, "load of precompiled bytecode", "it can break the interpreter's safety"));
         }
-        let mut c = lua.load(bytes.to_vec()).set_mode(mlua::chunk::ChunkMode::Text);
+        let mut c = lua.load(bytes).set_mode(mlua::chunk::ChunkMode::Text);
         if let Some(n) = name {
             c = c.set_name(n);
         }
@@ -156,32 +238,33 @@ fn restrict_globals(lua: &Lua) -> mlua::Result<()> {
             Ok(f) => Ok((Value::Function(f), Value::Nil)),
             Err(e) => Ok((Value::Nil, Value::String(lua.create_string(super::message(&e))?))),
         }
-    })?;
-    g.raw_set("load", load)?;
-    // A safe corner of `os`: clocks and dates, nothing that runs or removes anything.
-    let os = lua.create_table()?;
-    os.raw_set("clock", lua.create_function(|_, ()| Ok(cpu_clock()))?)?;
-    os.raw_set(
-        "time",
-        lua.create_function(|_, ()| {
-            Ok(std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0))
-        })?,
-    )?;
-    g.raw_set("os", os)?;
-    g.raw_set(
-        "print",
-        lua.create_function(|lua, args: mlua::Variadic<Value>| {
-            let parts: Vec<String> = args.iter().map(|v| v.to_string().unwrap_or_else(|_| v.type_name().into())).collect();
-            eprintln!("[{}] {}", super::convert::location(lua), parts.join("\t"));
-            Ok(())
-        })?,
-    )?;
-    Ok(())
+    })
 }
 
-fn cpu_clock() -> f64 {
-    thread_local!(static START: Instant = Instant::now());
-    START.with(|s| s.elapsed().as_secs_f64())
+/// `pcall`, `xpcall` and `coroutine.resume` catch errors, including the time budget's; once the
+/// budget is spent they pass the error on, so `while true do pcall(f) end` still stops.
+fn keep_budget_errors(lua: &Lua) -> mlua::Result<()> {
+    let expired = lua.create_function(|lua, ()| Ok(lua.app_data_ref::<Budget>().is_some_and(|b| b.expired())))?;
+    lua.load(
+        r#"
+        local expired, pcall, xpcall, resume, error = ...
+        local function pass(ok, ...)
+          if not ok and expired() then error((...), 0) end
+          return ok, ...
+        end
+        _G.pcall = function(f, ...) return pass(pcall(f, ...)) end
+        _G.xpcall = function(f, handler, ...) return pass(xpcall(f, handler, ...)) end
+        coroutine.resume = function(co, ...) return pass(resume(co, ...)) end
+        "#,
+    )
+    .set_name("=sandbox")
+    .call::<()>((
+        expired,
+        lua.globals().get::<Value>("pcall")?,
+        lua.globals().get::<Value>("xpcall")?,
+        lua.globals().get::<Table>("coroutine")?.get::<Value>("resume")?,
+        lua.globals().get::<Value>("error")?,
+    ))
 }
 
 /// Turns a module name (`"materials"`, `"lib.rigs"`) into a relative path (`lib/rigs.lua`),

@@ -1,12 +1,19 @@
 //! The GPU pipeline: one module per stage, each owning its pipeline, uniforms and bind group,
-//! and [`Renderer::frame`] reading top to bottom as the frame does.
+//! and [`Renderer::frame`] reading top to bottom as the frame does (DESIGN.md, "Data flow of one
+//! frame"): voxelize → gradient → octree → photons → march → caustics → view.
 //!
-//! Resources shared between stages (the grids, the environment, the frame target) live in
-//! [`resources`]; they are allocated when a size changes and reused otherwise, and stages rebind
-//! only when a resource they use was reallocated.
+//! Resources shared between stages (grids, environment, receivers, lights, radiance grid, frame
+//! target) live in [`resources`], [`receivers`] and [`lights`]; they are allocated when a size
+//! changes and reused otherwise, and stages rebind only when a resource they use was reallocated.
 
+pub mod caustics;
 pub mod gradient;
+pub mod lights;
+pub mod march;
+pub mod octree;
+pub mod photons;
 pub mod probe;
+pub mod receivers;
 pub mod resources;
 pub mod timing;
 pub mod view;
@@ -14,21 +21,28 @@ pub mod voxelize;
 pub mod voxelize_mesh;
 
 use anyhow::{Result, bail};
+use glam::UVec3;
 
 use crate::frame::FrameDesc;
 use crate::gpu::GpuContext;
 use crate::gpu::shaders::ShaderLibrary;
 use crate::output::Image;
-use resources::{EnvironmentTexture, FrameTarget, Grids};
+use caustics::CausticFilter;
+use lights::LightBuffers;
+use march::PhotonStats;
+use receivers::Receivers;
+use resources::{EnvironmentTexture, FrameTarget, Grids, RadianceGrid};
 use timing::Profiler;
 
-/// Statistics a test or `refrakt watch` can read: how much work the last frames did.
+/// Statistics a test or `refrakt watch` can read: how much work the frames did.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Counters {
     pub frames: u64,
     pub voxelizations: u64,
     pub grid_allocations: u64,
     pub environment_uploads: u64,
+    pub receiver_uploads: u64,
+    pub photon_passes: u64,
     /// Meshes whose solid was computed (they were new, changed or moved).
     pub meshes_voxelized: u64,
     /// Meshes whose solid from an earlier frame was reused.
@@ -45,18 +59,75 @@ impl Counters {
     }
 }
 
+/// Choices about how (not what) to render: the same scene may be rendered with any of these.
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub caustic_filter: CausticFilter,
+    /// The photons' random seed. Fixed, so every frame of an animation uses the same photons.
+    pub photon_seed: u32,
+    /// Deposit into the radiance grid even when nothing scatters (tests of the deposits).
+    pub always_deposit: bool,
+    /// Read the photon statistics back after each frame (`Renderer::photon_stats`).
+    pub collect_stats: bool,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self { caustic_filter: CausticFilter::default(), photon_seed: 0x5eed_cafe, always_deposit: false, collect_stats: false }
+    }
+}
+
+/// Photons can deposit at most this many per frame (a dispatch spans 65 535 workgroups of 64).
+pub const MAX_PHOTONS: u32 = 65_535 * 64;
+
 pub struct Renderer {
     pub ctx: GpuContext,
     shaders: ShaderLibrary,
     voxelize: voxelize::Voxelize,
     gradient: gradient::Gradient,
+    octree: octree::Octree,
+    photons: photons::Photons,
+    march: march::March,
+    caustics: caustics::Caustics,
     view: view::View,
     probe: probe::Probe,
     grids: Option<Grids>,
     environment: EnvironmentTexture,
+    receivers: Option<Receivers>,
+    lights: LightBuffers,
+    radiance: Option<RadianceGrid>,
     target: Option<FrameTarget>,
+    pub settings: RenderSettings,
     pub profiler: Profiler,
     pub counters: Counters,
+    stats: Option<PhotonStats>,
+}
+
+/// Every stage's pipeline, built from one shader library.
+struct Stages {
+    voxelize: voxelize::Voxelize,
+    gradient: gradient::Gradient,
+    octree: octree::Octree,
+    photons: photons::Photons,
+    march: march::March,
+    caustics: caustics::Caustics,
+    view: view::View,
+    probe: probe::Probe,
+}
+
+impl Stages {
+    fn new(device: &wgpu::Device, shaders: &ShaderLibrary) -> Result<Self> {
+        Ok(Self {
+            voxelize: voxelize::Voxelize::new(device, shaders)?,
+            gradient: gradient::Gradient::new(device, shaders)?,
+            octree: octree::Octree::new(device, shaders)?,
+            photons: photons::Photons::new(device, shaders)?,
+            march: march::March::new(device, shaders)?,
+            caustics: caustics::Caustics::new(device, shaders)?,
+            view: view::View::new(device, shaders)?,
+            probe: probe::Probe::new(device, shaders)?,
+        })
+    }
 }
 
 impl Renderer {
@@ -65,37 +136,40 @@ impl Renderer {
     }
 
     pub fn with_shaders(ctx: GpuContext, shaders: ShaderLibrary) -> Result<Self> {
-        let device = &ctx.device;
-        let voxelize = voxelize::Voxelize::new(device, &shaders)?;
-        let gradient = gradient::Gradient::new(device, &shaders)?;
-        let view = view::View::new(device, &shaders)?;
-        let probe = probe::Probe::new(device, &shaders)?;
+        let s = Stages::new(&ctx.device, &shaders)?;
         let environment = EnvironmentTexture::new(&ctx);
         let profiler = Profiler::new(&ctx);
+        let lights = LightBuffers::new(&ctx.device);
         Ok(Self {
+            voxelize: s.voxelize,
+            gradient: s.gradient,
+            octree: s.octree,
+            photons: s.photons,
+            march: s.march,
+            caustics: s.caustics,
+            view: s.view,
+            probe: s.probe,
             ctx,
             shaders,
-            voxelize,
-            gradient,
-            view,
-            probe,
             grids: None,
             environment,
+            receivers: None,
+            lights,
+            radiance: None,
             target: None,
+            settings: RenderSettings::default(),
             profiler,
             counters: Counters::default(),
+            stats: None,
         })
     }
 
     /// Rebuilds every stage's pipeline from the shader library (for live shader edits). On a
     /// WGSL error the old pipelines stay and the error names the file and line.
     pub fn reload_shaders(&mut self) -> Result<()> {
-        let device = &self.ctx.device;
-        let voxelize = voxelize::Voxelize::new(device, &self.shaders)?;
-        let gradient = gradient::Gradient::new(device, &self.shaders)?;
-        let view = view::View::new(device, &self.shaders)?;
-        let probe = probe::Probe::new(device, &self.shaders)?;
-        (self.voxelize, self.gradient, self.view, self.probe) = (voxelize, gradient, view, probe);
+        let s = Stages::new(&self.ctx.device, &self.shaders)?;
+        (self.voxelize, self.gradient, self.octree, self.photons) = (s.voxelize, s.gradient, s.octree, s.photons);
+        (self.march, self.caustics, self.view, self.probe) = (s.march, s.caustics, s.view, s.probe);
         Ok(())
     }
 
@@ -108,6 +182,7 @@ impl Renderer {
         let l = &self.ctx.limits;
         let dims = desc.volume.dims;
         let name = &self.ctx.info.name;
+        let binding = l.max_storage_buffer_binding_size.min(l.max_buffer_size);
         if dims.max_element() > l.max_texture_dimension_3d {
             bail!(
                 "the volume needs a {}×{}×{} voxel grid, but the adapter \"{name}\" allows 3D textures of at \
@@ -115,29 +190,33 @@ impl Renderer {
                 dims.x, dims.y, dims.z, l.max_texture_dimension_3d
             );
         }
-        let grid_bytes = desc.volume.voxel_count() * 4;
-        if grid_bytes > l.max_storage_buffer_binding_size.min(l.max_buffer_size) {
+        // The radiance grid's deposits are the largest buffer: 24 bytes per voxel.
+        let per_voxel = if needs_scattering(desc) { 24 } else { 4 };
+        let grid_bytes = desc.volume.voxel_count() * per_voxel;
+        if grid_bytes > binding {
             bail!(
-                "the volume's {}×{}×{} voxels need {} MiB per grid, more than the {} MiB the adapter \"{name}\" \
+                "the volume's {}×{}×{} voxels need {} MiB in one buffer, more than the {} MiB the adapter \"{name}\" \
                  binds at once; lower the volume resolution (--volume or volume.resolution)",
-                dims.x, dims.y, dims.z, grid_bytes >> 20,
-                l.max_storage_buffer_binding_size.min(l.max_buffer_size) >> 20
+                dims.x, dims.y, dims.z, grid_bytes >> 20, binding >> 20
             );
         }
         let (w, h) = (desc.camera.width, desc.camera.height);
         let frame_bytes = FrameTarget::bytes(w, h);
-        if frame_bytes > l.max_storage_buffer_binding_size.min(l.max_buffer_size) {
+        if frame_bytes > binding {
             bail!(
                 "a {w}×{h} image needs {} MiB of frame buffer, more than the {} MiB the adapter \"{name}\" \
                  binds at once; render smaller (--size)",
                 frame_bytes >> 20,
-                l.max_storage_buffer_binding_size >> 20
+                binding >> 20
             );
+        }
+        if desc.photons > MAX_PHOTONS {
+            bail!("photons = {} is more than refrakt traces per frame ({MAX_PHOTONS}); lower the photon budget", desc.photons);
         }
         Ok(())
     }
 
-    /// Allocates (or reuses) what this frame needs, and rebinds stages whose resources changed.
+    /// Allocates (or reuses) what this frame needs.
     fn prepare(&mut self, desc: &FrameDesc) -> Result<()> {
         self.check_limits(desc)?;
         let needs_grids = self.grids.as_ref().is_none_or(|g| g.dims != desc.volume.dims);
@@ -146,10 +225,19 @@ impl Renderer {
             self.counters.grid_allocations += 1;
         }
         if let Some(g) = self.grids.as_mut() {
-            g.placement = Some(desc.volume.to_gpu());
+            g.place(desc.volume.to_gpu());
         }
         if self.environment.update(&self.ctx, &desc.environment) {
             self.counters.environment_uploads += 1;
+        }
+        if self.receivers.as_ref().is_none_or(|r| r.changed(desc)) {
+            self.receivers = Some(Receivers::new(&self.ctx, desc)?);
+            self.counters.receiver_uploads += 1;
+        }
+        self.lights.update(&self.ctx, &desc.lights, &desc.volume);
+        let radiance_dims = if self.deposits(desc) { desc.volume.dims } else { UVec3::ONE };
+        if self.radiance.as_ref().is_none_or(|r| r.dims != radiance_dims) {
+            self.radiance = Some(RadianceGrid::new(&self.ctx, radiance_dims)?);
         }
         let (w, h) = (desc.camera.width, desc.camera.height);
         if self.target.as_ref().is_none_or(|t| (t.width, t.height) != (w, h)) {
@@ -158,7 +246,19 @@ impl Renderer {
         Ok(())
     }
 
-    /// Stages 1–2: the frame's index-of-refraction volume, left on the GPU.
+    /// Whether photons have anything to do this frame: a budget, a light that emits them, and
+    /// something they can show (caustics on receivers, or light in a scattering medium).
+    fn traces_photons(&self, desc: &FrameDesc) -> bool {
+        desc.photons > 0
+            && self.lights.emitter_count > 0
+            && (!desc.receivers.is_empty() || needs_scattering(desc) || self.settings.always_deposit)
+    }
+
+    fn deposits(&self, desc: &FrameDesc) -> bool {
+        needs_scattering(desc) || self.settings.always_deposit
+    }
+
+    /// Stages 1–3: the frame's index-of-refraction volume and its octree, left on the GPU.
     pub fn build_volume(&mut self, desc: &FrameDesc) -> Result<()> {
         self.prepare(desc)?;
         let grids = self.grids.as_ref().expect("prepared");
@@ -166,6 +266,7 @@ impl Renderer {
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         let work = self.voxelize.encode(&self.ctx, &mut enc, &mut self.profiler, desc, grids)?; // fields, meshes → index_field, extinction_grid, scattering_grid
         self.gradient.encode(&self.ctx, &mut enc, &mut self.profiler, &desc.volume, grids); // index_field → ior_grid (∇n, n)
+        self.octree.encode(&self.ctx, &mut enc, &mut self.profiler, grids); // index_field, extinction_grid → octree
         self.profiler.resolve(&mut enc);
         self.ctx.queue.submit([enc.finish()]);
         self.counters.voxelizations += 1;
@@ -192,16 +293,48 @@ impl Renderer {
         self.voxelize.meshes_mut().forget();
     }
 
-    /// Renders one frame: voxelize → gradient → view, then reads the image back.
+    /// Renders one frame, top to bottom, then reads the image back.
     pub fn frame(&mut self, desc: &FrameDesc) -> Result<Image> {
         self.prepare(desc)?;
-        let grids = self.grids.as_ref().expect("prepared");
-        let target = self.target.as_ref().expect("prepared");
+        let photons = self.traces_photons(desc);
+        let deposit = photons && self.deposits(desc);
+        // Photon flux is kept relative to the mean photon flux (fixed point): the lights' power
+        // toward the volume over the budget.
+        let flux_unit = (self.lights.raster_power / desc.photons.max(1) as f32).max(1e-30);
+        let (grids, receivers, radiance, target) = (
+            self.grids.as_ref().expect("prepared"),
+            self.receivers.as_ref().expect("prepared"),
+            self.radiance.as_ref().expect("prepared"),
+            self.target.as_ref().expect("prepared"),
+        );
+        let march_params = march::March::params(grids, desc.photons, flux_unit, deposit, desc.receivers.len() as u32);
         self.profiler.begin_frame();
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         let work = self.voxelize.encode(&self.ctx, &mut enc, &mut self.profiler, desc, grids)?; // fields, meshes → index_field, extinction_grid, scattering_grid
         self.gradient.encode(&self.ctx, &mut enc, &mut self.profiler, &desc.volume, grids); // index_field → ior_grid (∇n, n)
-        self.view.encode(&self.ctx, &mut enc, &mut self.profiler, desc, grids, &self.environment, target); // ior_grid, extinction_grid, environment → frame
+        self.octree.encode(&self.ctx, &mut enc, &mut self.profiler, grids); // index_field, extinction_grid → octree
+        if photons {
+            let (seed, scattering) = (self.settings.photon_seed, needs_scattering(desc));
+            self.photons.encode(&self.ctx, &mut enc, &mut self.profiler, grids, &self.lights, desc.photons, seed, scattering); // lights, octree → photons
+            self.march.encode(&self.ctx, &mut enc, &mut self.profiler, &march_params, grids, &self.photons, receivers, radiance); // photons, grids, receivers → radiance, caustic atlas
+            let filter_unit = flux_unit / march_params.flux_scale;
+            self.caustics.encode(&self.ctx, &mut enc, &mut self.profiler, receivers, self.settings.caustic_filter, filter_unit); // caustic atlas → caustic irradiance
+            if self.settings.collect_stats {
+                self.march.encode_stats_readback(&mut enc);
+            }
+            self.counters.photon_passes += 1;
+        }
+        let inputs = view::ViewInputs {
+            grids,
+            environment: &self.environment,
+            receivers,
+            lights: &self.lights,
+            radiance,
+            target,
+            caustics: photons,
+            scattering: deposit,
+        };
+        self.view.encode(&self.ctx, &mut enc, &mut self.profiler, desc, &inputs); // grids, octree, receivers, lights, radiance, environment → frame
         target.encode_readback(&mut enc);
         self.profiler.resolve(&mut enc);
         self.ctx.queue.submit([enc.finish()]);
@@ -209,6 +342,7 @@ impl Renderer {
         self.counters.add_mesh_work(work);
         self.counters.frames += 1;
         let image = target.read(&self.ctx)?;
+        self.stats = if photons && self.settings.collect_stats { Some(self.march.read_stats(&self.ctx, &march_params)?) } else { None };
         self.profiler.collect(&self.ctx)?;
         let errors = self.ctx.take_uncaptured_errors();
         if !errors.is_empty() {
@@ -217,17 +351,52 @@ impl Renderer {
         Ok(image)
     }
 
+    /// Photon statistics of the last frame (when `settings.collect_stats` is on).
+    pub fn photon_stats(&self) -> Option<PhotonStats> {
+        self.stats
+    }
+
     /// Traces rays through the volume built by the last [`build_volume`](Self::build_volume) or
     /// [`frame`](Self::frame) (tests, `refrakt trace`).
     pub fn probe(&mut self, rays: &[crate::gpu::types::ProbeRay], opts: &probe::ProbeOptions) -> Result<Vec<crate::gpu::types::ProbeRecord>> {
         let Some(grids) = self.grids.as_ref() else { bail!("probe needs a volume: call build_volume first") };
-        self.probe.run(&self.ctx, grids, rays, opts)
+        self.probe.trace(&self.ctx, grids, rays, opts)
+    }
+
+    /// The octree's straight step at each ray's origin (tests): see [`probe::Probe::octree_steps`].
+    pub fn probe_octree(&mut self, rays: &[crate::gpu::types::ProbeRay], step: f32, max_step: f32) -> Result<Vec<[f32; 4]>> {
+        let Some(grids) = self.grids.as_ref() else { bail!("probe needs a volume: call build_volume first") };
+        self.probe.octree_steps(&self.ctx, grids, rays, step, max_step)
+    }
+
+    /// The cells segments cross, as the photon deposits traverse them (tests):
+    /// see [`probe::Probe::dda_cells`].
+    pub fn probe_dda(&mut self, segments: &[crate::gpu::types::ProbeRay], max_cells: u32) -> Result<Vec<[f32; 4]>> {
+        let Some(grids) = self.grids.as_ref() else { bail!("probe needs a volume: call build_volume first") };
+        self.probe.dda_cells(&self.ctx, grids, segments, max_cells)
     }
 
     /// The current grids (tests read them back to compare with the CPU twins).
     pub fn grids(&self) -> Option<&Grids> {
         self.grids.as_ref()
     }
+
+    /// The current receivers and caustic maps (tests read them back).
+    pub fn receivers(&self) -> Option<&Receivers> {
+        self.receivers.as_ref()
+    }
+
+    /// The current radiance grid (tests read its deposits back).
+    pub fn radiance(&self) -> Option<&RadianceGrid> {
+        self.radiance.as_ref()
+    }
+}
+
+/// Whether anything in the frame scatters light (fog, or a medium with a scattering color).
+pub fn needs_scattering(desc: &FrameDesc) -> bool {
+    desc.fog.is_some_and(|f| f.scattering.max_element() > 0.0)
+        || desc.fields.iter().any(|f| f.scattering.max_element() > 0.0)
+        || desc.meshes.iter().any(|m| m.glass.scattering.max_element() > 0.0)
 }
 
 /// Bind group layout entries, spelled once.
@@ -266,6 +435,9 @@ pub(crate) mod layout {
             count: None,
         }
     }
+    pub fn texture_view(t: &wgpu::TextureView) -> wgpu::BindingResource<'_> {
+        wgpu::BindingResource::TextureView(t)
+    }
     pub fn sampler(binding: u32) -> wgpu::BindGroupLayoutEntry {
         wgpu::BindGroupLayoutEntry {
             binding,
@@ -282,7 +454,18 @@ pub(crate) mod layout {
         stage: &str,
         entries: &[wgpu::BindGroupLayoutEntry],
     ) -> anyhow::Result<(wgpu::ComputePipeline, wgpu::BindGroupLayout)> {
-        let (mut pipelines, mut layouts) = pipelines(device, shaders, stage, &[entries], &["main"])?;
+        pipeline_entry(device, shaders, stage, "main", entries)
+    }
+
+    /// A compute pipeline for entry point `entry` of `stage` with one bind group of `entries`.
+    pub fn pipeline_entry(
+        device: &wgpu::Device,
+        shaders: &crate::gpu::shaders::ShaderLibrary,
+        stage: &str,
+        entry: &str,
+        entries: &[wgpu::BindGroupLayoutEntry],
+    ) -> anyhow::Result<(wgpu::ComputePipeline, wgpu::BindGroupLayout)> {
+        let (mut pipelines, mut layouts) = pipelines(device, shaders, stage, &[entries], &[entry])?;
         Ok((pipelines.remove(0), layouts.remove(0)))
     }
 

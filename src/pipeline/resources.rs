@@ -15,7 +15,7 @@ use crate::scene::{EnvImage, Environment};
 
 static GENERATION: AtomicU64 = AtomicU64::new(1);
 
-fn next_generation() -> u64 {
+pub(crate) fn next_generation() -> u64 {
     GENERATION.fetch_add(1, Ordering::Relaxed)
 }
 
@@ -74,12 +74,18 @@ pub struct Grids {
     pub scattering_grid: Grid3d,
     /// Trilinear, clamped to the box edge.
     pub sampler: wgpu::Sampler,
+    /// The min/max pyramid (`shaders/octree.wgsl`), its shape, and that shape as a uniform.
+    pub octree: wgpu::Buffer,
+    pub octree_layout: crate::gpu::types::OctreeParams,
+    pub octree_params: wgpu::Buffer,
 }
 
 impl Grids {
     pub fn new(ctx: &GpuContext, dims: UVec3) -> Result<Self> {
         let device = &ctx.device;
         let voxels = dims.x as u64 * dims.y as u64 * dims.z as u64;
+        let octree_layout = super::octree::layout_for(crate::gpu::types::GridParams { dims: dims.into(), ..Default::default() });
+        let octree_cells = super::octree::cell_count(&octree_layout);
         allocating(ctx, &format!("a {}×{}×{} volume", dims.x, dims.y, dims.z), || Self {
             dims,
             generation: next_generation(),
@@ -99,7 +105,26 @@ impl Grids {
                 min_filter: wgpu::FilterMode::Linear,
                 ..Default::default()
             }),
+            octree: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("octree"),
+                size: octree_cells * 16,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            octree_layout,
+            octree_params: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("octree params"),
+                size: std::mem::size_of::<crate::gpu::types::OctreeParams>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
         })
+    }
+
+    /// Records where the grids sit this frame (the octree's shape depends only on the dims).
+    pub fn place(&mut self, grid: crate::gpu::types::GridParams) {
+        self.placement = Some(grid);
+        self.octree_layout.grid = grid;
     }
 }
 
@@ -171,8 +196,8 @@ impl EnvironmentTexture {
     }
 }
 
-/// Planes of vec4 per pixel the view stage writes: beauty, then (depth, …).
-pub const FRAME_PLANES: u64 = 2;
+/// Planes of vec4 per pixel the view stage writes: beauty, depth, caustic, direct, volume.
+pub const FRAME_PLANES: u64 = 5;
 
 /// Where the view stage writes the image, and the staging buffer it comes home through.
 pub struct FrameTarget {
@@ -213,12 +238,81 @@ impl FrameTarget {
         let bytes = self.staging.read(ctx, self.buffer.size())?;
         let floats: &[f32] = bytemuck::cast_slice(&bytes);
         let n = (self.width * self.height) as usize;
-        let beauty = floats[..4 * n].to_vec();
-        let depth = floats[4 * n..8 * n].chunks(4).map(|c| c[0]).collect();
+        let plane = |k: usize| &floats[4 * n * k..4 * n * (k + 1)];
+        let rgb = |k: usize| plane(k).chunks(4).flat_map(|c| [c[0], c[1], c[2]]).collect::<Vec<f32>>();
         Ok(Image {
             width: self.width,
             height: self.height,
-            layers: vec![Layer::new("beauty", &["R", "G", "B", "A"], beauty), Layer::new("depth", &["Z"], depth)],
+            layers: vec![
+                Layer::new("beauty", &["R", "G", "B", "A"], plane(0).to_vec()),
+                Layer::new("depth", &["Z"], plane(1).chunks(4).map(|c| c[0]).collect()),
+                Layer::new("caustic", &["R", "G", "B"], rgb(2)),
+                Layer::new("direct", &["R", "G", "B"], rgb(3)),
+                Layer::new("volume", &["R", "G", "B"], rgb(4)),
+            ],
         })
+    }
+}
+
+/// Light carried by photons through the volume: fixed-point deposits (march stage) and the
+/// filtered fluence and mean-direction textures the view pass samples. Allocated at full size
+/// only while something in the frame scatters light; a 1-voxel stand-in otherwise.
+pub struct RadianceGrid {
+    pub dims: UVec3,
+    pub generation: u64,
+    /// 6 u32 per voxel: flux·length r, g, b and luminance·length·direction x, y, z.
+    pub deposits: wgpu::Buffer,
+    pub fluence: Grid3d,
+    pub direction: Grid3d,
+}
+
+impl RadianceGrid {
+    pub fn new(ctx: &GpuContext, dims: UVec3) -> Result<Self> {
+        let voxels = dims.x as u64 * dims.y as u64 * dims.z as u64;
+        allocating(ctx, "the radiance grid", || Self {
+            dims,
+            generation: next_generation(),
+            deposits: ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("radiance deposits"),
+                size: voxels * 24,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            fluence: Grid3d::new(&ctx.device, dims, "fluence_grid"),
+            direction: Grid3d::new(&ctx.device, dims, "direction_grid"),
+        })
+    }
+}
+
+/// A storage buffer that a stage refills every frame with a variable amount of data, growing to
+/// the next power of two when a frame needs more (so it is reallocated rarely, not per frame).
+pub struct GrowableBuffer {
+    pub buffer: wgpu::Buffer,
+    label: &'static str,
+    capacity: u64,
+}
+
+impl GrowableBuffer {
+    pub fn new(device: &wgpu::Device, label: &'static str, capacity: u64) -> Self {
+        let capacity = capacity.max(16);
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: capacity,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Self { buffer, label, capacity }
+    }
+
+    /// Uploads `bytes`; returns true when the buffer was reallocated (bind groups must be rebuilt).
+    pub fn write(&mut self, ctx: &GpuContext, bytes: &[u8]) -> bool {
+        let grown = bytes.len() as u64 > self.capacity;
+        if grown {
+            *self = Self::new(&ctx.device, self.label, (bytes.len() as u64).next_power_of_two());
+        }
+        if !bytes.is_empty() {
+            ctx.queue.write_buffer(&self.buffer, 0, bytes);
+        }
+        grown
     }
 }

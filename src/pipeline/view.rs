@@ -1,10 +1,12 @@
-//! Stage 6, view (`shaders/view.wgsl`): camera rays bent through the volume, attenuated, and
-//! shaded by the environment where they leave it.
+//! Stage 6, view (`shaders/view.wgsl`): camera rays bent through the volume, gathering
+//! in-scattered light, ending on receivers (direct + caustic light) or in the environment.
 
 use anyhow::Result;
 
 use super::layout;
-use super::resources::{EnvironmentTexture, FrameTarget, Grids};
+use super::lights::LightBuffers;
+use super::receivers::Receivers;
+use super::resources::{EnvironmentTexture, FrameTarget, Grids, RadianceGrid};
 use super::timing::Profiler;
 use crate::frame::FrameDesc;
 use crate::gpu::GpuContext;
@@ -19,39 +21,65 @@ pub struct View {
     pipeline: wgpu::ComputePipeline,
     bgl: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
-    /// Bind group and the generations (grids, environment, target) it was made for.
-    bound: Option<([u64; 3], wgpu::BindGroup)>,
+    /// Bind group and the generations of what it binds.
+    bound: Option<([u64; 6], wgpu::BindGroup)>,
+}
+
+/// Everything the view reads besides the frame description.
+pub struct ViewInputs<'a> {
+    pub grids: &'a Grids,
+    pub environment: &'a EnvironmentTexture,
+    pub receivers: &'a Receivers,
+    pub lights: &'a LightBuffers,
+    pub radiance: &'a RadianceGrid,
+    pub target: &'a FrameTarget,
+    /// Whether photons were traced this frame (receivers read their caustic maps).
+    pub caustics: bool,
+    /// Whether the radiance grid holds this frame's fluence.
+    pub scattering: bool,
 }
 
 /// The uniforms of one frame.
-pub fn view_params(desc: &FrameDesc) -> ViewParams {
+pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
     let v = &desc.volume;
     let env = &desc.environment;
     let (color, kind) = match &env.source {
         crate::scene::EnvironmentSource::Color(c) => (*c, 0),
         _ => (glam::Vec3::ONE, 1),
     };
-    // A curved ray can wander: allow three box diagonals of steps before giving up.
+    let ambient = match env.image() {
+        Some(img) => img.mean() * env.intensity,
+        None => color * env.intensity,
+    };
+    // A curved ray can wander: allow a few box diagonals of steps before giving up.
     let diagonal = (v.max() - v.min).length();
-    let max_steps = ((3.0 * diagonal / v.step).ceil() as u32).clamp(16, 1 << 20);
+    let max_steps = ((4.0 * diagonal / v.step).ceil() as u32).clamp(16, 1 << 20);
+    let mut flags = 0;
+    if desc.has_media() {
+        flags |= view_flags::MEDIA;
+    }
+    if inputs.scattering {
+        flags |= view_flags::SCATTERING;
+    }
+    if inputs.caustics {
+        flags |= view_flags::CAUSTICS;
+    }
     ViewParams {
         camera: desc.camera.to_gpu(),
         grid: v.to_gpu(),
-        env: EnvParams {
-            color: color.into(),
-            intensity: env.intensity,
-            rotation: env.rotation,
-            kind,
-            visible: env.visible as u32,
-            _pad0: 0,
-        },
+        env: EnvParams { color: color.into(), intensity: env.intensity, rotation: env.rotation, kind, visible: env.visible as u32, _pad0: 0 },
         width: desc.camera.width,
         height: desc.camera.height,
         max_steps,
-        flags: if desc.has_media() { view_flags::MEDIA } else { 0 },
+        flags,
         step: v.step,
         medium_eps: MEDIUM_EPS,
         samples: desc.samples.max(1),
+        light_count: inputs.lights.light_count,
+        // In a scattering medium the in-scattered light varies voxel to voxel: sample each.
+        max_step: if inputs.scattering { v.voxel_size } else { 64.0 * v.voxel_size },
+        eps_refract: super::photons::EPS_REFRACT,
+        ambient: ambient.into(),
         ..Default::default()
     }
 }
@@ -67,41 +95,55 @@ impl View {
                 layout::uniform(0),
                 layout::texture(1, d3),
                 layout::texture(2, d3),
-                layout::sampler(3),
-                layout::texture(4, wgpu::TextureViewDimension::D2),
-                layout::sampler(5),
-                layout::storage(6, false),
+                layout::texture(3, d3),
+                layout::sampler(4),
+                layout::texture(5, wgpu::TextureViewDimension::D2),
+                layout::sampler(6),
+                layout::storage(7, false),
+                layout::uniform(8),
+                layout::storage(9, true),
+                layout::storage(10, true),
+                layout::storage(11, true),
+                layout::storage(12, true),
+                layout::storage(13, true),
+                layout::storage(14, true),
+                layout::storage(15, true),
+                layout::texture(16, d3),
+                layout::texture(17, d3),
             ],
         )?;
         let params = layout::uniform_buffer::<ViewParams>(device, "view params");
         Ok(Self { pipeline, bgl, params, bound: None })
     }
 
-    #[allow(clippy::too_many_arguments)]
-    pub fn encode(
-        &mut self,
-        ctx: &GpuContext,
-        enc: &mut wgpu::CommandEncoder,
-        profiler: &mut Profiler,
-        desc: &FrameDesc,
-        grids: &Grids,
-        env: &EnvironmentTexture,
-        target: &FrameTarget,
-    ) {
-        ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&view_params(desc)));
-        let generations = [grids.generation, env.generation, target.generation];
+    pub fn encode(&mut self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder, profiler: &mut Profiler, desc: &FrameDesc, inputs: &ViewInputs) {
+        ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&view_params(desc, inputs)));
+        let (grids, env, receivers, lights, radiance, target) =
+            (inputs.grids, inputs.environment, inputs.receivers, inputs.lights, inputs.radiance, inputs.target);
+        let generations = [grids.generation, env.generation, target.generation, receivers.generation, lights.generation, radiance.generation];
         if self.bound.as_ref().is_none_or(|(g, _)| *g != generations) {
             let bg = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("view"),
                 layout: &self.bgl,
                 entries: &[
                     wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&grids.ior_grid.view) },
-                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&grids.extinction_grid.view) },
-                    wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::Sampler(&grids.sampler) },
-                    wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&env.view) },
-                    wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::Sampler(&env.sampler) },
-                    wgpu::BindGroupEntry { binding: 6, resource: target.buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: layout::texture_view(&grids.ior_grid.view) },
+                    wgpu::BindGroupEntry { binding: 2, resource: layout::texture_view(&grids.extinction_grid.view) },
+                    wgpu::BindGroupEntry { binding: 3, resource: layout::texture_view(&grids.scattering_grid.view) },
+                    wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&grids.sampler) },
+                    wgpu::BindGroupEntry { binding: 5, resource: layout::texture_view(&env.view) },
+                    wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::Sampler(&env.sampler) },
+                    wgpu::BindGroupEntry { binding: 7, resource: target.buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 8, resource: grids.octree_params.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 9, resource: grids.octree.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 10, resource: receivers.bvh_nodes.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 11, resource: receivers.bvh_triangles.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 12, resource: receivers.receivers.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 13, resource: receivers.charts.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 14, resource: receivers.caustic_irradiance.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 15, resource: lights.lights.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 16, resource: layout::texture_view(&radiance.fluence.view) },
+                    wgpu::BindGroupEntry { binding: 17, resource: layout::texture_view(&radiance.direction.view) },
                 ],
             });
             self.bound = Some((generations, bg));

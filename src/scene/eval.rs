@@ -7,7 +7,7 @@ use anyhow::{Result, anyhow, bail};
 use glam::{Mat4, UVec3, Vec3};
 
 use super::light::LUMENS_PER_WATT;
-use super::{Glass, LightKind, Material, MeshData, Node, Scene, Shape, Shared, mesh};
+use super::{Glass, IndexFn, LightKind, Material, MeshData, Node, Scene, Shape, Shared, index_fn, mesh};
 use crate::frame::{CameraDesc, FieldDesc, FieldKind, FogDesc, FrameDesc, LightDesc, LightShape, MeshInstance, Receiver, VolumeDesc};
 
 /// Choices the command line can override.
@@ -47,6 +47,8 @@ fn flatten(nodes: &[Shared<Node>], parent: Mat4, out: &mut Vec<Placed>) {
 #[derive(Default)]
 struct Contents {
     fields: Vec<FieldDesc>,
+    /// Fields defined by a script function (index into `fields`): sampled once the volume is known.
+    functions: Vec<(usize, IndexFn)>,
     meshes: Vec<MeshInstance>,
     receivers: Vec<Receiver>,
     lights: Vec<LightDesc>,
@@ -76,6 +78,10 @@ pub fn evaluate(scene: &Scene, time: f64, opts: &EvalOptions) -> Result<FrameDes
     }
     for m in &mut c.meshes {
         m.boundary = metres(m.boundary);
+    }
+    for (i, n) in &c.functions {
+        let samples = index_fn::sample_over_voxels(&c.fields[*i], n, &volume)?;
+        c.fields[*i].kind = FieldKind::Sampled(Arc::new(samples));
     }
     let camera = camera_of(scene, &placed, opts)?;
     let fog = scene.fog.as_ref().map(|f| {
@@ -139,9 +145,9 @@ fn place_shape(p: &Placed, c: &mut Contents) -> Result<()> {
         (Some(Material::Glass(_)), Shape::Plane { .. }) => {
             bail!("{}: node {name}: a plane has no inside, so it cannot be glass; use a box or a mesh", node.origin)
         }
-        (Some(Material::Glass(glass)), _) => c.fields.push(field_of(&node, &shape, p.world, scale, glass)),
+        (Some(Material::Glass(glass)), _) => push_field(c, &node, &shape, p.world, scale, glass),
         (None, s) if s.is_index_field() => {
-            c.fields.push(field_of(&node, &shape, p.world, scale, Glass { ior: 1.0, ..Default::default() }))
+            push_field(c, &node, &shape, p.world, scale, Glass { ior: 1.0, ..Default::default() })
         }
         (None, s) => bail!(
             "{}: the {} of node {name} needs a material, e.g. material = refrakt.glass{{ior = 1.5}} or refrakt.diffuse{{color = {{0.8, 0.8, 0.8}}}}",
@@ -169,16 +175,25 @@ fn mesh_instance(node: &Node, mesh: &Arc<MeshData>, world: Mat4, glass: Glass, b
     })
 }
 
-/// The analytic index field a node carries. Boundary is still in voxels here.
+fn push_field(c: &mut Contents, node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) {
+    if let Shape::Field { n, .. } = shape {
+        c.functions.push((c.fields.len(), n.clone()));
+    }
+    c.fields.push(field_of(node, shape, world, scale, glass));
+}
+
+/// The index field a node carries. Boundary is still in voxels here; a function-defined field
+/// gets its samples once the volume is known.
 fn field_of(node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) -> FieldDesc {
     // Analytic fields measure distance in local units; a non-uniform scale is approximated by
     // the geometric mean (exact for uniform scale, which is what these shapes are for).
     let uniform = (scale.x * scale.y * scale.z).cbrt();
-    let (kind, half_size, ior, gradient) = match *shape {
-        Shape::Sphere { radius, .. } => (FieldKind::Sphere, Vec3::splat(radius), glass.ior, 0.0),
-        Shape::Box { size, .. } => (FieldKind::Box, size * 0.5, glass.ior, 0.0),
-        Shape::Luneburg { radius, .. } => (FieldKind::Luneburg, Vec3::splat(radius), 1.0, 0.0),
-        Shape::Slab { size, ior, gradient, .. } => (FieldKind::Slab, size * 0.5, ior, gradient),
+    let (kind, half_size, ior, gradient) = match shape {
+        Shape::Sphere { radius, .. } => (FieldKind::Sphere, Vec3::splat(*radius), glass.ior, 0.0),
+        Shape::Box { size, .. } => (FieldKind::Box, *size * 0.5, glass.ior, 0.0),
+        Shape::Luneburg { radius, .. } => (FieldKind::Luneburg, Vec3::splat(*radius), 1.0, 0.0),
+        Shape::Slab { size, ior, gradient, .. } => (FieldKind::Slab, *size * 0.5, *ior, *gradient),
+        Shape::Field { size, .. } => (FieldKind::Sampled(Arc::default()), *size * 0.5, 1.0, 0.0),
         Shape::Mesh { .. } | Shape::Plane { .. } => unreachable!("meshes and planes are not analytic fields"),
     };
     FieldDesc {
@@ -239,7 +254,7 @@ fn light_of(p: &Placed) -> Result<Option<LightDesc>> {
 }
 
 /// World AABB of a local box of half extents `h` under `m`.
-fn world_bounds(m: &Mat4, h: Vec3) -> (Vec3, Vec3) {
+pub(super) fn world_bounds(m: &Mat4, h: Vec3) -> (Vec3, Vec3) {
     let mut lo = Vec3::splat(f32::INFINITY);
     let mut hi = Vec3::splat(f32::NEG_INFINITY);
     for i in 0..8 {

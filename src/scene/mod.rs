@@ -11,6 +11,7 @@
 
 pub mod environment;
 pub mod eval;
+pub mod index_fn;
 pub mod light;
 pub mod material;
 pub mod mesh;
@@ -24,6 +25,7 @@ use std::rc::Rc;
 use glam::{Mat4, Quat, Vec3};
 
 pub use environment::{EnvImage, Environment, EnvironmentSource};
+pub use index_fn::{IndexFn, IndexFunction};
 pub use light::{Light, LightKind};
 pub use material::{Diffuse, Fog, Glass, Material, Texture2d};
 pub use mesh::MeshData;
@@ -98,12 +100,17 @@ impl Camera {
             return r;
         }
         let target = self.target.unwrap_or(self.position - Vec3::Z);
-        let forward = (target - self.position).normalize_or(Vec3::NEG_Z);
-        let up = if forward.cross(self.up).length_squared() < 1e-8 { Vec3::Z } else { self.up };
-        // Camera axes: right, up, and back (the camera looks down its local −Z).
-        let right = forward.cross(up).normalize();
-        Quat::from_mat3(&glam::Mat3::from_cols(right, right.cross(forward), -forward))
+        look_rotation((target - self.position).normalize_or(Vec3::NEG_Z), self.up)
     }
+}
+
+/// The rotation that turns local −Z to `forward` (unit) and local +Y as close to `up` as it
+/// can (glTF's camera and light convention). When `forward` is parallel to `up`, +Z stands in.
+pub fn look_rotation(forward: Vec3, up: Vec3) -> Quat {
+    let up = if forward.cross(up).length_squared() < 1e-8 { Vec3::Z } else { up };
+    // Axes: right, up, and back (the object looks down its local −Z).
+    let right = forward.cross(up).normalize();
+    Quat::from_mat3(&glam::Mat3::from_cols(right, right.cross(forward), -forward))
 }
 
 /// Settings of the voxel volume that holds the refractive media.
@@ -195,4 +202,30 @@ impl Scene {
         }
         walk(&self.roots, name)
     }
+
+    /// The world matrix of `node` (parent · … · local, the order frames are evaluated in), or
+    /// `None` when it is not in the scene.
+    pub fn world_matrix(&self, node: &Shared<Node>) -> Option<Mat4> {
+        fn walk(nodes: &[Shared<Node>], parent: Mat4, target: &Shared<Node>) -> Option<Mat4> {
+            nodes.iter().find_map(|n| {
+                let world = parent * n.borrow().transform.matrix();
+                if Rc::ptr_eq(n, target) { Some(world) } else { walk(&n.borrow().children, world, target) }
+            })
+        }
+        walk(&self.roots, Mat4::IDENTITY, node)
+    }
+
+    /// Takes `node` out of the graph, wherever it hangs; false if it was not in it.
+    pub fn remove(&mut self, node: &Shared<Node>) -> bool {
+        remove_from(&mut self.roots, node)
+    }
+}
+
+/// Removes `target` from `nodes` or from anywhere below them.
+pub fn remove_from(nodes: &mut Vec<Shared<Node>>, target: &Shared<Node>) -> bool {
+    if let Some(i) = nodes.iter().position(|n| Rc::ptr_eq(n, target)) {
+        nodes.remove(i);
+        return true;
+    }
+    nodes.iter().any(|n| remove_from(&mut n.borrow_mut().children, target))
 }

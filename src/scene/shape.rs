@@ -5,12 +5,15 @@ use std::sync::Arc;
 use glam::{Vec2, Vec3};
 
 use super::MeshData;
+use super::index_fn::IndexFn;
 
 /// `Sphere` and `Box` are exact analytic solids: with a glass material they become constant-index
 /// fields, with a diffuse one opaque receivers. `Luneburg` and `Slab` are index fields that
 /// define n themselves (a material, if given, adds only absorption and scattering). `Mesh` is a
 /// triangle mesh (from a file, a procedural primitive or glTF). `Plane` is a rectangle in the
-/// node's local XZ plane facing +Y — a floor or a wall for caustics to land on.
+/// node's local XZ plane facing +Y — a floor or a wall for caustics to land on. `Field` is an
+/// index field a script defines by a function n(x, y, z) inside a box of `size`, sampled on the
+/// CPU (see `index_fn`).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Shape {
     Sphere { radius: f32, boundary: Option<f32> },
@@ -22,6 +25,7 @@ pub enum Shape {
     /// A triangle mesh; `source` says where it came from (a file path, "icosphere", …).
     Mesh { mesh: Arc<MeshData>, source: String, boundary: Option<f32> },
     Plane { size: Vec2 },
+    Field { size: Vec3, n: IndexFn, boundary: Option<f32> },
 }
 
 impl Shape {
@@ -33,6 +37,7 @@ impl Shape {
             Shape::Slab { .. } => "slab",
             Shape::Mesh { .. } => "mesh",
             Shape::Plane { .. } => "plane",
+            Shape::Field { .. } => "field",
         }
     }
 
@@ -43,14 +48,15 @@ impl Shape {
             | Shape::Box { boundary, .. }
             | Shape::Luneburg { boundary, .. }
             | Shape::Slab { boundary, .. }
-            | Shape::Mesh { boundary, .. } => *boundary,
+            | Shape::Mesh { boundary, .. }
+            | Shape::Field { boundary, .. } => *boundary,
             Shape::Plane { .. } => None,
         }
     }
 
     /// Whether the shape defines its own index (so a material's `ior` does not apply).
     pub fn is_index_field(&self) -> bool {
-        matches!(self, Shape::Luneburg { .. } | Shape::Slab { .. })
+        matches!(self, Shape::Luneburg { .. } | Shape::Slab { .. } | Shape::Field { .. })
     }
 
     /// Half extents of the shape's local bounding box, centred on the node's origin (meshes:
@@ -58,7 +64,7 @@ impl Shape {
     pub fn local_half_extent(&self) -> Vec3 {
         match self {
             Shape::Sphere { radius, .. } | Shape::Luneburg { radius, .. } => Vec3::splat(*radius),
-            Shape::Box { size, .. } | Shape::Slab { size, .. } => *size * 0.5,
+            Shape::Box { size, .. } | Shape::Slab { size, .. } | Shape::Field { size, .. } => *size * 0.5,
             Shape::Mesh { mesh, .. } => mesh.bounds().map_or(Vec3::ZERO, |(lo, hi)| lo.abs().max(hi.abs())),
             Shape::Plane { size } => Vec3::new(size.x * 0.5, 0.0, size.y * 0.5),
         }

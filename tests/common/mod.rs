@@ -27,6 +27,17 @@ pub fn load(path: &Path) -> ScriptHost {
     ScriptHost::load(path, &[], &Limits::default()).unwrap_or_else(|e| panic!("{e:#}"))
 }
 
+/// The error loading `body` fails with, as scene.lua after a two-line header (so the body's
+/// first line is line 3): `local r = require("refrakt")`, `local scene = r.scene{}`.
+pub fn load_error(body: &str, limits: &Limits) -> String {
+    let source = format!("local r = require(\"refrakt\")\nlocal scene = r.scene{{}}\n{body}\nreturn scene\n");
+    let (_dir, path) = write_script("scene.lua", &source);
+    match ScriptHost::load(&path, &[], limits) {
+        Ok(_) => panic!("this should fail to load:\n{body}"),
+        Err(e) => format!("{e:#}"),
+    }
+}
+
 /// The frame a Lua scene evaluates to at t = 0.
 pub fn frame_from_lua(source: &str) -> FrameDesc {
     let (_dir, path) = write_script("scene.lua", source);

@@ -1,0 +1,256 @@
+// Stage 5, march: photons follow the ray equation through the volume (Sun et al. 2008, §4.4),
+// with the octree choosing the step: one straight jump across a flat cell, velocity-Verlet steps
+// of `min_step` where n varies (the same integrator as the view pass). Along the way:
+//
+// - Beer–Lambert: the flux of each channel decays by exp(−σ_t·ds).
+// - Each segment deposits flux × length into the radiance grid over the voxels it crosses (exact
+//   3D DDA), as fixed-point u32 atomics — the fluence that scattering media show as light shafts.
+// - A photon that reaches an opaque receiver after being refracted (it passed where n − 1 >
+//   eps_refract) deposits its flux into that receiver's caustic map; one that was not is
+//   dropped there, because the direct light (with its shadow rays through the glass) already
+//   accounts for it.
+//
+// Fixed point: deposits are (photon flux / flux_unit) · scale, flux_unit the mean photon flux.
+// The scales are chosen on the CPU (src/pipeline/march.rs) so that even every photon landing on
+// one texel or voxel stays below 2³¹; beyond that an accumulator saturates (the add is undone
+// and counted in the statistics), it never wraps.
+//
+// `resolve` turns the radiance grid into the filtered textures the view pass samples.
+
+#import shared/types.wgsl
+#import shared/grid.wgsl
+#import shared/ray.wgsl
+#import shared/octree.wgsl
+#import shared/bvh.wgsl
+#import shared/dda.wgsl
+#import shared/receivers.wgsl
+
+@group(0) @binding(0) var<uniform> params: MarchParams;
+@group(0) @binding(1) var<storage, read> photons: array<Photon>;
+@group(0) @binding(2) var ior_grid: texture_3d<f32>;
+@group(0) @binding(3) var extinction_grid: texture_3d<f32>;
+@group(0) @binding(4) var grid_sampler: sampler;
+@group(0) @binding(5) var<uniform> octree_params: OctreeParams;
+@group(0) @binding(6) var<storage, read> octree: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(8) var<storage, read> bvh_triangles: array<BvhTriangle>;
+@group(0) @binding(9) var<storage, read> receivers: array<ReceiverGpu>;
+@group(0) @binding(10) var<storage, read> charts: array<Chart>;
+// 6 words per voxel: flux·length r, g, b (u32) and luminance·length·direction x, y, z (i32 bits).
+@group(0) @binding(11) var<storage, read_write> radiance: array<atomic<u32>>;
+// 4 words per texel: photon count, flux r, g, b.
+@group(0) @binding(12) var<storage, read_write> caustic_atlas: array<atomic<u32>>;
+// (low, high) word pairs, see STAT_* below.
+@group(0) @binding(13) var<storage, read_write> stats: array<atomic<u32>>;
+@group(0) @binding(14) var fluence_grid: texture_storage_3d<rgba16float, write>;
+@group(0) @binding(15) var direction_grid: texture_storage_3d<rgba16float, write>;
+
+// Statistics, each an rgb triple of 64-bit fixed-point flux sums (flux_scale units).
+const STAT_EMITTED: u32 = 0u;
+const STAT_RECEIVED: u32 = 3u;
+const STAT_CAUSTIC: u32 = 6u;
+const STAT_ESCAPED: u32 = 9u;
+// A 64-bit count of deposits undone by saturation.
+const STAT_SATURATED: u32 = 12u;
+
+const FIXED_SATURATION: u32 = 0x80000000u;
+
+fn to_fixed(value: f32, scale: f32) -> u32 {
+    return u32(clamp(value * scale, 0.0, 1073741823.0));
+}
+
+// Adds v to the 64-bit counter `stat` (words 2·stat, 2·stat + 1): the carry is exact because
+// atomicAdd returns the value it added to.
+fn stat_add(stat: u32, v: u32) {
+    let old = atomicAdd(&stats[2u * stat], v);
+    if old + v < old {
+        atomicAdd(&stats[2u * stat + 1u], 1u);
+    }
+}
+
+fn stat_flux(stat: u32, flux: vec3<f32>) {
+    for (var c = 0u; c < 3u; c++) {
+        stat_add(stat + c, to_fixed(flux[c] / params.flux_unit, params.flux_scale));
+    }
+}
+
+// Adds to a saturating radiance or caustic word. Adds are ≤ 2³⁰ and far fewer than 2³¹/2³⁰ …
+// run at once per word, so the transient sum never wraps; past 2³¹ the add is undone.
+fn add_radiance(i: u32, v: u32) {
+    if v == 0u {
+        return;
+    }
+    if atomicAdd(&radiance[i], v) >= FIXED_SATURATION {
+        atomicSub(&radiance[i], v);
+        stat_add(STAT_SATURATED, 1u);
+    }
+}
+
+fn add_caustic(i: u32, v: u32) {
+    if v == 0u {
+        return;
+    }
+    if atomicAdd(&caustic_atlas[i], v) >= FIXED_SATURATION {
+        atomicSub(&caustic_atlas[i], v);
+        stat_add(STAT_SATURATED, 1u);
+    }
+}
+
+// Deposits flux·length of the segment a → b over the voxels it crosses.
+fn deposit_segment(a: vec3<f32>, b: vec3<f32>, flux: vec3<f32>) {
+    let grid = params.grid;
+    let rel = flux / params.flux_unit;
+    let lum = (rel.r + rel.g + rel.b) / 3.0;
+    let dir = normalize(b - a);
+    var dda = dda_begin((a - grid.origin) / grid.voxel_size, (b - grid.origin) / grid.voxel_size);
+    while dda_more(dda) {
+        let c = dda.cell;
+        let len = dda_advance(&dda);
+        if any(c < vec3<i32>(0)) || any(c >= vec3<i32>(grid.dims)) {
+            continue;
+        }
+        let v = 6u * (u32(c.x) + grid.dims.x * (u32(c.y) + grid.dims.y * u32(c.z)));
+        for (var k = 0u; k < 3u; k++) {
+            add_radiance(v + k, to_fixed(rel[k] * len, params.radiance_scale));
+        }
+        let d = vec3<i32>(dir * (lum * len * params.radiance_scale));
+        for (var k = 0u; k < 3u; k++) {
+            atomicAdd(&radiance[v + 3u + k], bitcast<u32>(d[k]));
+        }
+    }
+}
+
+// A refracted photon lands on a receiver: its flux goes to the texel under the hit point.
+fn deposit_caustic(hit: BvhHit, p: vec3<f32>, d: vec3<f32>, flux: vec3<f32>) {
+    let n = bvh_triangle_normal(hit.triangle);
+    let back = dot(n, d) > 0.0;
+    let facing = select(n, -n, back);
+    let chart_index = chart_for(bvh_triangles[hit.triangle].receiver, facing, back);
+    if chart_index < 0 {
+        return;
+    }
+    let chart = charts[u32(chart_index)];
+    let t = clamp(vec2<i32>(floor(chart_coords(chart, p))), vec2<i32>(0), vec2<i32>(i32(chart.width), i32(chart.height)) - 1);
+    let texel = 4u * (chart.offset + u32(t.x) + chart.width * u32(t.y));
+    // Irradiance is flux per surface area; the chart's texel is the surface's projection, so
+    // the projected share of the flux is what divides by the texel area.
+    let rel = flux / params.flux_unit * abs(facing[chart.axis / 2u]);
+    atomicAdd(&caustic_atlas[texel], 1u);
+    for (var k = 0u; k < 3u; k++) {
+        add_caustic(texel + 1u + k, to_fixed(rel[k], params.flux_scale));
+    }
+}
+
+// Where a straight photon ends: on a receiver (deposit if refracted) or escaping.
+fn land(hit: BvhHit, p: vec3<f32>, d: vec3<f32>, flux: vec3<f32>, refracted: bool) {
+    if hit.triangle == 0xffffffffu {
+        stat_flux(STAT_ESCAPED, flux);
+        return;
+    }
+    stat_flux(STAT_RECEIVED, flux);
+    if refracted {
+        stat_flux(STAT_CAUSTIC, flux);
+        deposit_caustic(hit, p, d, flux);
+    }
+}
+
+const NO_HIT: f32 = 3.4e38;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= params.photon_count {
+        return;
+    }
+    let photon = photons[i];
+    if photon.flags == 0u {
+        return;
+    }
+    var flux = photon.flux;
+    stat_flux(STAT_EMITTED, flux);
+    let grid = params.grid;
+    var d = photon.dir;
+    // The receiver ahead along the current straight line, `cast_from` + `hit.t`·d.
+    var cast_from = photon.origin;
+    var hit = bvh_closest_hit(cast_from, d, 0.0, NO_HIT);
+    let span = ray_box(photon.origin, d, grid.origin, grid_box_max(grid));
+    if span.x > span.y || span.y <= 0.0 || hit.t < span.x {
+        land(hit, cast_from + d * hit.t, d, flux, false);
+        return;
+    }
+    var s = ray_start(ior_grid, grid_sampler, grid, photon.origin + d * max(span.x, 0.0), d);
+    var refracted = false;
+    let box_max = grid_box_max(grid);
+    for (var n_steps = 0u; n_steps < params.max_steps; n_steps++) {
+        let x0 = s.x;
+        let ahead = hit.t - dot(x0 - cast_from, d);
+        var jump = octree_step(x0, d, params.min_step, params.max_step);
+        let bends = jump <= params.min_step;
+        jump = min(jump, ray_box(x0, d, grid.origin, box_max).y + 1e-4 * grid.voxel_size);
+        if ahead <= jump {
+            // The receiver comes first: finish the segment on it.
+            let p = x0 + d * ahead;
+            let sigma_t = sample_grid(extinction_grid, grid_sampler, grid, 0.5 * (x0 + p)).rgb;
+            let after = flux * exp(-sigma_t * ahead);
+            if (params.flags & MARCH_FLAG_DEPOSIT_RADIANCE) != 0u {
+                deposit_segment(x0, p, 0.5 * (flux + after));
+            }
+            land(hit, p, d, after, refracted);
+            return;
+        }
+        if bends {
+            march_step(ior_grid, grid_sampler, grid, &s, params.min_step);
+        } else {
+            s.x = x0 + d * jump;
+            s.g = sample_ior(ior_grid, grid_sampler, grid, s.x);
+            s.v = d * s.g.w;
+        }
+        let length = distance(x0, s.x);
+        let sigma_t = sample_grid(extinction_grid, grid_sampler, grid, 0.5 * (x0 + s.x)).rgb;
+        let after = flux * exp(-sigma_t * length);
+        if (params.flags & MARCH_FLAG_DEPOSIT_RADIANCE) != 0u {
+            deposit_segment(x0, s.x, 0.5 * (flux + after));
+        }
+        flux = after;
+        refracted = refracted || s.g.w - 1.0 > params.eps_refract;
+        let d_new = normalize(s.v);
+        if dot(d_new, d) < 1.0 - 1e-9 {
+            // The path bent: look for the receiver ahead along the new direction.
+            d = d_new;
+            cast_from = s.x;
+            hit = bvh_closest_hit(cast_from, d, 0.0, NO_HIT);
+        }
+        if max(flux.r, max(flux.g, flux.b)) < 1e-6 * params.flux_unit {
+            return;
+        }
+        // (Checked after the step: the entry point itself may round to just outside.)
+        if !in_grid(grid, s.x) {
+            break;
+        }
+    }
+    let ahead = hit.t - dot(s.x - cast_from, d);
+    land(hit, s.x + d * ahead, d, flux, refracted);
+}
+
+// Fluence (W/m²) and mean photon direction per voxel, for the view pass's in-scattering.
+@compute @workgroup_size(4, 4, 4)
+fn resolve(@builtin(global_invocation_id) id: vec3<u32>) {
+    let grid = params.grid;
+    if any(id >= grid.dims) {
+        return;
+    }
+    let v = 6u * (id.x + grid.dims.x * (id.y + grid.dims.y * id.z));
+    let sums = vec3<f32>(f32(atomicLoad(&radiance[v])), f32(atomicLoad(&radiance[v + 1u])), f32(atomicLoad(&radiance[v + 2u])));
+    // Σ flux·length / voxel volume: sums are (flux/flux_unit)·(length/h)·scale.
+    let fluence = sums * (params.flux_unit / (params.radiance_scale * grid.voxel_size * grid.voxel_size));
+    let dir_sum = vec3<f32>(
+        f32(bitcast<i32>(atomicLoad(&radiance[v + 3u]))),
+        f32(bitcast<i32>(atomicLoad(&radiance[v + 4u]))),
+        f32(bitcast<i32>(atomicLoad(&radiance[v + 5u]))),
+    );
+    let lum = (sums.r + sums.g + sums.b) / 3.0;
+    // The luminance-weighted mean direction: its length (≤ 1) says how collimated the light is.
+    let mean_dir = select(vec3<f32>(0.0), dir_sum / lum, lum > 0.0);
+    textureStore(fluence_grid, id, vec4<f32>(fluence, 0.0));
+    textureStore(direction_grid, id, vec4<f32>(mean_dir, 0.0));
+}

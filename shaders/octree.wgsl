@@ -1,0 +1,63 @@
+// Stage 3, octree: the min/max pyramid of n and extinction over the grid (Sun et al. 2008, §4.2),
+// rebuilt every frame. Stored as one linear buffer of vec4 (n_min, n_max, σ_min, σ_max), level
+// after level (offsets in OctreeParams.levels[L].w) — a mip chain in a buffer rather than a 3D
+// texture, because level 0 is the dual grid (one cell fewer per axis than the voxels) and a
+// buffer lets every stage index any level without a view per mip.
+//
+// `leaf` fills level 0 from the voxels; `reduce` builds level L from level L−1, one dispatch per
+// level. The CPU twin is src/cpu/octree.rs.
+//
+// A level-0 cell spans the 2×2×2 voxels trilinear interpolation mixes inside it, but ∇n there
+// comes from central differences that reach one voxel further: the leaf takes its bounds over
+// the 4×4×4 block around the cell, so that in a flat cell ∇n is zero too (to within ε/h) and a
+// straight step through it is exactly what the ray equation would do.
+
+#import shared/types.wgsl
+
+@group(0) @binding(0) var<uniform> octree_params: OctreeParams;
+@group(0) @binding(1) var<storage, read> index_field: array<f32>;
+@group(0) @binding(2) var extinction_grid: texture_3d<f32>;
+@group(0) @binding(3) var<storage, read_write> octree: array<vec4<f32>>;
+@group(0) @binding(4) var<uniform> level: u32;
+
+fn voxel_index(p: vec3<u32>) -> u32 {
+    let d = octree_params.grid.dims;
+    return p.x + d.x * (p.y + d.y * p.z);
+}
+
+@compute @workgroup_size(4, 4, 4)
+fn leaf(@builtin(global_invocation_id) id: vec3<u32>) {
+    let dims0 = octree_params.levels[0].xyz;
+    if any(id >= dims0) {
+        return;
+    }
+    var v = vec4<f32>(1e30, -1e30, 1e30, -1e30);
+    let last = vec3<i32>(octree_params.grid.dims) - 1;
+    for (var k = 0u; k < 64u; k++) {
+        let offset = vec3<i32>(i32(k & 3u), i32((k >> 2u) & 3u), i32(k >> 4u)) - 1;
+        let p = vec3<u32>(clamp(vec3<i32>(id) + offset, vec3<i32>(0), last));
+        let n = index_field[voxel_index(p)];
+        let sigma = textureLoad(extinction_grid, p, 0).rgb;
+        let s = max(sigma.r, max(sigma.g, sigma.b));
+        v = vec4<f32>(min(v.x, n), max(v.y, n), min(v.z, s), max(v.w, s));
+    }
+    octree[id.x + dims0.x * (id.y + dims0.y * id.z)] = v;
+}
+
+@compute @workgroup_size(4, 4, 4)
+fn reduce(@builtin(global_invocation_id) id: vec3<u32>) {
+    let here = octree_params.levels[level];
+    if any(id >= here.xyz) {
+        return;
+    }
+    let below = octree_params.levels[level - 1u];
+    var v = vec4<f32>(1e30, -1e30, 1e30, -1e30);
+    for (var k = 0u; k < 8u; k++) {
+        let c = 2u * id + vec3<u32>(k & 1u, (k >> 1u) & 1u, k >> 2u);
+        if all(c < below.xyz) {
+            let w = octree[below.w + c.x + below.x * (c.y + below.y * c.z)];
+            v = vec4<f32>(min(v.x, w.x), max(v.y, w.y), min(v.z, w.z), max(v.w, w.w));
+        }
+    }
+    octree[here.w + id.x + here.x * (id.y + here.y * id.z)] = v;
+}

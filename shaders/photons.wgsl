@@ -1,0 +1,181 @@
+// Stage 4, photons: where the photons leave the lights (Sun et al. 2008, §4.3).
+//
+// The paper rasterizes the refractive objects from each light to emit photons only where they
+// matter. Here every light gets a G×G raster over the directions (or, for the sun, the area)
+// that can reach the volume, and each cell a weight = its power × its importance: 1 when its
+// central ray crosses a refractive cell of the octree, `medium_importance` when it crosses only a
+// scattering medium (light shafts), 0 otherwise. One CDF over all lights' cells then splits the
+// photon budget over lights and cells by weight, and photon i takes the stratified sample
+// u = (i + ξ)/N of it, so its flux — I(ω)·cell measure / (N·pmf) — keeps the estimate unbiased
+// wherever the weight is nonzero. All randomness is hash(seed, i): the same photons every frame.
+//
+// Entry points, in order: `importance` (one thread per cell), `scan` (one workgroup: the CDF),
+// `emit` (one thread per photon).
+
+#import shared/types.wgsl
+#import shared/grid.wgsl
+#import shared/hash.wgsl
+#import shared/lights.wgsl
+#import shared/dda.wgsl
+
+@group(0) @binding(0) var<uniform> params: PhotonParams;
+@group(0) @binding(1) var<storage, read> emitters: array<Emitter>;
+@group(0) @binding(2) var<storage, read> lights: array<LightGpu>;
+@group(0) @binding(3) var<uniform> octree_params: OctreeParams;
+@group(0) @binding(4) var<storage, read> octree: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read_write> cdf: array<f32>;
+@group(0) @binding(6) var<storage, read_write> photons: array<Photon>;
+
+// The octree level whose cells classify raster rays: 8 voxels across, a handful of cells per ray.
+const CLASSIFY_LEVEL: u32 = 3u;
+
+// Origin and direction of the point (u ∈ [0,1)²) of an emitter's raster.
+struct EmitterRay {
+    origin: vec3<f32>,
+    dir: vec3<f32>,
+}
+
+fn emitter_ray(e: Emitter, u: vec2<f32>) -> EmitterRay {
+    let light = lights[e.light];
+    if light.kind == LIGHT_SUN {
+        let p = e.origin + e.right * ((2.0 * u.x - 1.0) * e.half_width) + e.up * ((2.0 * u.y - 1.0) * e.half_height);
+        return EmitterRay(p, e.axis);
+    }
+    return EmitterRay(e.origin, cap_direction(e.axis, e.right, e.up, e.cos_max, u));
+}
+
+// Power (W per channel) that leaves through a cell of measure `m` around a ray.
+fn cell_power(e: Emitter, dir: vec3<f32>) -> vec3<f32> {
+    let light = lights[e.light];
+    if light.kind == LIGHT_SUN {
+        return light.radiant * e.measure;
+    }
+    return light_intensity(light, dir) * e.measure;
+}
+
+// 1 if the ray crosses a refractive octree cell, medium_importance if only a scattering
+// medium, 0 if neither (then no photon is needed there: direct light covers it).
+fn importance(o: vec3<f32>, d: vec3<f32>) -> f32 {
+    let grid = params.grid;
+    let span = ray_box(o, d, grid.origin, grid_box_max(grid));
+    if span.x > span.y || span.y <= 0.0 {
+        return 0.0;
+    }
+    let level = min(CLASSIFY_LEVEL, octree_params.level_count - 1u);
+    let dims = octree_params.levels[level];
+    let cell_size = grid.voxel_size * f32(1u << level);
+    // Level cells in dual-grid units: x ↦ (x − origin)/h − 1/2, divided by the cell size.
+    let to_cells = (vec3<f32>(-0.5 * grid.voxel_size) - grid.origin) / cell_size;
+    let a = (o + d * max(span.x, 0.0)) / cell_size + to_cells;
+    let b = (o + d * span.y) / cell_size + to_cells;
+    var medium = false;
+    var dda = dda_begin(a, b);
+    while dda_more(dda) {
+        let c = clamp(dda.cell, vec3<i32>(0), vec3<i32>(dims.xyz) - 1);
+        dda_advance(&dda);
+        let v = octree[dims.w + u32(c.x) + dims.x * (u32(c.y) + dims.y * u32(c.z))];
+        if v.y - 1.0 > params.eps_refract {
+            return 1.0;
+        }
+        medium = medium || v.w > 0.0;
+    }
+    return select(0.0, params.medium_importance, medium);
+}
+
+fn luminance(c: vec3<f32>) -> f32 {
+    return (c.r + c.g + c.b) / 3.0;
+}
+
+fn cell_count() -> u32 {
+    return params.emitter_count * params.cells * params.cells;
+}
+
+@compute @workgroup_size(64)
+fn importance_raster(@builtin(global_invocation_id) id: vec3<u32>) {
+    let cell = id.x;
+    if cell >= cell_count() {
+        return;
+    }
+    let per = params.cells * params.cells;
+    let e = emitters[cell / per];
+    let local = cell % per;
+    let u = (vec2<f32>(f32(local % params.cells), f32(local / params.cells)) + 0.5) / f32(params.cells);
+    let ray = emitter_ray(e, u);
+    cdf[cell] = luminance(cell_power(e, ray.dir)) * importance(ray.origin, ray.dir);
+}
+
+var<workgroup> chunk_sums: array<f32, 256>;
+
+// In-place inclusive prefix sum of the weights, in a fixed order (deterministic): each thread
+// sums a contiguous chunk, one thread scans the chunk sums, then each chunk is rewritten.
+@compute @workgroup_size(256)
+fn scan(@builtin(local_invocation_index) lid: u32) {
+    let n = cell_count();
+    let chunk = (n + 255u) / 256u;
+    let first = lid * chunk;
+    let last = min(first + chunk, n);
+    var sum = 0.0;
+    for (var i = first; i < last; i++) {
+        sum += cdf[i];
+    }
+    chunk_sums[lid] = sum;
+    workgroupBarrier();
+    if lid == 0u {
+        for (var k = 1u; k < 256u; k++) {
+            chunk_sums[k] += chunk_sums[k - 1u];
+        }
+    }
+    workgroupBarrier();
+    var running = select(0.0, chunk_sums[lid - 1u], lid > 0u);
+    for (var i = first; i < last; i++) {
+        running += cdf[i];
+        cdf[i] = running;
+    }
+}
+
+// The first cell whose cumulative weight exceeds u.
+fn find_cell(u: f32) -> u32 {
+    var lo = 0u;
+    var hi = cell_count() - 1u;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if cdf[mid] > u {
+            hi = mid;
+        } else {
+            lo = mid + 1u;
+        }
+    }
+    return lo;
+}
+
+@compute @workgroup_size(64)
+fn emit(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    let n = params.photon_count;
+    if i >= n {
+        return;
+    }
+    let total = cdf[cell_count() - 1u];
+    if total <= 0.0 {
+        photons[i] = Photon(vec3<f32>(0.0), 0u, vec3<f32>(0.0, 0.0, 1.0), 0u, vec3<f32>(0.0), 0u);
+        return;
+    }
+    let seed = params.seed;
+    // Stratified over the CDF: photon i takes the i-th of N equal slices.
+    let u = (f32(i) + random01(seed, i, 0u)) / f32(n) * total;
+    let cell = find_cell(u);
+    let weight = cdf[cell] - select(0.0, cdf[cell - 1u], cell > 0u);
+    let per = params.cells * params.cells;
+    let e = emitters[cell / per];
+    let local = cell % per;
+    let jitter = vec2<f32>(random01(seed, i, 1u), random01(seed, i, 2u));
+    let uc = (vec2<f32>(f32(local % params.cells), f32(local / params.cells)) + jitter) / f32(params.cells);
+    var ray = emitter_ray(e, uc);
+    let light = lights[e.light];
+    let flux = cell_power(e, ray.dir) * (total / (f32(n) * weight));
+    if light.kind == LIGHT_SUN && light.half_angle > 0.0 {
+        // The sun's disc: directions spread over its angular radius (soft caustics).
+        ray.dir = cone_direction(e.axis, e.right, e.up, light.half_angle, vec2<f32>(random01(seed, i, 3u), random01(seed, i, 4u)));
+    }
+    photons[i] = Photon(ray.origin, 1u, ray.dir, 0u, flux, 0u);
+}

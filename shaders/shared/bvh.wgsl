@@ -1,0 +1,71 @@
+// Closest-hit ray queries against the opaque receivers' BVH (built on the CPU by src/bvh.rs,
+// whose `Bvh::intersect` is the CPU twin). Interior nodes (count 0) store their first child —
+// never the root, so `first = 0, count = 0` marks an empty tree; the second child is the next
+// node. Triangles are tested both-sided with Möller–Trumbore.
+//
+// Expects the stage to declare `bvh_nodes: array<BvhNode>` and `bvh_triangles: array<BvhTriangle>`
+// (storage, read). Needs shared/types.wgsl.
+
+const BVH_STACK: u32 = 32u;
+
+struct BvhHit {
+    t: f32,
+    triangle: u32,
+    u: f32,
+    v: f32,
+}
+
+fn bvh_slab(o: vec3<f32>, inv: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>, t_min: f32, t_max: f32) -> bool {
+    let t0 = (lo - o) * inv;
+    let t1 = (hi - o) * inv;
+    let near = max(max(max(min(t0.x, t1.x), min(t0.y, t1.y)), min(t0.z, t1.z)), t_min);
+    let far = min(min(min(max(t0.x, t1.x), max(t0.y, t1.y)), max(t0.z, t1.z)), t_max);
+    return near <= far;
+}
+
+// The closest triangle along o + t·d with t in (t_min, t_max); t = t_max when none.
+fn bvh_closest_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> BvhHit {
+    var hit = BvhHit(t_max, 0xffffffffu, 0.0, 0.0);
+    let inv = 1.0 / d;
+    var stack: array<u32, BVH_STACK>;
+    var top = 1u;
+    stack[0] = 0u;
+    while top > 0u {
+        top--;
+        let node = bvh_nodes[stack[top]];
+        if !bvh_slab(o, inv, node.min, node.max, t_min, hit.t) {
+            continue;
+        }
+        if node.count == 0u {
+            if node.first != 0u && top + 2u <= BVH_STACK {
+                stack[top] = node.first;
+                stack[top + 1u] = node.first + 1u;
+                top += 2u;
+            }
+            continue;
+        }
+        for (var k = node.first; k < node.first + node.count; k++) {
+            let tri = bvh_triangles[k];
+            let p = cross(d, tri.e2);
+            let det = dot(tri.e1, p);
+            if abs(det) < 1e-12 {
+                continue;
+            }
+            let inv_det = 1.0 / det;
+            let s = o - tri.v0;
+            let u = dot(s, p) * inv_det;
+            let q = cross(s, tri.e1);
+            let v = dot(d, q) * inv_det;
+            let t = dot(tri.e2, q) * inv_det;
+            if u >= 0.0 && u <= 1.0 && v >= 0.0 && u + v <= 1.0 && t > t_min && t < hit.t {
+                hit = BvhHit(t, k, u, v);
+            }
+        }
+    }
+    return hit;
+}
+
+fn bvh_triangle_normal(k: u32) -> vec3<f32> {
+    let tri = bvh_triangles[k];
+    return normalize(cross(tri.e1, tri.e2));
+}

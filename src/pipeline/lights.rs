@@ -1,0 +1,173 @@
+//! Lights on the GPU, and the emitters that say where each light's photons go (`Emitter` in
+//! `shaders/shared/types.wgsl`, used by `shaders/photons.wgsl`).
+
+use glam::Vec3;
+
+use crate::frame::{LightDesc, LightShape, VolumeDesc};
+use crate::gpu::types::{Emitter, LightGpu, light_kind};
+
+/// Cells per side of each light's photon raster (G×G importance cells).
+pub const RASTER_CELLS: u32 = 64;
+
+pub fn light_gpu(l: &LightDesc) -> LightGpu {
+    let (kind, cos_outer, cos_inner, half_angle, size) = match l.shape {
+        LightShape::Point => (light_kind::POINT, -1.0, -1.0, 0.0, glam::Vec2::ZERO),
+        LightShape::Spot { cos_outer, cos_inner } => (light_kind::SPOT, cos_outer, cos_inner, 0.0, glam::Vec2::ZERO),
+        LightShape::Sun { half_angle } => (light_kind::SUN, -1.0, -1.0, half_angle, glam::Vec2::ZERO),
+        LightShape::Rect { size } => (light_kind::RECT, -1.0, -1.0, 0.0, size),
+    };
+    LightGpu {
+        position: l.position.into(),
+        kind,
+        direction: l.direction.into(),
+        cos_outer,
+        right: l.right.into(),
+        cos_inner,
+        up: l.up.into(),
+        half_angle,
+        radiant: l.radiant.into(),
+        size_x: size.x,
+        size_y: size.y,
+        ..Default::default()
+    }
+}
+
+/// Where light `index`'s photons can reach the volume: for the sun, the rectangle across its
+/// direction that the box projects to; for point and spot lights, the cone of directions that
+/// contains the box (the whole sphere from inside it), narrowed to the spot's cone when that is
+/// smaller. Rect lights emit no photons (they light receivers directly only).
+pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, first_cell: u32) -> Option<Emitter> {
+    let (lo, hi) = (volume.min, volume.max());
+    let centre = 0.5 * (lo + hi);
+    let radius = 0.5 * (hi - lo).length();
+    let cells = (RASTER_CELLS * RASTER_CELLS) as f32;
+    let corners: Vec<Vec3> = (0..8)
+        .map(|i| Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z }))
+        .collect();
+    match l.shape {
+        LightShape::Rect { .. } => None,
+        LightShape::Sun { .. } => {
+            let axis = l.direction;
+            let right = axis.any_orthonormal_vector();
+            let up = axis.cross(right);
+            let (mut rx, mut uy) = (0.0f32, 0.0f32);
+            for c in &corners {
+                rx = rx.max((*c - centre).dot(right).abs());
+                uy = uy.max((*c - centre).dot(up).abs());
+            }
+            Some(Emitter {
+                origin: (centre - axis * (radius * 1.01)).into(),
+                light: index,
+                axis: axis.into(),
+                cos_max: 1.0,
+                right: right.into(),
+                half_width: rx,
+                up: up.into(),
+                half_height: uy,
+                measure: 4.0 * rx * uy / cells,
+                first_cell,
+                ..Default::default()
+            })
+        }
+        LightShape::Point | LightShape::Spot { .. } => {
+            let to_box = centre - l.position;
+            let distance = to_box.length();
+            let (mut axis, mut cos_max) = if distance > radius * 1.001 {
+                (to_box / distance, (1.0 - (radius / distance).powi(2)).max(0.0).sqrt())
+            } else {
+                (Vec3::Y, -1.0)
+            };
+            if let LightShape::Spot { cos_outer, .. } = l.shape {
+                // The smaller of the two cones: either contains every direction that matters.
+                if 1.0 - cos_outer < 1.0 - cos_max {
+                    (axis, cos_max) = (l.direction, cos_outer);
+                }
+            }
+            let right = axis.any_orthonormal_vector();
+            Some(Emitter {
+                origin: l.position.into(),
+                light: index,
+                axis: axis.into(),
+                cos_max,
+                right: right.into(),
+                up: axis.cross(right).into(),
+                measure: std::f32::consts::TAU * (1.0 - cos_max) / cells,
+                first_cell,
+                ..Default::default()
+            })
+        }
+    }
+}
+
+/// Power (W, mean over channels) an emitter's raster covers at most: a scale for the photons'
+/// fixed-point flux, not part of any estimate.
+pub fn raster_power(e: &Emitter, l: &LightDesc) -> f32 {
+    let mean = l.radiant.element_sum() / 3.0;
+    e.measure * (RASTER_CELLS * RASTER_CELLS) as f32 * mean
+}
+
+/// The frame's lights and emitters on the GPU (grown when a frame has more lights).
+pub struct LightBuffers {
+    pub lights: wgpu::Buffer,
+    pub emitters: wgpu::Buffer,
+    capacity: usize,
+    pub light_count: u32,
+    pub emitter_count: u32,
+    /// Sum of the emitters' raster powers (W): the scale of the photons' flux.
+    pub raster_power: f32,
+    pub generation: u64,
+}
+
+impl LightBuffers {
+    fn buffers(device: &wgpu::Device, capacity: usize) -> (wgpu::Buffer, wgpu::Buffer) {
+        let make = |label, size: usize| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: (capacity * size) as u64,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        (make("lights", std::mem::size_of::<LightGpu>()), make("emitters", std::mem::size_of::<Emitter>()))
+    }
+
+    pub fn new(device: &wgpu::Device) -> Self {
+        let (lights, emitters) = Self::buffers(device, 4);
+        Self {
+            lights,
+            emitters,
+            capacity: 4,
+            light_count: 0,
+            emitter_count: 0,
+            raster_power: 0.0,
+            generation: super::resources::next_generation(),
+        }
+    }
+
+    /// Uploads this frame's lights and their emitters.
+    pub fn update(&mut self, ctx: &crate::gpu::GpuContext, lights: &[LightDesc], volume: &VolumeDesc) {
+        if lights.len() > self.capacity {
+            self.capacity = lights.len().next_power_of_two();
+            (self.lights, self.emitters) = Self::buffers(&ctx.device, self.capacity);
+            self.generation = super::resources::next_generation();
+        }
+        let gpu: Vec<LightGpu> = lights.iter().map(light_gpu).collect();
+        let mut emitters = Vec::new();
+        self.raster_power = 0.0;
+        for (i, l) in lights.iter().enumerate() {
+            let first = emitters.len() as u32 * RASTER_CELLS * RASTER_CELLS;
+            if let Some(e) = emitter_for(l, i as u32, volume, first) {
+                self.raster_power += raster_power(&e, l);
+                emitters.push(e);
+            }
+        }
+        if !gpu.is_empty() {
+            ctx.queue.write_buffer(&self.lights, 0, bytemuck::cast_slice(&gpu));
+        }
+        if !emitters.is_empty() {
+            ctx.queue.write_buffer(&self.emitters, 0, bytemuck::cast_slice(&emitters));
+        }
+        self.light_count = gpu.len() as u32;
+        self.emitter_count = emitters.len() as u32;
+    }
+}

@@ -1,0 +1,187 @@
+//! Stage 5, march (`shaders/march.wgsl`): photons through the volume along the ray equation
+//! with octree-adaptive steps, depositing into the radiance grid and the receivers' caustic
+//! maps; then `resolve` turns the deposits into the fluence the view pass gathers.
+
+use anyhow::Result;
+
+use super::layout;
+use super::photons::{EPS_REFRACT, Photons};
+use super::receivers::Receivers;
+use super::resources::{GRID_FORMAT, Grids, RadianceGrid};
+use super::timing::Profiler;
+use crate::gpu::GpuContext;
+use crate::gpu::readback::Staging;
+use crate::gpu::shaders::ShaderLibrary;
+use crate::gpu::types::{MarchParams, march_flags};
+
+/// Words in the statistics buffer: 13 64-bit counters (see `STAT_*` in march.wgsl).
+const STAT_WORDS: u64 = 2 * 13;
+
+/// Flux sums over all photons of a frame (W per channel), read back on request.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PhotonStats {
+    /// Flux that left the lights.
+    pub emitted: [f64; 3],
+    /// Flux that reached a receiver (refracted or not).
+    pub received: [f64; 3],
+    /// The part of `received` that had been refracted: what the caustic maps hold.
+    pub caustic: [f64; 3],
+    /// Flux that left the scene without meeting a receiver.
+    pub escaped: [f64; 3],
+    /// Deposits undone because an accumulator was full.
+    pub saturated: u64,
+}
+
+/// Fixed-point scales: one photon of mean flux deposits `flux_scale` units; a crossing of one
+/// voxel deposits `radiance_scale`. Chosen so that every photon of the frame — at up to
+/// `MAX_RELATIVE_FLUX` times the mean flux — landing in one texel, or crossing one voxel twice,
+/// stays below 2³¹ (where accumulators saturate).
+const MAX_RELATIVE_FLUX: f32 = 16.0;
+
+pub fn flux_scale(photons: u32) -> f32 {
+    (2f32.powi(31) / (photons.max(1) as f32 * MAX_RELATIVE_FLUX)).min(2f32.powi(20))
+}
+
+pub fn radiance_scale(photons: u32) -> f32 {
+    flux_scale(photons) / (2.0 * 3f32.sqrt())
+}
+
+pub struct March {
+    main: wgpu::ComputePipeline,
+    resolve: wgpu::ComputePipeline,
+    bgl: wgpu::BindGroupLayout,
+    params: wgpu::Buffer,
+    pub stats: wgpu::Buffer,
+    stats_staging: Staging,
+    bound: Option<([u64; 4], wgpu::BindGroup)>,
+}
+
+impl March {
+    pub fn new(device: &wgpu::Device, shaders: &ShaderLibrary) -> Result<Self> {
+        let d3 = wgpu::TextureViewDimension::D3;
+        let entries = [
+            layout::uniform(0),
+            layout::storage(1, true),
+            layout::texture(2, d3),
+            layout::texture(3, d3),
+            layout::sampler(4),
+            layout::uniform(5),
+            layout::storage(6, true),
+            layout::storage(7, true),
+            layout::storage(8, true),
+            layout::storage(9, true),
+            layout::storage(10, true),
+            layout::storage(11, false),
+            layout::storage(12, false),
+            layout::storage(13, false),
+            layout::storage_texture(14, GRID_FORMAT, d3),
+            layout::storage_texture(15, GRID_FORMAT, d3),
+        ];
+        let (main, bgl) = layout::pipeline_entry(device, shaders, "march", "main", &entries)?;
+        let (resolve, _) = layout::pipeline_entry(device, shaders, "march", "resolve", &entries)?;
+        let params = layout::uniform_buffer::<MarchParams>(device, "march params");
+        let stats = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("photon stats"),
+            size: STAT_WORDS * 4,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let stats_staging = Staging::new(device, STAT_WORDS * 4, "stats readback");
+        Ok(Self { main, resolve, bgl, params, stats, stats_staging, bound: None })
+    }
+
+    /// The march's uniforms for a frame.
+    pub fn params(grids: &Grids, photons: u32, flux_unit: f32, deposit: bool, receiver_count: u32) -> MarchParams {
+        let grid = grids.octree_layout.grid;
+        let diagonal = (glam::UVec3::from(grid.dims).as_vec3().length() + 1.0) * grid.voxel_size;
+        let min_step = 0.5 * grid.voxel_size;
+        MarchParams {
+            grid,
+            photon_count: photons,
+            // Curved paths (and paths trapped by total internal reflection) get a few diagonals.
+            max_steps: ((8.0 * diagonal / min_step) as u32).max(64),
+            min_step,
+            max_step: 64.0 * grid.voxel_size,
+            radiance_scale: radiance_scale(photons),
+            flux_scale: flux_scale(photons),
+            flux_unit,
+            flags: if deposit { march_flags::DEPOSIT_RADIANCE } else { 0 },
+            eps_refract: EPS_REFRACT,
+            receiver_count,
+            ..Default::default()
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    pub fn encode(
+        &mut self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        profiler: &mut Profiler,
+        params: &MarchParams,
+        grids: &Grids,
+        photons: &Photons,
+        receivers: &Receivers,
+        radiance: &RadianceGrid,
+    ) {
+        ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(params));
+        let generations = [grids.generation, photons.generation, receivers.generation, radiance.generation];
+        if self.bound.as_ref().is_none_or(|(g, _)| *g != generations) {
+            let bg = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("march"),
+                layout: &self.bgl,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: photons.photons.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 2, resource: layout::texture_view(&grids.ior_grid.view) },
+                    wgpu::BindGroupEntry { binding: 3, resource: layout::texture_view(&grids.extinction_grid.view) },
+                    wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&grids.sampler) },
+                    wgpu::BindGroupEntry { binding: 5, resource: grids.octree_params.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 6, resource: grids.octree.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 7, resource: receivers.bvh_nodes.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 8, resource: receivers.bvh_triangles.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 9, resource: receivers.receivers.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 10, resource: receivers.charts.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 11, resource: radiance.deposits.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 12, resource: receivers.caustic_atlas.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 13, resource: self.stats.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 14, resource: layout::texture_view(&radiance.fluence.view) },
+                    wgpu::BindGroupEntry { binding: 15, resource: layout::texture_view(&radiance.direction.view) },
+                ],
+            });
+            self.bound = Some((generations, bg));
+        }
+        let (_, bg) = self.bound.as_ref().expect("bound above");
+        enc.clear_buffer(&receivers.caustic_atlas, 0, None);
+        enc.clear_buffer(&self.stats, 0, None);
+        let deposit = params.flags & march_flags::DEPOSIT_RADIANCE != 0;
+        if deposit {
+            enc.clear_buffer(&radiance.deposits, 0, None);
+        }
+        let mut pass = profiler.pass(enc, "march");
+        pass.set_bind_group(0, bg, &[]);
+        pass.set_pipeline(&self.main);
+        pass.dispatch_workgroups(params.photon_count.div_ceil(64), 1, 1);
+        if deposit {
+            pass.set_pipeline(&self.resolve);
+            let d = (radiance.dims + 3) / 4;
+            pass.dispatch_workgroups(d.x, d.y, d.z);
+        }
+    }
+
+    /// Copies the statistics toward the CPU (after `encode`, in the same submission).
+    pub fn encode_stats_readback(&self, enc: &mut wgpu::CommandEncoder) {
+        enc.copy_buffer_to_buffer(&self.stats, 0, &self.stats_staging.buffer, 0, STAT_WORDS * 4);
+    }
+
+    /// The statistics of the last submitted frame, in watts.
+    pub fn read_stats(&self, ctx: &GpuContext, params: &MarchParams) -> Result<PhotonStats> {
+        let bytes = self.stats_staging.read(ctx, STAT_WORDS * 4)?;
+        let words: &[u32] = bytemuck::cast_slice(&bytes);
+        let wide = |k: usize| (words[2 * k] as u64 | ((words[2 * k + 1] as u64) << 32)) as f64;
+        let watts = |first: usize| {
+            [0, 1, 2].map(|c| wide(first + c) * params.flux_unit as f64 / params.flux_scale as f64)
+        };
+        Ok(PhotonStats { emitted: watts(0), received: watts(3), caustic: watts(6), escaped: watts(9), saturated: wide(12) as u64 })
+    }
+}

@@ -1,0 +1,146 @@
+//! Stage 4, photons (`shaders/photons.wgsl`): importance raster per light, one CDF over all
+//! lights' cells, and stratified emission of the frame's photon budget.
+
+use anyhow::Result;
+
+use super::layout;
+use super::lights::{LightBuffers, RASTER_CELLS};
+use super::resources::Grids;
+use super::timing::Profiler;
+use crate::gpu::GpuContext;
+use crate::gpu::shaders::ShaderLibrary;
+use crate::gpu::types::{Photon, PhotonParams};
+
+/// How much a raster cell whose ray crosses only a scattering medium (no glass) is worth,
+/// against 1 for one that crosses glass: enough photons for light shafts, most for caustics.
+pub const MEDIUM_IMPORTANCE: f32 = 0.25;
+/// n − 1 above which a medium refracts (photons through it become caustic photons; shadow rays
+/// through it are blocked). The same threshold everywhere keeps direct and caustic light from
+/// counting a path twice.
+pub const EPS_REFRACT: f32 = 0.01;
+
+pub struct Photons {
+    importance: wgpu::ComputePipeline,
+    scan: wgpu::ComputePipeline,
+    emit: wgpu::ComputePipeline,
+    bgl: wgpu::BindGroupLayout,
+    params: wgpu::Buffer,
+    /// Per raster cell: its weight, then (after `scan`) the cumulative weight.
+    cdf: wgpu::Buffer,
+    cdf_cells: u32,
+    pub photons: wgpu::Buffer,
+    pub capacity: u32,
+    /// Generation of these buffers (consumers rebind when it changes).
+    pub generation: u64,
+    bound: Option<([u64; 3], wgpu::BindGroup)>,
+}
+
+impl Photons {
+    pub fn new(device: &wgpu::Device, shaders: &ShaderLibrary) -> Result<Self> {
+        let entries = [
+            layout::uniform(0),
+            layout::storage(1, true),
+            layout::storage(2, true),
+            layout::uniform(3),
+            layout::storage(4, true),
+            layout::storage(5, false),
+            layout::storage(6, false),
+        ];
+        let (importance, bgl) = layout::pipeline_entry(device, shaders, "photons", "importance_raster", &entries)?;
+        let (scan, _) = layout::pipeline_entry(device, shaders, "photons", "scan", &entries)?;
+        let (emit, _) = layout::pipeline_entry(device, shaders, "photons", "emit", &entries)?;
+        let params = layout::uniform_buffer::<PhotonParams>(device, "photon params");
+        let (cdf, cdf_cells) = (Self::buffer(device, "cdf", 4, RASTER_CELLS * RASTER_CELLS), RASTER_CELLS * RASTER_CELLS);
+        let photons = Self::buffer(device, "photons", std::mem::size_of::<Photon>() as u64, 1024);
+        Ok(Self {
+            importance,
+            scan,
+            emit,
+            bgl,
+            params,
+            cdf,
+            cdf_cells,
+            photons,
+            capacity: 1024,
+            generation: super::resources::next_generation(),
+            bound: None,
+        })
+    }
+
+    fn buffer(device: &wgpu::Device, label: &str, item: u64, count: u32) -> wgpu::Buffer {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: item * count as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// Makes room for `count` photons and the lights' rasters.
+    pub fn reserve(&mut self, device: &wgpu::Device, count: u32, emitters: u32) {
+        let cells = emitters.max(1) * RASTER_CELLS * RASTER_CELLS;
+        if cells > self.cdf_cells {
+            self.cdf_cells = cells.next_power_of_two();
+            self.cdf = Self::buffer(device, "cdf", 4, self.cdf_cells);
+            self.generation = super::resources::next_generation();
+        }
+        if count > self.capacity {
+            self.capacity = count.next_power_of_two();
+            self.photons = Self::buffer(device, "photons", std::mem::size_of::<Photon>() as u64, self.capacity);
+            self.generation = super::resources::next_generation();
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    pub fn encode(
+        &mut self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        profiler: &mut Profiler,
+        grids: &Grids,
+        lights: &LightBuffers,
+        photon_count: u32,
+        seed: u32,
+        scattering: bool,
+    ) {
+        self.reserve(&ctx.device, photon_count, lights.emitter_count);
+        let params = PhotonParams {
+            grid: grids.octree_layout.grid,
+            emitter_count: lights.emitter_count,
+            cells: RASTER_CELLS,
+            photon_count,
+            seed,
+            medium_importance: if scattering { MEDIUM_IMPORTANCE } else { 0.0 },
+            eps_refract: EPS_REFRACT,
+            ..Default::default()
+        };
+        ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        let generations = [grids.generation, lights.generation, self.generation];
+        if self.bound.as_ref().is_none_or(|(g, _)| *g != generations) {
+            let bg = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("photons"),
+                layout: &self.bgl,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: lights.emitters.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 2, resource: lights.lights.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 3, resource: grids.octree_params.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 4, resource: grids.octree.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 5, resource: self.cdf.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 6, resource: self.photons.as_entire_binding() },
+                ],
+            });
+            self.bound = Some((generations, bg));
+        }
+        let (_, bg) = self.bound.as_ref().expect("bound above");
+        let cells = lights.emitter_count * RASTER_CELLS * RASTER_CELLS;
+        let mut pass = profiler.pass(enc, "photons");
+        pass.set_bind_group(0, bg, &[]);
+        pass.set_pipeline(&self.importance);
+        pass.dispatch_workgroups(cells.div_ceil(64), 1, 1);
+        pass.set_pipeline(&self.scan);
+        pass.dispatch_workgroups(1, 1, 1);
+        pass.set_pipeline(&self.emit);
+        pass.dispatch_workgroups(photon_count.div_ceil(64), 1, 1);
+    }
+}

@@ -1,0 +1,97 @@
+//! Animation through the command line: `update(scene, t)` drives the frames, frame k of a range
+//! is exactly the still at t = k / fps, and an error in `update` stops the render at its frame
+//! with the frames before it kept.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+use common::write_script;
+
+/// A glass ball that bobs and a slab lens that turns, both set from t alone.
+const ANIMATED: &str = r#"local r = require("refrakt")
+local scene = r.scene{
+  camera = r.camera{ position = {0, 0.2, 2.5}, target = {0, 0, 0}, fov = 35, size = {24, 16} },
+  environment = r.environment{ preset = "checker" },
+  volume = { resolution = 24, min = {-0.8, -0.8, -0.8}, max = {0.8, 0.8, 0.8} },
+  samples = 1,
+}
+local lens = scene:add(r.node{ name = "lens", translation = {-0.35, 0, 0},
+                               shape = r.slab{ size = {0.3, 0.5, 0.3}, ior = 1.3, gradient = 1.0 } })
+local ball = scene:add(r.node{ name = "ball", translation = {0.35, 0, 0}, shape = r.sphere{ radius = 0.2 },
+                               material = r.glass{ ior = 1.5 } })
+function update(scene, t)
+  lens.rotation = r.axis_angle({0, 1, 0}, 90 * t)
+  ball.translation = {0.35, 0.2 * math.sin(2 * math.pi * t), 0}
+  FAIL_AT
+end
+return scene
+"#;
+
+/// Runs refrakt; returns (exit code, stderr and stdout together).
+fn refrakt(args: &[&str]) -> (i32, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_refrakt")).args(args).output().unwrap();
+    let text = format!("{}{}", String::from_utf8_lossy(&out.stderr), String::from_utf8_lossy(&out.stdout));
+    (out.status.code().unwrap_or(-1), text)
+}
+
+fn render(scene: &Path, out: &Path, extra: &[&str]) -> (i32, String) {
+    let mut args = vec!["render", scene.to_str().unwrap(), "--out", out.to_str().unwrap(), "--progress", "json"];
+    args.extend_from_slice(extra);
+    refrakt(&args)
+}
+
+fn files(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into()).collect();
+    names.sort();
+    names
+}
+
+#[test]
+fn frame_k_equals_the_still_at_k_over_fps() {
+    let (dir, scene) = write_script("anim.lua", &ANIMATED.replace("FAIL_AT", ""));
+    let seq = dir.path().join("seq");
+    let (code, err) = render(&scene, &seq, &["--frames", "0..3", "--fps", "10"]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(
+        files(&seq),
+        ["anim.0000.exr", "anim.0000.png", "anim.0001.exr", "anim.0001.png", "anim.0002.exr", "anim.0002.png", "anim.0003.exr", "anim.0003.png"]
+    );
+    let still = dir.path().join("still");
+    let (code, err) = render(&scene, &still, &["--time", "0.2"]);
+    assert_eq!(code, 0, "{err}");
+    for ext in ["exr", "png"] {
+        let frame = std::fs::read(seq.join(format!("anim.0002.{ext}"))).unwrap();
+        let alone = std::fs::read(still.join(format!("anim.{ext}"))).unwrap();
+        assert!(frame == alone, "frame 2 of the sequence and the still at t = 0.2 s differ ({ext})");
+    }
+    // The animation moves: consecutive frames differ, so the comparison above means something.
+    let f1 = std::fs::read(seq.join("anim.0001.exr")).unwrap();
+    let f2 = std::fs::read(seq.join("anim.0002.exr")).unwrap();
+    assert!(f1 != f2, "frames 1 and 2 should differ");
+}
+
+#[test]
+fn an_update_error_stops_at_its_frame_and_keeps_the_earlier_ones() {
+    let source = ANIMATED.replace("FAIL_AT", "if t > 0.15 then error(\"the rig broke\") end");
+    let (dir, scene) = write_script("anim.lua", &source);
+    let out = dir.path().join("out");
+    let (code, err) = render(&scene, &out, &["--frames", "0..4", "--fps", "10", "--format", "png"]);
+    assert_ne!(code, 0, "{err}");
+    assert!(!err.contains("panicked") && !err.contains("internal error"), "{err}");
+    // One paragraph: the frame, its time, the script line, and how to go on.
+    assert!(err.contains("error: frame 2 (t = 0.2000 s): "), "{err}");
+    assert!(err.contains("anim.lua:15: the rig broke"), "{err}");
+    assert!(err.contains("frames 0 to 1 are written") && err.contains("--skip-existing"), "{err}");
+    // The JSON progress event names the frame too (the Blender add-on reads it).
+    assert!(err.contains("\"event\":\"error\"") && err.contains("\"frame\":2"), "{err}");
+    assert_eq!(files(&out), ["anim.0000.png", "anim.0001.png"]);
+}
+
+#[test]
+fn time_and_frames_do_not_mix() {
+    let (code, err) = refrakt(&["render", "x.lua", "--frames", "1..4", "--time", "2"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("cannot be used with"), "{err}");
+}

@@ -1,12 +1,16 @@
-// Stage 1, voxelize: analytic index fields → the raw index grid n and the medium grids.
+// Stage 1, voxelize: analytic index fields and voxelized meshes → the raw index grid n and the
+// medium grids.
 //
-// The volume starts as the scene's fog (or empty air). Each field contributes a smooth
-// coverage α ∈ [0, 1] (a C² step across its boundary, `boundary`
-// metres wide, centred on the surface) and its own index n_f and medium. Fields are composited in
-// scene order, later over earlier: n ← mix(n, n_f, α). A smooth α keeps ∇n finite, so the ray
-// equation bends rays at a surface the way Snell's law does in the limit of a thin boundary.
+// The volume starts as the scene's fog (or empty air). Each object contributes a smooth
+// coverage α ∈ [0, 1] (a C² step across its boundary, `boundary` metres wide, centred on the
+// surface) and its own index n_f and medium. Objects are composited in order, later over
+// earlier: n ← mix(n, n_f, α) — first the index fields in scene order, then the meshes in scene
+// order, so where glass objects overlap the later-listed one wins (a mesh over any field). A
+// smooth α keeps ∇n finite, so the ray equation bends rays at a surface the way Snell's law does
+// in the limit of a thin boundary. A field's α comes from its analytic signed distance; a
+// mesh's from the signed distance voxelize_mesh.wgsl left in the atlas.
 //
-// The CPU twin is src/cpu/field.rs.
+// The CPU twin is src/cpu/field.rs (fields) and src/cpu/mesh.rs (meshes).
 
 #import shared/types.wgsl
 
@@ -16,6 +20,8 @@
 @group(0) @binding(3) var extinction_grid: texture_storage_3d<rgba16float, write>;
 @group(0) @binding(4) var scattering_grid: texture_storage_3d<rgba16float, write>;
 @group(0) @binding(5) var<storage, read> field_samples: array<f32>;
+@group(0) @binding(6) var<storage, read> meshes: array<MeshVolume>;
+@group(0) @binding(7) var<storage, read> atlas: array<f32>;
 
 // Quintic smoothstep on [0, 1]: C², so ∇n is continuous across the boundary.
 fn smootherstep(t: f32) -> f32 {
@@ -96,6 +102,20 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         n = mix(n, s.y, s.x);
         absorption = mix(absorption, f.absorption.rgb, s.x);
         scattering = mix(scattering, f.scattering, s.x);
+    }
+    for (var i = 0u; i < params.mesh_count; i++) {
+        let m = meshes[i];
+        let local = vec3<i32>(id) - vec3<i32>(m.window_min);
+        if any(local < vec3<i32>(0)) || any(local >= vec3<i32>(m.window_dims)) {
+            continue;
+        }
+        let w = vec3<u32>(local);
+        // Signed distance in voxels, negative inside.
+        let d = atlas[m.atlas_offset + w.x + m.window_dims.x * (w.y + m.window_dims.y * w.z)];
+        let alpha = coverage(d * grid.voxel_size, m.boundary);
+        n = mix(n, m.ior, alpha);
+        absorption = mix(absorption, m.absorption, alpha);
+        scattering = mix(scattering, m.scattering, alpha);
     }
     let idx = id.x + grid.dims.x * (id.y + grid.dims.y * id.z);
     index_field[idx] = n;

@@ -69,11 +69,37 @@ struct Field {
 struct VoxelizeParams {
     grid: GridParams,
     field_count: u32,
-    _pad0: u32,
+    mesh_count: u32,
     _pad1: u32,
     _pad2: u32,
     fog_absorption: vec4<f32>,
     fog_scattering: vec4<f32>,
+}
+
+struct MeshParams {
+    grid_from_local: mat4x4<f32>,
+    window_min: vec3<i32>,
+    fixed_bits: u32,
+    window_dims: vec3<u32>,
+    triangle_count: u32,
+    axis_offset: vec3<u32>,
+    vertex_count: u32,
+    axis_words: vec3<u32>,
+    atlas_offset: u32,
+    reach: f32,
+    parity_words: u32,
+    band_voxels: u32,
+    _pad0: u32,
+}
+
+struct MeshVolume {
+    window_min: vec3<u32>,
+    atlas_offset: u32,
+    window_dims: vec3<u32>,
+    ior: f32,
+    absorption: vec3<f32>,
+    boundary: f32,
+    scattering: vec4<f32>,
 }
 
 struct ProbeParams {

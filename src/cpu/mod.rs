@@ -3,5 +3,6 @@
 
 pub mod dda;
 pub mod field;
+pub mod mesh;
 pub mod octree;
 pub mod ray;

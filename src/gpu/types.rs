@@ -130,13 +130,55 @@ gpu_struct! {
     pub struct VoxelizeParams {
         pub grid: GridParams,
         pub field_count: u32,
-        pub _pad0: u32,
+        pub mesh_count: u32,
         pub _pad1: u32,
         pub _pad2: u32,
         /// The medium between objects (fog, or nothing): absorption rgb per metre (w unused)…
         pub fog_absorption: [f32; 4],
         /// …and scattering rgb per metre, w: Henyey–Greenstein g.
         pub fog_scattering: [f32; 4],
+    }
+}
+
+gpu_struct! {
+    /// One mesh's run of the mesh-solid kernels (`shaders/voxelize_mesh.wgsl`). The window is
+    /// the box of grid voxels it covers; coordinates inside are fixed point, 2^`fixed_bits` per
+    /// voxel. Parity words hold, per axis, one bit per voxel along each column plus one for the
+    /// whole line, `axis_words` words per column, starting at `axis_offset`.
+    pub struct MeshParams {
+        /// Local mesh coordinates → grid coordinates in voxels (grid origin at 0).
+        pub grid_from_local: [[f32; 4]; 4],
+        pub window_min: [i32; 3],
+        pub fixed_bits: u32,
+        pub window_dims: [u32; 3],
+        pub triangle_count: u32,
+        pub axis_offset: [u32; 3],
+        pub vertex_count: u32,
+        pub axis_words: [u32; 3],
+        /// Where this mesh's signed distances start in the coverage atlas (f32 words).
+        pub atlas_offset: u32,
+        /// Distance (voxels) within which voxels get their exact distance to the surface.
+        pub reach: f32,
+        pub parity_words: u32,
+        pub band_voxels: u32,
+        pub _pad0: u32,
+    }
+}
+
+gpu_struct! {
+    /// A voxelized mesh as the voxelize kernel composites it: its window of the grid, where its
+    /// signed distances lie in the atlas, and its medium.
+    pub struct MeshVolume {
+        pub window_min: [u32; 3],
+        pub atlas_offset: u32,
+        pub window_dims: [u32; 3],
+        pub ior: f32,
+        /// Absorption coefficient per metre, rgb.
+        pub absorption: [f32; 3],
+        /// Width of the smooth boundary, metres (0: a hard step).
+        pub boundary: f32,
+        /// Scattering coefficient per metre, rgb; w: Henyey–Greenstein g.
+        pub scattering: [f32; 4],
     }
 }
 
@@ -428,6 +470,8 @@ mod tests {
         check::<ViewParams>(&module);
         check::<Field>(&module);
         check::<VoxelizeParams>(&module);
+        check::<MeshParams>(&module);
+        check::<MeshVolume>(&module);
         check::<ProbeParams>(&module);
         check::<ProbeRay>(&module);
         check::<ProbeRecord>(&module);

@@ -5,6 +5,7 @@
 pub mod api;
 pub mod convert;
 pub mod field;
+pub mod meshes;
 pub mod objects;
 pub mod sandbox;
 pub mod vecmath;

@@ -18,6 +18,7 @@ pub mod resources;
 pub mod timing;
 pub mod view;
 pub mod voxelize;
+pub mod voxelize_mesh;
 
 use anyhow::{Result, bail};
 use glam::UVec3;
@@ -42,6 +43,20 @@ pub struct Counters {
     pub environment_uploads: u64,
     pub receiver_uploads: u64,
     pub photon_passes: u64,
+    /// Meshes whose solid was computed (they were new, changed or moved).
+    pub meshes_voxelized: u64,
+    /// Meshes whose solid from an earlier frame was reused.
+    pub meshes_reused: u64,
+    /// Triangles rasterized into mesh solids.
+    pub mesh_triangles: u64,
+}
+
+impl Counters {
+    fn add_mesh_work(&mut self, w: voxelize_mesh::MeshWork) {
+        self.meshes_voxelized += w.voxelized;
+        self.meshes_reused += w.reused;
+        self.mesh_triangles += w.triangles;
+    }
 }
 
 /// Choices about how (not what) to render: the same scene may be rendered with any of these.
@@ -253,13 +268,35 @@ impl Renderer {
     pub fn build_volume(&mut self, desc: &FrameDesc) -> Result<()> {
         self.prepare(desc)?;
         let grids = self.grids.as_ref().expect("prepared");
+        self.profiler.begin_frame();
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
-        self.voxelize.encode(&self.ctx, &mut enc, &mut self.profiler, desc, grids); // fields → index_field, extinction_grid, scattering_grid
+        let work = self.voxelize.encode(&self.ctx, &mut enc, &mut self.profiler, desc, grids)?; // fields, meshes → index_field, extinction_grid, scattering_grid
         self.gradient.encode(&self.ctx, &mut enc, &mut self.profiler, &desc.volume, grids); // index_field → ior_grid (∇n, n)
         self.octree.encode(&self.ctx, &mut enc, &mut self.profiler, grids); // index_field, extinction_grid → octree
+        self.profiler.resolve(&mut enc);
         self.ctx.queue.submit([enc.finish()]);
         self.counters.voxelizations += 1;
+        self.counters.add_mesh_work(work);
         Ok(())
+    }
+
+    /// Builds the volume with GPU timing on and returns the milliseconds of each pass label
+    /// (`refrakt bench`); empty when the adapter has no timestamp queries.
+    pub fn time_volume(&mut self, desc: &FrameDesc) -> Result<Vec<(&'static str, f64)>> {
+        self.profiler.enable(&self.ctx);
+        self.build_volume(desc)?;
+        self.profiler.collect(&self.ctx)?;
+        Ok(self.profiler.last.clone())
+    }
+
+    /// The mesh solids of the last volume (tests compare them with the CPU twin).
+    pub fn mesh_voxels(&self) -> &voxelize_mesh::MeshVoxelizer {
+        self.voxelize.meshes()
+    }
+
+    /// Forgets every mesh's solid, so the next volume computes them all (benchmarks).
+    pub fn forget_mesh_voxels(&mut self) {
+        self.voxelize.meshes_mut().forget();
     }
 
     /// Renders one frame, top to bottom, then reads the image back.
@@ -280,7 +317,7 @@ impl Renderer {
             march::March::params(grids, desc.photons, flux_unit, deposit, desc.receivers.len() as u32, self.settings.fixed_point_headroom);
         self.profiler.begin_frame();
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
-        self.voxelize.encode(&self.ctx, &mut enc, &mut self.profiler, desc, grids); // fields → index_field, extinction_grid, scattering_grid
+        let work = self.voxelize.encode(&self.ctx, &mut enc, &mut self.profiler, desc, grids)?; // fields, meshes → index_field, extinction_grid, scattering_grid
         self.gradient.encode(&self.ctx, &mut enc, &mut self.profiler, &desc.volume, grids); // index_field → ior_grid (∇n, n)
         self.octree.encode(&self.ctx, &mut enc, &mut self.profiler, grids); // index_field, extinction_grid → octree
         if photons {
@@ -307,6 +344,7 @@ impl Renderer {
         self.profiler.resolve(&mut enc);
         self.ctx.queue.submit([enc.finish()]);
         self.counters.voxelizations += 1;
+        self.counters.add_mesh_work(work);
         self.counters.frames += 1;
         let image = target.read(&self.ctx)?;
         self.stats = if photons { Some(self.march.read_stats(&self.ctx, &march_params)?) } else { None };
@@ -439,22 +477,44 @@ pub(crate) mod layout {
         entry: &str,
         entries: &[wgpu::BindGroupLayoutEntry],
     ) -> anyhow::Result<(wgpu::ComputePipeline, wgpu::BindGroupLayout)> {
+        let (mut pipelines, mut layouts) = pipelines(device, shaders, stage, &[entries], &[entry])?;
+        Ok((pipelines.remove(0), layouts.remove(0)))
+    }
+
+    /// Compute pipelines for several entry points of `stage`'s module, sharing one pipeline
+    /// layout of bind groups `groups` (group i has the entries `groups[i]`).
+    pub fn pipelines(
+        device: &wgpu::Device,
+        shaders: &crate::gpu::shaders::ShaderLibrary,
+        stage: &str,
+        groups: &[&[wgpu::BindGroupLayoutEntry]],
+        entry_points: &[&str],
+    ) -> anyhow::Result<(Vec<wgpu::ComputePipeline>, Vec<wgpu::BindGroupLayout>)> {
         let module = shaders.module(device, stage)?;
-        let bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(stage), entries });
+        let layouts: Vec<wgpu::BindGroupLayout> = groups
+            .iter()
+            .map(|entries| device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(stage), entries }))
+            .collect();
+        let bind_group_layouts: Vec<Option<&wgpu::BindGroupLayout>> = layouts.iter().map(Some).collect();
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some(stage),
-            bind_group_layouts: &[Some(&bgl)],
+            bind_group_layouts: &bind_group_layouts,
             immediate_size: 0,
         });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(stage),
-            layout: Some(&pl),
-            module: &module,
-            entry_point: Some(entry),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        Ok((pipeline, bgl))
+        let pipelines = entry_points
+            .iter()
+            .map(|entry| {
+                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(entry),
+                    layout: Some(&pl),
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+            })
+            .collect();
+        Ok((pipelines, layouts))
     }
 
     /// A uniform buffer for one `T`.

@@ -159,6 +159,8 @@ fn place_shape(p: &Placed, c: &mut Contents) -> Result<()> {
 }
 
 fn mesh_instance(node: &Node, mesh: &Arc<MeshData>, world: Mat4, glass: Glass, boundary: Option<f32>) -> Result<MeshInstance> {
+    // Every mesh reaches the GPU through here (Lua, OBJ, glTF), so it is checked here.
+    mesh.check().map_err(|e| anyhow!("{}: the mesh of node {}: {e}", node.origin, display_name(node)))?;
     let (lo, hi) = mesh.bounds().ok_or_else(|| anyhow!("{}: the mesh of node {} has no vertices", node.origin, display_name(node)))?;
     let h = 0.5 * (hi - lo);
     let centre = Mat4::from_translation(0.5 * (lo + hi));

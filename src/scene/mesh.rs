@@ -29,6 +29,56 @@ impl MeshData {
             })
             .sum()
     }
+
+    /// Checks that the mesh can be voxelized: it has vertices and triangles, every vertex is a
+    /// finite point, every index names a vertex, and some triangle has an area. The message
+    /// counts vertices and triangles from 1, as OBJ files do.
+    pub fn check(&self) -> Result<(), String> {
+        if self.positions.is_empty() || self.triangles.is_empty() {
+            return Err(format!(
+                "the mesh is empty ({} vertices, {} triangles); a solid needs a closed surface of triangles",
+                self.positions.len(),
+                self.triangles.len()
+            ));
+        }
+        if let Some((i, p)) = self.positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
+            return Err(format!("vertex {} is ({}, {}, {}), not a finite point", i + 1, p.x, p.y, p.z));
+        }
+        let n = self.positions.len();
+        if let Some((t, i)) =
+            self.triangles.iter().enumerate().find_map(|(t, tri)| tri.iter().find(|&&i| i as usize >= n).map(|&i| (t, i)))
+        {
+            return Err(format!("triangle {} refers to vertex {}, but the mesh has only {n} vertices", t + 1, i as u64 + 1));
+        }
+        if self.triangles.iter().all(|t| self.triangle_area2(t) == 0.0) {
+            return Err(format!("all {} triangles have zero area, so the mesh encloses nothing", self.triangles.len()));
+        }
+        Ok(())
+    }
+
+    /// Twice the area of a triangle, in f64 (exactly zero for repeated or collinear vertices
+    /// given as equal coordinates).
+    fn triangle_area2(&self, t: &[u32; 3]) -> f64 {
+        let [a, b, c] = t.map(|i| self.positions[i as usize].as_dvec3());
+        (b - a).cross(c - a).length()
+    }
+
+    /// The triangles the solid voxelization counts: those with three distinct corner positions,
+    /// each distinct triangle once. A triangle listed twice (same corners, either winding) would
+    /// cancel itself out of the even–odd crossing count and act as a hole; a triangle with two
+    /// equal corners bounds nothing. Collinear slivers are kept (the kernels skip them exactly).
+    pub fn solid_triangles(&self) -> Vec<[u32; 3]> {
+        let mut seen = std::collections::HashSet::with_capacity(self.triangles.len());
+        self.triangles
+            .iter()
+            .filter(|t| {
+                let mut corners = t.map(|i| self.positions[i as usize].to_array().map(f32::to_bits));
+                corners.sort_unstable();
+                corners[0] != corners[1] && corners[1] != corners[2] && seen.insert(corners)
+            })
+            .copied()
+            .collect()
+    }
 }
 
 /// A `size.x` × `size.y` rectangle in the local XZ plane, centred, facing +Y.
@@ -62,52 +112,243 @@ pub fn cuboid(size: Vec3) -> MeshData {
 
 /// A sphere of `radius` by subdividing an icosahedron `subdivisions` times (20·4ⁿ triangles).
 pub fn icosphere(radius: f32, subdivisions: u32) -> MeshData {
-    let t = (1.0 + 5f32.sqrt()) / 2.0;
-    let mut positions: Vec<Vec3> = [
+    geodesic_sphere(radius, 1 << subdivisions.min(10))
+}
+
+/// A geodesic sphere: each face of an icosahedron divided into `frequency`² triangles and
+/// projected onto the sphere (20·frequency² triangles, any count, not only powers of four).
+/// Points on a shared edge are made once from the same integer weights, so neighbouring faces
+/// share them exactly and the surface is watertight.
+pub fn geodesic_sphere(radius: f32, frequency: u32) -> MeshData {
+    let mut m = geodesic(frequency.max(1), |d| d);
+    for p in &mut m.positions {
+        *p *= radius;
+    }
+    m
+}
+
+/// The unit geodesic sphere with every vertex direction `d` moved to `place(d)`.
+fn geodesic(f: u32, place: impl Fn(Vec3) -> Vec3) -> MeshData {
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let corners: Vec<glam::DVec3> = [
         (-1.0, t, 0.0), (1.0, t, 0.0), (-1.0, -t, 0.0), (1.0, -t, 0.0),
         (0.0, -1.0, t), (0.0, 1.0, t), (0.0, -1.0, -t), (0.0, 1.0, -t),
         (t, 0.0, -1.0), (t, 0.0, 1.0), (-t, 0.0, -1.0), (-t, 0.0, 1.0),
     ]
     .iter()
-    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
+    .map(|&(x, y, z)| glam::DVec3::new(x, y, z))
     .collect();
-    let mut triangles: Vec<[u32; 3]> = vec![
+    let faces: [[u32; 3]; 20] = [
         [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8],
         [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
     ];
-    for _ in 0..subdivisions {
-        let mut midpoints = std::collections::HashMap::new();
-        let mut mid = |a: u32, b: u32, positions: &mut Vec<Vec3>| {
-            *midpoints.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                positions.push((positions[a as usize] + positions[b as usize]).normalize());
-                positions.len() as u32 - 1
-            })
-        };
-        let mut next = Vec::with_capacity(triangles.len() * 4);
-        for [a, b, c] in triangles {
-            let (ab, bc, ca) = (mid(a, b, &mut positions), mid(b, c, &mut positions), mid(c, a, &mut positions));
-            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+    let mut index = std::collections::HashMap::new();
+    let mut m = MeshData::default();
+    // A point is Σ wₖ·cornerₖ / f with integer weights; keyed by its (corner, weight) pairs in
+    // corner order, it is computed in that order too, whichever face asks for it.
+    let mut vertex = |weights: [(u32, u32); 3], m: &mut MeshData| -> u32 {
+        let mut key: Vec<(u32, u32)> = weights.into_iter().filter(|w| w.1 > 0).collect();
+        key.sort_unstable();
+        *index.entry(key.clone()).or_insert_with(|| {
+            let p: glam::DVec3 = key.iter().map(|&(c, w)| corners[c as usize] * w as f64).sum();
+            m.positions.push(place(p.normalize().as_vec3()));
+            m.positions.len() as u32 - 1
+        })
+    };
+    for [a, b, c] in faces {
+        let mut at = |i: u32, j: u32, m: &mut MeshData| vertex([(a, f - i - j), (b, i), (c, j)], m);
+        for i in 0..f {
+            for j in 0..f - i {
+                let (p, q, r) = (at(i, j, &mut m), at(i + 1, j, &mut m), at(i, j + 1, &mut m));
+                m.triangles.push([p, q, r]);
+                if i + j + 1 < f {
+                    let s = at(i + 1, j + 1, &mut m);
+                    m.triangles.push([q, s, r]);
+                }
+            }
         }
-        triangles = next;
     }
-    MeshData { positions: positions.into_iter().map(|p| p * radius).collect(), triangles, uvs: None }
+    m
 }
 
+/// A smooth, lumpy glass pebble: a geodesic sphere (20·detail² triangles; detail 16 gives the
+/// seed configuration's ~5k) whose radius varies by up to ±`bumps` (relative) with a few
+/// low-frequency waves chosen by `seed`. Watertight, star-shaped, outward winding.
+pub fn blob(radius: f32, bumps: f32, seed: u32, detail: u32) -> MeshData {
+    let mut state = seed as u64 ^ 0x9e37_79b9_7f4a_7c15;
+    let mut next = || {
+        // SplitMix64: a fixed, platform-independent sequence per seed.
+        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+    };
+    const WAVES: usize = 5;
+    let waves: Vec<(Vec3, f32, f32)> = (0..WAVES)
+        .map(|_| {
+            let (z, phi) = (2.0 * next() - 1.0, std::f32::consts::TAU * next());
+            let axis = Vec3::new((1.0 - z * z).sqrt() * phi.cos(), z, (1.0 - z * z).sqrt() * phi.sin());
+            (axis, 1.5 + 2.5 * next(), std::f32::consts::TAU * next())
+        })
+        .collect();
+    geodesic(detail.max(1), |d| {
+        let wave: f32 = waves.iter().map(|(axis, k, phase)| (k * d.dot(*axis) + phase).sin()).sum();
+        d * radius * (1.0 + bumps * wave / WAVES as f32)
+    })
+}
+
+/// A cylinder along local Y, centred: `radius`, `height`, `segments` around.
+pub fn cylinder(radius: f32, height: f32, segments: u32) -> MeshData {
+    let h = 0.5 * height;
+    lathe(&[Vec2::new(0.0, -h), Vec2::new(radius, -h), Vec2::new(radius, h), Vec2::new(0.0, h)], segments, false)
+}
+
+/// A torus around local Y: the tube of radius `minor` swept along the circle of radius `major`.
+pub fn torus(major: f32, minor: f32, major_segments: u32, minor_segments: u32) -> MeshData {
+    let n = minor_segments.max(3);
+    let circle: Vec<Vec2> = (0..n)
+        .map(|i| {
+            let phi = std::f32::consts::TAU * i as f32 / n as f32;
+            Vec2::new(major + minor * phi.cos(), minor * phi.sin())
+        })
+        .collect();
+    lathe(&circle, major_segments, true)
+}
+
+/// A solid of revolution about local Y: the `profile` of (radius, height) points swept around
+/// in `segments` steps (like a lathe, or Blender's Spin). An open profile is closed by flat
+/// caps to the axis where it does not start or end on it; `closed` joins its last point back
+/// to its first (a torus). Either direction of travel gives outward winding.
+pub fn lathe(profile: &[Vec2], segments: u32, closed: bool) -> MeshData {
+    let mut points: Vec<Vec2> = profile.iter().map(|p| Vec2::new(p.x.max(0.0), p.y)).collect();
+    if let (false, Some(first), Some(last)) = (closed, points.first().copied(), points.last().copied()) {
+        if first.x > 0.0 {
+            points.insert(0, Vec2::new(0.0, first.y));
+        }
+        if last.x > 0.0 {
+            points.push(Vec2::new(0.0, last.y));
+        }
+    }
+    // Counter-clockwise in the (radius, height) half-plane, the solid on the left, gives
+    // outward triangles below; the shoelace area says which way the profile runs.
+    let area: f32 = points.iter().zip(points.iter().cycle().skip(1)).map(|(a, b)| a.x * b.y - b.x * a.y).sum();
+    if area < 0.0 {
+        points.reverse();
+    }
+    let segments = segments.max(3);
+    let mut m = MeshData::default();
+    // Each profile point becomes a ring of `segments` vertices, or one vertex on the axis.
+    let rings: Vec<Vec<u32>> = points
+        .iter()
+        .map(|p| {
+            let count = if p.x == 0.0 { 1 } else { segments };
+            (0..count)
+                .map(|s| {
+                    let theta = std::f32::consts::TAU * s as f32 / segments as f32;
+                    m.positions.push(Vec3::new(p.x * theta.cos(), p.y, -p.x * theta.sin()));
+                    m.positions.len() as u32 - 1
+                })
+                .collect()
+        })
+        .collect();
+    let at = |ring: &Vec<u32>, s: u32| ring[(s % segments) as usize % ring.len()];
+    let spans = if closed { points.len() } else { points.len().saturating_sub(1) };
+    for k in 0..spans {
+        let (lo, hi) = (&rings[k], &rings[(k + 1) % rings.len()]);
+        for s in 0..segments {
+            for t in [[at(lo, s), at(lo, s + 1), at(hi, s + 1)], [at(lo, s), at(hi, s + 1), at(hi, s)]] {
+                // A quad next to the axis collapses to one triangle.
+                if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+                    m.triangles.push(t);
+                }
+            }
+        }
+    }
+    m
+}
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::PI;
+
+    /// Every directed edge appears once and its reverse once: closed, consistently wound.
+    fn assert_closed(m: &MeshData, what: &str) {
+        let mut edges = std::collections::HashMap::new();
+        for t in &m.triangles {
+            for k in 0..3 {
+                *edges.entry((t[k], t[(k + 1) % 3])).or_insert(0) += 1;
+            }
+        }
+        for (&(a, b), &n) in &edges {
+            assert_eq!(n, 1, "{what}: edge {a}→{b} used {n} times");
+            assert_eq!(edges.get(&(b, a)), Some(&1), "{what}: edge {a}→{b} has no twin");
+        }
+    }
+
+    fn assert_volume(m: &MeshData, expected: f64, tolerance: f64, what: &str) {
+        let v = m.signed_volume();
+        assert!((v - expected).abs() < tolerance * expected, "{what}: volume {v}, expected {expected}");
+        assert!(m.check().is_ok(), "{what}: {:?}", m.check());
+    }
 
     #[test]
-    fn primitive_volumes_are_right_and_outward() {
+    fn primitives_are_closed_outward_and_of_the_right_volume() {
         assert!((cuboid(Vec3::new(1.0, 2.0, 3.0)).signed_volume() - 6.0).abs() < 1e-9);
         let s = icosphere(1.0, 4);
-        let v = s.signed_volume();
-        assert!(v > 0.0 && (v - 4.0 / 3.0 * std::f64::consts::PI).abs() < 0.01, "icosphere volume {v}");
+        assert_eq!(s.triangles.len(), 5120);
+        assert_closed(&s, "icosphere");
+        assert_volume(&s, 4.0 / 3.0 * PI, 0.01, "icosphere");
+        let g = geodesic_sphere(0.5, 71);
+        assert_eq!(g.triangles.len(), 20 * 71 * 71);
+        assert_closed(&g, "geodesic sphere");
+        assert_volume(&g, 4.0 / 3.0 * PI * 0.125, 1e-3, "geodesic sphere");
+        let c = cylinder(0.3, 0.8, 128);
+        assert_closed(&c, "cylinder");
+        assert_volume(&c, PI * 0.09 * 0.8, 1e-3, "cylinder");
+        let t = torus(0.5, 0.1, 128, 64);
+        assert_closed(&t, "torus");
+        assert_volume(&t, 2.0 * PI * PI * 0.5 * 0.01, 3e-3, "torus");
+        // A cone given clockwise, starting off the axis: capped and turned outward.
+        let cone = lathe(&[Vec2::new(0.0, 1.0), Vec2::new(0.5, 0.0)], 256, false);
+        assert_closed(&cone, "cone");
+        assert_volume(&cone, PI * 0.25 / 3.0, 1e-3, "cone");
+        let b = blob(0.5, 0.15, 7, 16);
+        assert_eq!(b.triangles.len(), 5120);
+        assert_closed(&b, "blob");
+        assert!(b.signed_volume() > 0.0);
         // A plane faces +Y: its triangles' normals point up.
         let p = plane(Vec2::ONE);
         for t in &p.triangles {
             let [a, b, c] = t.map(|i| p.positions[i as usize]);
             assert!((b - a).cross(c - a).y > 0.0);
         }
+    }
+
+    #[test]
+    fn check_names_what_is_wrong() {
+        let mut m = cuboid(Vec3::ONE);
+        assert!(m.check().is_ok());
+        m.positions[3].y = f32::NAN;
+        assert!(m.check().unwrap_err().starts_with("vertex 4 is"), "{:?}", m.check());
+        let mut m = cuboid(Vec3::ONE);
+        m.triangles[2][1] = 99;
+        assert!(m.check().unwrap_err().contains("triangle 3 refers to vertex 100"));
+        let flat = MeshData { positions: vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0], triangles: vec![[0, 1, 2], [0, 0, 1]], uvs: None };
+        assert!(flat.check().unwrap_err().contains("zero area"));
+        assert!(MeshData::default().check().unwrap_err().contains("empty"));
+    }
+
+    #[test]
+    fn solid_triangles_drop_repeats_and_collapsed_triangles() {
+        let mut m = cuboid(Vec3::ONE);
+        let first = m.triangles[0];
+        m.triangles.push(first);
+        m.triangles.push([first[0], first[2], first[1]]);
+        m.triangles.push([0, 0, 1]);
+        // A vertex duplicated by position (as OBJ exports split by normals do) still counts.
+        m.positions.push(m.positions[first[0] as usize]);
+        m.triangles.push([m.positions.len() as u32 - 1, first[1], first[2]]);
+        assert_eq!(m.solid_triangles().len(), 12);
     }
 }

@@ -15,6 +15,7 @@ pub mod index_fn;
 pub mod light;
 pub mod material;
 pub mod mesh;
+pub mod obj;
 pub mod shape;
 
 use std::cell::RefCell;

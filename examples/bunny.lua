@@ -1,0 +1,44 @@
+-- The Stanford bunny in glass, as in the paper's figures (1024×576, 128³ volume).
+--
+-- The bunny is not part of refrakt (the Stanford 3D Scanning Repository's models are not ours
+-- to redistribute). Download a bunny.obj — e.g. a watertight one such as the reconstruction in
+-- the public repository michelkluger/mesh-bunny, or the original scan from
+-- https://graphics.stanford.edu/data/3Dscanrep/ — and tell the script where it is:
+--
+--   REFRAKT_BUNNY=/path/to/bunny.obj refrakt render examples/bunny.lua --allow-read /path/to
+--
+-- (--allow-read lets the script read a file outside its own folder), or put bunny.obj next to
+-- this script. Any OBJ works: the volume fits itself to the mesh. Without one, the script says
+-- so and renders a glass pebble in its place.
+local r = require("refrakt")
+
+-- The bunny's shape and where to put it.
+local function load_bunny()
+  local path = r.getenv("REFRAKT_BUNNY")
+  local ok, mesh = pcall(r.mesh, { file = path or "bunny.obj" })
+  if ok then
+    return mesh, {0, 0, 0}
+  end
+  local why = tostring(mesh):match("^[^\n]*"):gsub("^runtime error: ", "")
+  local help = "the Stanford bunny is not shipped with refrakt: get a bunny.obj and run " ..
+               "REFRAKT_BUNNY=/path/to/bunny.obj refrakt render examples/bunny.lua --allow-read /path/to " ..
+               "(see the top of examples/bunny.lua)"
+  if path then
+    error(why .. " — " .. help, 0)    -- a bunny was asked for: say why it could not be read
+  end
+  print("no bunny.obj next to the script and REFRAKT_BUNNY is not set; " .. help ..
+        ". Rendering a glass pebble in its place.")
+  return r.blob{ radius = 0.06, bumps = 0.25, seed = 9 }, {-0.015, 0.1, 0}
+end
+
+local scene = r.scene{
+  camera      = r.camera{ position = {-0.06, 0.16, 0.42}, target = {-0.015, 0.1, 0}, fov = 35, size = {1024, 576} },
+  environment = r.environment{ preset = "studio" },
+  volume      = { resolution = 128, margin = 0.01 },
+}
+
+local shape, where = load_bunny()
+scene:add(r.node{ name = "bunny", translation = where, shape = shape,
+                  material = r.glass{ ior = 1.5, color = {0.8, 0.9, 1.0}, distance = 0.1 } })
+
+return scene

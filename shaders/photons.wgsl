@@ -151,8 +151,9 @@ fn find_cell(u: f32) -> u32 {
 }
 
 @compute @workgroup_size(64)
-fn emit(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x;
+fn emit(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    // Dispatched as a 2D grid of workgroups when there are more than 65 535 of them.
+    let i = id.x + id.y * groups.x * 64u;
     let n = params.photon_count;
     if i >= n {
         return;

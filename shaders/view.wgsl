@@ -42,6 +42,8 @@
 @group(0) @binding(15) var<storage, read> lights: array<LightGpu>;
 @group(0) @binding(16) var fluence_grid: texture_3d<f32>;
 @group(0) @binding(17) var direction_grid: texture_3d<f32>;
+// (low, high) words of a 64-bit count of the ray-equation steps taken (benchmarks).
+@group(0) @binding(18) var<storage, read_write> view_steps: array<atomic<u32>>;
 
 const FAR_DEPTH: f32 = 1e10;
 const NO_HIT: f32 = 3.4e38;
@@ -215,6 +217,7 @@ struct ViewSample {
     volume: vec3<f32>,
     covered: bool,
     depth: f32,
+    steps: u32,
 }
 
 fn first_depth(s: ptr<function, ViewSample>, p: vec3<f32>) {
@@ -240,7 +243,7 @@ fn is_medium(g: vec4<f32>, extinction: vec3<f32>) -> bool {
 fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
     let grid = params.grid;
     let origin = params.camera.position;
-    var out = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH);
+    var out = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
     var d = dir0;
     var transmittance = vec3<f32>(1.0);
     // The receiver ahead along the current straight line, cast_from + hit.t·d.
@@ -252,6 +255,7 @@ fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
         let box_max = grid_box_max(grid);
         var s = ray_start(ior_grid, grid_sampler, grid, origin + d * max(span.x, 0.0), d);
         for (var i = 0u; i < params.max_steps; i++) {
+            out.steps++;
             let x0 = s.x;
             let ahead = hit.t - dot(x0 - cast_from, d);
             var jump = octree_step(x0, d, params.step, params.max_step);
@@ -320,7 +324,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= params.width || id.y >= params.height {
         return;
     }
-    var sum = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH);
+    var sum = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
     var coverage = 0.0;
     for (var k = 0u; k < params.samples; k++) {
         let s = trace_view(camera_ray(vec2<f32>(id.xy) + r2(k)), k);
@@ -328,6 +332,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         sum.caustic += s.caustic;
         sum.direct += s.direct;
         sum.volume += s.volume;
+        sum.steps += s.steps;
         coverage += select(0.0, 1.0, s.covered);
         sum.depth = min(sum.depth, s.depth);
     }
@@ -339,4 +344,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     frame[2u * plane + pixel] = vec4<f32>(sum.caustic * inv, 0.0);
     frame[3u * plane + pixel] = vec4<f32>(sum.direct * inv, 0.0);
     frame[4u * plane + pixel] = vec4<f32>(sum.volume * inv, 0.0);
+    let old = atomicAdd(&view_steps[0], sum.steps);
+    if old + sum.steps < old {
+        atomicAdd(&view_steps[1], 1u);
+    }
 }

@@ -128,7 +128,75 @@ pub fn run(scene_path: &Path, opts: &RenderOptions) -> Result<()> {
     result
 }
 
+/// A frame on its way out: rendered (or in flight on the GPU), to be written to `paths`.
+struct Outgoing {
+    frame: i64,
+    paths: Vec<(Format, PathBuf)>,
+    png: PngOptions,
+    started: Instant,
+}
+
+/// Writes frames on a thread of its own, so EXR/PNG encoding overlaps the next frame's GPU
+/// work; reports each written frame (or the first error) back in order.
+struct FrameWriter {
+    jobs: Option<std::sync::mpsc::Sender<(Image, Outgoing)>>,
+    done: std::sync::mpsc::Receiver<Result<(i64, Vec<PathBuf>, f64)>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+    queued: usize,
+}
+
+impl FrameWriter {
+    fn new() -> Self {
+        let (jobs, inbox) = std::sync::mpsc::channel::<(Image, Outgoing)>();
+        let (outbox, done) = std::sync::mpsc::channel();
+        let thread = std::thread::spawn(move || {
+            for (image, out) in inbox {
+                let result = write_frame(&image, &out.paths, &out.png).map(|()| {
+                    (out.frame, out.paths.into_iter().map(|(_, p)| p).collect(), out.started.elapsed().as_secs_f64())
+                });
+                let failed = result.is_err();
+                if outbox.send(result).is_err() || failed {
+                    break;
+                }
+            }
+        });
+        Self { jobs: Some(jobs), done, thread: Some(thread), queued: 0 }
+    }
+
+    fn send(&mut self, image: Image, out: Outgoing) -> Result<()> {
+        let jobs = self.jobs.as_ref().ok_or_else(|| anyhow!("the frame writer has stopped"))?;
+        jobs.send((image, out)).map_err(|_| anyhow!("the frame writer stopped after an error"))?;
+        self.queued += 1;
+        Ok(())
+    }
+
+    /// Reports frames written so far (all of them when `wait`); the first error stops the render.
+    fn report(&mut self, progress: &mut Progress, wait: bool) -> Result<()> {
+        while self.queued > 0 {
+            let next = if wait { self.done.recv().ok() } else { self.done.try_recv().ok() };
+            let Some(result) = next else { break };
+            self.queued -= 1;
+            let (frame, files, seconds) = result?;
+            progress.frame(frame, seconds, &files);
+        }
+        Ok(())
+    }
+}
+
+impl Drop for FrameWriter {
+    fn drop(&mut self) {
+        self.jobs.take();
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
 /// Renders every frame; `current` names the frame in hand when one fails.
+///
+/// Frames are pipelined: while the GPU renders frame k, the CPU runs `update` and evaluates the
+/// scene for frame k+1 and submits it; frame k is then read back and handed to the writer
+/// thread. Frames are still written in order, and an error leaves every earlier frame whole.
 fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &mut Progress, current: &mut Option<i64>) -> Result<()> {
     let started = Instant::now();
     let mut source = SceneSource::load(scene_path, &opts.allow_read, &opts.limits)?;
@@ -142,40 +210,53 @@ fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &mut Progress, 
     let (first, last) = opts.frames.map_or((0, 0), |r| (r.first, r.last));
     progress.start(first, last);
     let mut warned = std::collections::HashSet::new();
-    for k in first..=last {
-        if INTERRUPTED.load(Ordering::SeqCst) {
-            bail!("interrupted after {} frame(s); the frames written are whole", k - first);
-        }
-        let numbered = opts.frames.map(|_| k);
-        let paths = frame_paths(opts, &name, numbered);
-        if opts.skip_existing && paths.iter().all(|(_, p)| p.exists()) {
-            progress.skip(k);
-            continue;
-        }
-        *current = numbered;
-        let t0 = Instant::now();
-        let t = numbered.map_or(opts.time, |k| k as f64 / opts.fps);
-        let desc = source.frame_desc(t, &opts.eval).map_err(|e| match numbered {
-            Some(k) if k > first => anyhow!(
-                "frame {k} (t = {t:.4} s): {e:#} (frames {first} to {} are written; fix the scene and re-run with \
-                 --skip-existing to go on from frame {k})",
-                k - 1
-            ),
-            Some(k) => anyhow!("frame {k} (t = {t:.4} s): {e:#}"),
-            None => e,
-        })?;
-        for w in desc.warnings() {
-            if warned.insert(w.clone()) {
-                tracing::warn!("{w}");
+    let mut writer = FrameWriter::new();
+    let mut in_flight: Option<(crate::pipeline::Ticket, Outgoing)> = None;
+    let result = (|| -> Result<()> {
+        for k in first..=last {
+            if INTERRUPTED.load(Ordering::SeqCst) {
+                bail!("interrupted after {} frame(s); the frames written are whole", k - first);
             }
+            let numbered = opts.frames.map(|_| k);
+            let paths = frame_paths(opts, &name, numbered);
+            if opts.skip_existing && paths.iter().all(|(_, p)| p.exists()) {
+                progress.skip(k);
+                continue;
+            }
+            *current = numbered;
+            let t0 = Instant::now();
+            let t = numbered.map_or(opts.time, |k| k as f64 / opts.fps);
+            let desc = source.frame_desc(t, &opts.eval).map_err(|e| match numbered {
+                Some(k) if k > first => anyhow!(
+                    "frame {k} (t = {t:.4} s): {e:#} (frames {first} to {} are written; fix the scene and re-run with \
+                     --skip-existing to go on from frame {k})",
+                    k - 1
+                ),
+                Some(k) => anyhow!("frame {k} (t = {t:.4} s): {e:#}"),
+                None => e,
+            })?;
+            for w in desc.warnings() {
+                if warned.insert(w.clone()) {
+                    tracing::warn!("{w}");
+                }
+            }
+            let ticket = renderer.submit(&desc)?;
+            let mut png = opts.png;
+            png.alpha = !desc.environment.visible;
+            let outgoing = Outgoing { frame: k, paths, png, started: t0 };
+            if let Some((previous, out)) = in_flight.replace((ticket, outgoing)) {
+                writer.send(renderer.finish(previous)?, out)?;
+            }
+            writer.report(progress, false)?;
         }
-        let image = renderer.frame(&desc)?;
-        let mut png = opts.png;
-        png.alpha = !desc.environment.visible;
-        write_frame(&image, &paths, &png)?;
-        let files: Vec<PathBuf> = paths.into_iter().map(|(_, p)| p).collect();
-        progress.frame(k, t0.elapsed().as_secs_f64(), &files);
-    }
+        Ok(())
+    })();
+    // Whatever happened, frames already rendered are written whole before returning.
+    let drained = in_flight.take().map_or(Ok(()), |(ticket, out)| renderer.finish(ticket).and_then(|image| writer.send(image, out)));
+    let reported = writer.report(progress, true);
+    result?;
+    drained?;
+    reported?;
     progress.finish(started.elapsed().as_secs_f64());
     Ok(())
 }

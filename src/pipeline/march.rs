@@ -14,8 +14,8 @@ use crate::gpu::readback::Staging;
 use crate::gpu::shaders::ShaderLibrary;
 use crate::gpu::types::{MarchParams, march_flags};
 
-/// Words in the statistics buffer: 13 64-bit counters (see `STAT_*` in march.wgsl).
-const STAT_WORDS: u64 = 2 * 13;
+/// Words in the statistics buffer: 14 64-bit counters (see `STAT_*` in march.wgsl).
+const STAT_WORDS: u64 = 2 * 14;
 
 /// Flux sums over all photons of a frame (W per channel), read back on request.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -30,6 +30,8 @@ pub struct PhotonStats {
     pub escaped: [f64; 3],
     /// Deposits undone because an accumulator was full.
     pub saturated: u64,
+    /// Integration steps all photons took (benchmarks: photon-steps per second).
+    pub steps: u64,
 }
 
 /// Fixed-point scales: one photon of mean flux deposits `flux_scale` units; a crossing of one
@@ -54,7 +56,7 @@ pub struct March {
     bgl: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
     pub stats: wgpu::Buffer,
-    stats_staging: Staging,
+    stats_staging: [Staging; 2],
     bound: Option<([u64; 4], wgpu::BindGroup)>,
 }
 
@@ -88,7 +90,7 @@ impl March {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let stats_staging = Staging::new(device, STAT_WORDS * 4, "stats readback");
+        let stats_staging = [0, 1].map(|_| Staging::new(device, STAT_WORDS * 4, "stats readback"));
         Ok(Self { main, resolve, bgl, params, stats, stats_staging, bound: None })
     }
 
@@ -163,7 +165,8 @@ impl March {
         let mut pass = profiler.pass(enc, "march");
         pass.set_bind_group(0, bg, &[]);
         pass.set_pipeline(&self.main);
-        pass.dispatch_workgroups(params.photon_count.div_ceil(64), 1, 1);
+        let (x, y) = layout::workgroups_1d(params.photon_count, 64);
+        pass.dispatch_workgroups(x, y, 1);
         if deposit {
             pass.set_pipeline(&self.resolve);
             let d = (radiance.dims + 3) / 4;
@@ -171,19 +174,20 @@ impl March {
         }
     }
 
-    /// Copies the statistics toward the CPU (after `encode`, in the same submission).
-    pub fn encode_stats_readback(&self, enc: &mut wgpu::CommandEncoder) {
-        enc.copy_buffer_to_buffer(&self.stats, 0, &self.stats_staging.buffer, 0, STAT_WORDS * 4);
+    /// Copies the statistics toward the CPU into readback `slot` (after `encode`, in the same
+    /// submission).
+    pub fn encode_stats_readback(&self, enc: &mut wgpu::CommandEncoder, slot: usize) {
+        enc.copy_buffer_to_buffer(&self.stats, 0, &self.stats_staging[slot].buffer, 0, STAT_WORDS * 4);
     }
 
-    /// The statistics of the last submitted frame, in watts.
-    pub fn read_stats(&self, ctx: &GpuContext, params: &MarchParams) -> Result<PhotonStats> {
-        let bytes = self.stats_staging.read(ctx, STAT_WORDS * 4)?;
+    /// The statistics of the frame submitted into readback `slot`, in watts.
+    pub fn read_stats(&self, ctx: &GpuContext, params: &MarchParams, slot: usize) -> Result<PhotonStats> {
+        let bytes = self.stats_staging[slot].read(ctx, STAT_WORDS * 4)?;
         let words: &[u32] = bytemuck::cast_slice(&bytes);
         let wide = |k: usize| (words[2 * k] as u64 | ((words[2 * k + 1] as u64) << 32)) as f64;
         let watts = |first: usize| {
             [0, 1, 2].map(|c| wide(first + c) * params.flux_unit as f64 / params.flux_scale as f64)
         };
-        Ok(PhotonStats { emitted: watts(0), received: watts(3), caustic: watts(6), escaped: watts(9), saturated: wide(12) as u64 })
+        Ok(PhotonStats { emitted: watts(0), received: watts(3), caustic: watts(6), escaped: watts(9), saturated: wide(12) as u64, steps: wide(13) as u64 })
     }
 }

@@ -83,8 +83,8 @@ impl Default for RenderSettings {
     }
 }
 
-/// Photons can deposit at most this many per frame (a dispatch spans 65 535 workgroups of 64).
-pub const MAX_PHOTONS: u32 = 65_535 * 64;
+/// Most photons one frame traces (48 bytes each on the GPU).
+pub const MAX_PHOTONS: u32 = 1 << 26;
 
 pub struct Renderer {
     pub ctx: GpuContext,
@@ -107,6 +107,18 @@ pub struct Renderer {
     pub profiler: Profiler,
     pub counters: Counters,
     stats: Option<PhotonStats>,
+    view_steps: u64,
+    /// The readback slot the next submitted frame uses, and which slots hold a frame in flight.
+    next_slot: usize,
+    pending: [bool; 2],
+}
+
+/// A frame in flight: which readback slot it uses, and the march's uniforms if it traced
+/// photons (to turn its statistics into watts).
+#[must_use = "a submitted frame must be finished to read it back"]
+pub struct Ticket {
+    slot: usize,
+    photons: Option<crate::gpu::types::MarchParams>,
 }
 
 /// Every stage's pipeline, built from one shader library.
@@ -168,6 +180,9 @@ impl Renderer {
             profiler,
             counters: Counters::default(),
             stats: None,
+            view_steps: 0,
+            next_slot: 0,
+            pending: [false; 2],
         })
     }
 
@@ -273,7 +288,8 @@ impl Renderer {
         let work = self.voxelize.encode(&self.ctx, &mut enc, &mut self.profiler, desc, grids)?; // fields, meshes → index_field, extinction_grid, scattering_grid
         self.gradient.encode(&self.ctx, &mut enc, &mut self.profiler, &desc.volume, grids); // index_field → ior_grid (∇n, n)
         self.octree.encode(&self.ctx, &mut enc, &mut self.profiler, grids); // index_field, extinction_grid → octree
-        self.profiler.resolve(&mut enc);
+        // Timings go through the next readback slot (this call waits for nothing in flight).
+        self.profiler.resolve(&mut enc, self.next_slot);
         self.ctx.queue.submit([enc.finish()]);
         self.counters.voxelizations += 1;
         self.counters.add_mesh_work(work);
@@ -285,7 +301,7 @@ impl Renderer {
     pub fn time_volume(&mut self, desc: &FrameDesc) -> Result<Vec<(&'static str, f64)>> {
         self.profiler.enable(&self.ctx);
         self.build_volume(desc)?;
-        self.profiler.collect(&self.ctx)?;
+        self.profiler.collect(&self.ctx, self.next_slot)?;
         Ok(self.profiler.last.clone())
     }
 
@@ -301,6 +317,22 @@ impl Renderer {
 
     /// Renders one frame, top to bottom, then reads the image back.
     pub fn frame(&mut self, desc: &FrameDesc) -> Result<Image> {
+        let ticket = self.submit(desc)?;
+        self.finish(ticket)
+    }
+
+    /// Encodes and submits one frame, top to bottom, without waiting for it. Its results come
+    /// back through one of two readback slots, so the caller can submit frame k+1 (after running
+    /// `update` and evaluating the scene for it) before it [`finish`](Self::finish)es frame k.
+    pub fn submit(&mut self, desc: &FrameDesc) -> Result<Ticket> {
+        let slot = self.next_slot;
+        if self.pending[slot] {
+            bail!("internal: two frames are already in flight; finish one before submitting another");
+        }
+        let size_changes = self.target.as_ref().is_some_and(|t| (t.width, t.height) != (desc.camera.width, desc.camera.height));
+        if size_changes && self.pending[1 - slot] {
+            bail!("internal: the image size changes while a frame is in flight; finish it first");
+        }
         self.prepare(desc)?;
         let photons = self.traces_photons(desc);
         let deposit = photons && self.deposits(desc);
@@ -326,7 +358,7 @@ impl Renderer {
             self.march.encode(&self.ctx, &mut enc, &mut self.profiler, &march_params, grids, &self.photons, receivers, radiance); // photons, grids, receivers → radiance, caustic atlas
             let filter_unit = flux_unit / march_params.flux_scale;
             self.caustics.encode(&self.ctx, &mut enc, &mut self.profiler, receivers, self.settings.caustic_filter, filter_unit); // caustic atlas → caustic irradiance
-            self.march.encode_stats_readback(&mut enc);
+            self.march.encode_stats_readback(&mut enc, slot);
             self.counters.photon_passes += 1;
         }
         let inputs = view::ViewInputs {
@@ -340,14 +372,28 @@ impl Renderer {
             scattering: deposit,
         };
         self.view.encode(&self.ctx, &mut enc, &mut self.profiler, desc, &inputs); // grids, octree, receivers, lights, radiance, environment → frame
-        target.encode_readback(&mut enc);
-        self.profiler.resolve(&mut enc);
+        target.encode_readback(&mut enc, slot);
+        self.view.encode_steps_readback(&mut enc, slot);
+        self.profiler.resolve(&mut enc, slot);
         self.ctx.queue.submit([enc.finish()]);
         self.counters.voxelizations += 1;
         self.counters.add_mesh_work(work);
         self.counters.frames += 1;
-        let image = target.read(&self.ctx)?;
-        self.stats = if photons { Some(self.march.read_stats(&self.ctx, &march_params)?) } else { None };
+        self.pending[slot] = true;
+        self.next_slot = 1 - slot;
+        Ok(Ticket { slot, photons: photons.then_some(march_params) })
+    }
+
+    /// Waits for a submitted frame and reads its image, statistics and timings back.
+    pub fn finish(&mut self, ticket: Ticket) -> Result<Image> {
+        let slot = ticket.slot;
+        self.pending[slot] = false;
+        let image = self.target.as_ref().expect("a frame was submitted").read(&self.ctx, slot)?;
+        self.stats = match &ticket.photons {
+            Some(params) => Some(self.march.read_stats(&self.ctx, params, slot)?),
+            None => None,
+        };
+        self.view_steps = self.view.read_steps(&self.ctx, slot)?;
         if let Some(s) = self.stats.filter(|s| s.saturated > 0) {
             tracing::warn!(
                 "{} photon deposits saturated the fixed-point range this frame; the caustic maps and the \
@@ -355,12 +401,17 @@ impl Renderer {
                 s.saturated
             );
         }
-        self.profiler.collect(&self.ctx)?;
+        self.profiler.collect(&self.ctx, slot)?;
         let errors = self.ctx.take_uncaptured_errors();
         if !errors.is_empty() {
             bail!("the GPU reported an error while rendering (a bug in refrakt): {}", errors.join("; "));
         }
         Ok(image)
+    }
+
+    /// Ray-equation steps the view pass took in the last finished frame.
+    pub fn view_steps(&self) -> u64 {
+        self.view_steps
     }
 
     /// Photon statistics of the last frame that traced photons.
@@ -447,6 +498,14 @@ pub(crate) mod layout {
             count: None,
         }
     }
+    /// Workgroups for `count` threads of a 1D kernel with `size` threads per group, as a 2D grid
+    /// when there are more than a dispatch dimension holds (the kernel folds id.y back in).
+    pub fn workgroups_1d(count: u32, size: u32) -> (u32, u32) {
+        let groups = count.div_ceil(size).max(1);
+        let x = groups.min(65_535);
+        (x, groups.div_ceil(x))
+    }
+
     pub fn texture_view(t: &wgpu::TextureView) -> wgpu::BindingResource<'_> {
         wgpu::BindingResource::TextureView(t)
     }

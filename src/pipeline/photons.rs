@@ -141,6 +141,7 @@ impl Photons {
         pass.set_pipeline(&self.scan);
         pass.dispatch_workgroups(1, 1, 1);
         pass.set_pipeline(&self.emit);
-        pass.dispatch_workgroups(photon_count.div_ceil(64), 1, 1);
+        let (x, y) = layout::workgroups_1d(photon_count, 64);
+        pass.dispatch_workgroups(x, y, 1);
     }
 }

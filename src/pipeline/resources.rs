@@ -205,7 +205,8 @@ pub struct FrameTarget {
     pub height: u32,
     pub generation: u64,
     pub buffer: wgpu::Buffer,
-    staging: Staging,
+    /// One per readback slot, so frame k+1 can be submitted before frame k is read.
+    staging: [Staging; 2],
 }
 
 impl FrameTarget {
@@ -225,17 +226,17 @@ impl FrameTarget {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             }),
-            staging: Staging::new(&ctx.device, size, "frame readback"),
+            staging: [0, 1].map(|_| Staging::new(&ctx.device, size, "frame readback")),
         })
     }
 
-    pub fn encode_readback(&self, enc: &mut wgpu::CommandEncoder) {
-        enc.copy_buffer_to_buffer(&self.buffer, 0, &self.staging.buffer, 0, self.buffer.size());
+    pub fn encode_readback(&self, enc: &mut wgpu::CommandEncoder, slot: usize) {
+        enc.copy_buffer_to_buffer(&self.buffer, 0, &self.staging[slot].buffer, 0, self.buffer.size());
     }
 
     /// The image after the submission with [`encode_readback`](Self::encode_readback) finished.
-    pub fn read(&self, ctx: &GpuContext) -> Result<Image> {
-        let bytes = self.staging.read(ctx, self.buffer.size())?;
+    pub fn read(&self, ctx: &GpuContext, slot: usize) -> Result<Image> {
+        let bytes = self.staging[slot].read(ctx, self.buffer.size())?;
         let floats: &[f32] = bytemuck::cast_slice(&bytes);
         let n = (self.width * self.height) as usize;
         let plane = |k: usize| &floats[4 * n * k..4 * n * (k + 1)];

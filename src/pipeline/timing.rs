@@ -15,7 +15,9 @@ pub struct Profiler {
     supported: bool,
     query_set: Option<wgpu::QuerySet>,
     resolve: Option<wgpu::Buffer>,
-    staging: Option<Staging>,
+    /// One staging buffer and label list per readback slot (see `Renderer::submit`).
+    staging: [Option<Staging>; 2],
+    slot_labels: [Vec<&'static str>; 2],
     labels: Vec<&'static str>,
     period_ns: f32,
     /// (stage label, milliseconds) of the last collected frame, in pass order.
@@ -29,7 +31,8 @@ impl Profiler {
             supported: ctx.has_timestamps(),
             query_set: None,
             resolve: None,
-            staging: None,
+            staging: [None, None],
+            slot_labels: [Vec::new(), Vec::new()],
             labels: Vec::new(),
             period_ns: ctx.queue.get_timestamp_period(),
             last: Vec::new(),
@@ -54,7 +57,7 @@ impl Profiler {
                 usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             }));
-            self.staging = Some(Staging::new(&ctx.device, size, "timestamp readback"));
+            self.staging = [0, 1].map(|_| Some(Staging::new(&ctx.device, size, "timestamp readback")));
         }
         self.enabled = true;
         true
@@ -81,9 +84,11 @@ impl Profiler {
         enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes })
     }
 
-    /// Copies this frame's timestamps toward the CPU (call once, after the last pass).
-    pub fn resolve(&self, enc: &mut wgpu::CommandEncoder) {
-        let (Some(qs), Some(buf), Some(staging)) = (&self.query_set, &self.resolve, &self.staging) else { return };
+    /// Copies this frame's timestamps toward the CPU into readback `slot` (call once, after the
+    /// last pass).
+    pub fn resolve(&mut self, enc: &mut wgpu::CommandEncoder, slot: usize) {
+        self.slot_labels[slot] = self.labels.clone();
+        let (Some(qs), Some(buf), Some(staging)) = (&self.query_set, &self.resolve, &self.staging[slot]) else { return };
         let n = self.labels.len() as u32;
         if n == 0 {
             return;
@@ -92,17 +97,18 @@ impl Profiler {
         enc.copy_buffer_to_buffer(buf, 0, &staging.buffer, 0, 2 * n as u64 * 8);
     }
 
-    /// Reads the resolved timestamps into [`last`](Self::last), summing passes of one label.
-    pub fn collect(&mut self, ctx: &GpuContext) -> Result<()> {
+    /// Reads the timestamps of readback `slot` into [`last`](Self::last), summing passes of one
+    /// label.
+    pub fn collect(&mut self, ctx: &GpuContext, slot: usize) -> Result<()> {
         self.last.clear();
-        let Some(staging) = &self.staging else { return Ok(()) };
-        let n = self.labels.len();
+        let Some(staging) = &self.staging[slot] else { return Ok(()) };
+        let n = self.slot_labels[slot].len();
         if !self.enabled || n == 0 {
             return Ok(());
         }
         let bytes = staging.read(ctx, 2 * n as u64 * 8)?;
         let ticks: &[u64] = bytemuck::cast_slice(&bytes);
-        for (i, label) in self.labels.iter().enumerate() {
+        for (i, label) in self.slot_labels[slot].iter().enumerate() {
             let ms = ticks[2 * i + 1].saturating_sub(ticks[2 * i]) as f64 * self.period_ns as f64 * 1e-6;
             match self.last.iter_mut().find(|(l, _)| l == label) {
                 Some((_, total)) => *total += ms,

@@ -21,6 +21,9 @@ pub struct View {
     pipeline: wgpu::ComputePipeline,
     bgl: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
+    /// 64-bit count of the ray-equation steps of the last frame (benchmarks).
+    pub steps: wgpu::Buffer,
+    steps_staging: [crate::gpu::readback::Staging; 2],
     /// Bind group and the generations of what it binds.
     bound: Option<([u64; 6], wgpu::BindGroup)>,
 }
@@ -110,10 +113,18 @@ impl View {
                 layout::storage(15, true),
                 layout::texture(16, d3),
                 layout::texture(17, d3),
+                layout::storage(18, false),
             ],
         )?;
         let params = layout::uniform_buffer::<ViewParams>(device, "view params");
-        Ok(Self { pipeline, bgl, params, bound: None })
+        let steps = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("view steps"),
+            size: 8,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let steps_staging = [0, 1].map(|_| crate::gpu::readback::Staging::new(device, 8, "view steps readback"));
+        Ok(Self { pipeline, bgl, params, steps, steps_staging, bound: None })
     }
 
     pub fn encode(&mut self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder, profiler: &mut Profiler, desc: &FrameDesc, inputs: &ViewInputs) {
@@ -144,14 +155,28 @@ impl View {
                     wgpu::BindGroupEntry { binding: 15, resource: lights.lights.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 16, resource: layout::texture_view(&radiance.fluence.view) },
                     wgpu::BindGroupEntry { binding: 17, resource: layout::texture_view(&radiance.direction.view) },
+                    wgpu::BindGroupEntry { binding: 18, resource: self.steps.as_entire_binding() },
                 ],
             });
             self.bound = Some((generations, bg));
         }
         let (_, bg) = self.bound.as_ref().expect("bound above");
+        enc.clear_buffer(&self.steps, 0, None);
         let mut pass = profiler.pass(enc, "view");
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, bg, &[]);
         pass.dispatch_workgroups(target.width.div_ceil(8), target.height.div_ceil(8), 1);
+    }
+
+    /// Copies the step count toward the CPU into readback `slot`.
+    pub fn encode_steps_readback(&self, enc: &mut wgpu::CommandEncoder, slot: usize) {
+        enc.copy_buffer_to_buffer(&self.steps, 0, &self.steps_staging[slot].buffer, 0, 8);
+    }
+
+    /// The ray-equation steps of the frame submitted into readback `slot`.
+    pub fn read_steps(&self, ctx: &GpuContext, slot: usize) -> Result<u64> {
+        let bytes = self.steps_staging[slot].read(ctx, 8)?;
+        let words: &[u32] = bytemuck::cast_slice(&bytes);
+        Ok(words[0] as u64 | (words[1] as u64) << 32)
     }
 }

@@ -5,6 +5,7 @@
 //! Data flow of a frame: a scene (Lua script) is evaluated into a [`frame::FrameDesc`]; the
 //! [`pipeline::Renderer`] turns that into an [`output::Image`] on the GPU.
 
+pub mod bench;
 pub mod bvh;
 pub mod cpu;
 pub mod frame;

@@ -33,6 +33,38 @@ enum Command {
         #[command(flatten)]
         gpu: GpuArgs,
     },
+    /// Time every stage on built-in scenes with GPU timestamps; JSON on stdout.
+    Bench(BenchArgs),
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    /// Built-in scenes to run: seed, heavy, grin.
+    #[arg(long, value_delimiter = ',', default_value = "seed,heavy,grin")]
+    scenes: Vec<String>,
+    /// Tiny sizes and three frames (a smoke test for CPU adapters and CI).
+    #[arg(long)]
+    quick: bool,
+    /// Measured frames per scene (after two warm-up frames).
+    #[arg(long, default_value_t = 30)]
+    frames: u32,
+    /// An OBJ mesh for `seed` (e.g. ../shared/assets/bunny.obj) instead of the procedural pebble.
+    #[arg(long, value_name = "PATH")]
+    mesh: Option<PathBuf>,
+    /// Also sweep photons, volume and image size on `seed` (stage times for a scaling table).
+    #[arg(long)]
+    scaling: bool,
+    /// Also measure caustic noise against photon count on `seed` (RMSE to 64× the photons).
+    #[arg(long)]
+    quality: bool,
+    /// Write the JSON here as well as to stdout.
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
+    /// Print the ratio of each median time to the ones in an earlier JSON.
+    #[arg(long, value_name = "FILE")]
+    compare: Option<PathBuf>,
+    #[command(flatten)]
+    gpu: GpuArgs,
 }
 
 #[derive(Args)]
@@ -119,6 +151,31 @@ fn run(cli: Cli) -> Result<()> {
         Command::Info { gpu } => {
             let ctx = refrakt::gpu::GpuContext::new(gpu.adapter.as_deref())?;
             print!("{}", ctx.report());
+            Ok(())
+        }
+        Command::Bench(a) => {
+            let opts = refrakt::bench::BenchOptions {
+                scenes: a.scenes,
+                quick: a.quick,
+                frames: a.frames.max(1),
+                mesh: a.mesh,
+                scaling: a.scaling,
+                quality: a.quality,
+                adapter: a.gpu.adapter,
+            };
+            let report = refrakt::bench::run(&opts)?;
+            let text = serde_json::to_string_pretty(&report)?;
+            println!("{text}");
+            if let Some(path) = &a.out {
+                refrakt::output::write_atomically(path, |tmp| Ok(std::fs::write(tmp, &text)?))?;
+            }
+            if let Some(path) = &a.compare {
+                let before: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("--compare {}: {e}", path.display()))?)
+                    .map_err(|e| anyhow::anyhow!("--compare {}: not a refrakt bench JSON file: {e}", path.display()))?;
+                for line in refrakt::bench::compare(&report, &before) {
+                    eprintln!("{line}");
+                }
+            }
             Ok(())
         }
         Command::Render(a) => {

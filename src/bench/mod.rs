@@ -1,0 +1,301 @@
+//! `refrakt bench`: fixed built-in scenes rendered for a number of frames, with every stage timed
+//! by GPU timestamp queries, as JSON — plus the throughput of the march and view stages against
+//! bare kernels on the same adapter, and (for `seed`) photon count against caustic noise.
+//!
+//! Speed is measured here, never asserted in tests: `tests/bench.rs` only checks that the JSON
+//! is complete and every time positive.
+
+pub mod roofline;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result, anyhow, bail};
+use serde::Serialize;
+use serde_json::{Value, json};
+
+use crate::frame::FrameDesc;
+use crate::lua::Limits;
+use crate::pipeline::Renderer;
+use crate::render::SceneSource;
+use crate::scene::eval::EvalOptions;
+
+/// The built-in scenes: name, Lua source, what it stands for.
+pub const SCENES: &[(&str, &str, &str)] = &[
+    ("seed", include_str!("seed.lua"), "the paper's seed setting: ~5k-triangle glass mesh, 1024×576, 128³, 70k photons, moving object and light"),
+    ("heavy", include_str!("heavy.lua"), "1920×1080, 256³, 1M photons, fog, three refractive objects"),
+    ("grin", include_str!("grin.lua"), "Luneburg lens and gradient slab under a sun, no mesh"),
+];
+
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    pub scenes: Vec<String>,
+    /// Tiny sizes and few frames (CI on a CPU adapter).
+    pub quick: bool,
+    pub frames: u32,
+    /// An OBJ file for `seed` instead of the procedural pebble (e.g. the Stanford bunny).
+    pub mesh: Option<PathBuf>,
+    /// Also sweep photon count, volume, image size and triangle count on `seed`.
+    pub scaling: bool,
+    /// Also measure caustic noise against photon count on `seed`.
+    pub quality: bool,
+    pub adapter: Option<String>,
+}
+
+/// Median and 90th percentile of a series, milliseconds.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Spread {
+    pub median: f64,
+    pub p90: f64,
+}
+
+impl Spread {
+    pub fn of(values: &[f64]) -> Spread {
+        let mut v = values.to_vec();
+        v.sort_by(f64::total_cmp);
+        let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+        Spread { median: at(0.5), p90: at(0.9) }
+    }
+}
+
+/// Loads a built-in scene (its source written to a temporary folder, since scripts run from a
+/// file).
+fn load_scene(name: &str, source: &str, allow_read: &[PathBuf]) -> Result<(SceneSource, tempfile::TempDir)> {
+    let dir = tempfile::Builder::new().prefix(&format!("refrakt-bench-{name}-")).tempdir()?;
+    let path = dir.path().join(format!("{name}.lua"));
+    std::fs::write(&path, source)?;
+    Ok((SceneSource::load(&path, allow_read, &Limits::default())?, dir))
+}
+
+/// The source of built-in scene `name` with the bench's substitutions.
+fn scene_source(name: &str, opts: &BenchOptions) -> Result<(String, Vec<PathBuf>)> {
+    let (_, source, _) = SCENES.iter().find(|s| s.0 == name).ok_or_else(|| {
+        anyhow!("no built-in scene \"{name}\" (scenes: {})", SCENES.iter().map(|s| s.0).collect::<Vec<_>>().join(", "))
+    })?;
+    let mut allow = Vec::new();
+    let mut mesh = String::new();
+    if name == "seed" {
+        if let Some(m) = &opts.mesh {
+            let m = m.canonicalize().with_context(|| format!("--mesh {}", m.display()))?;
+            allow.push(m.parent().map(Path::to_path_buf).unwrap_or_default());
+            mesh = m.display().to_string();
+        }
+    }
+    Ok((source.replace("@MESH@", &mesh.replace('\\', "\\\\").replace('"', "\\\"")), allow))
+}
+
+/// Settings `--quick` shrinks every scene to.
+fn quick_eval() -> EvalOptions {
+    EvalOptions { size: Some((96, 54)), resolution: Some(32), photons: Some(4_000), samples: Some(1), ..Default::default() }
+}
+
+/// What one scene's frames measured.
+struct SceneRun {
+    stages: BTreeMap<&'static str, Vec<f64>>,
+    gpu: Vec<f64>,
+    wall: Vec<f64>,
+    photon_steps: Vec<f64>,
+    view_steps: Vec<f64>,
+    desc: FrameDesc,
+}
+
+/// Renders `frames` frames of a scene (after two unmeasured ones) and collects the timings.
+fn run_scene(renderer: &mut Renderer, source: &mut SceneSource, eval: &EvalOptions, frames: u32, fps: f64) -> Result<SceneRun> {
+    let mut run = SceneRun {
+        stages: BTreeMap::new(),
+        gpu: Vec::new(),
+        wall: Vec::new(),
+        photon_steps: Vec::new(),
+        view_steps: Vec::new(),
+        desc: source.frame_desc(0.0, eval)?,
+    };
+    for k in 0..frames + 2 {
+        let desc = source.frame_desc(k as f64 / fps, eval)?;
+        let t0 = Instant::now();
+        renderer.frame(&desc)?;
+        let wall = t0.elapsed().as_secs_f64() * 1e3;
+        if k < 2 {
+            continue; // pipelines compile and buffers grow in the first frames
+        }
+        let timings = renderer.profiler.last.clone();
+        run.gpu.push(timings.iter().map(|t| t.1).sum());
+        for (label, ms) in &timings {
+            run.stages.entry(label).or_default().push(*ms);
+        }
+        run.wall.push(wall);
+        run.photon_steps.push(renderer.photon_stats().map_or(0.0, |s| s.steps as f64));
+        run.view_steps.push(renderer.view_steps() as f64);
+        run.desc = desc;
+    }
+    Ok(run)
+}
+
+fn median(v: &[f64]) -> f64 {
+    Spread::of(v).median
+}
+
+/// Steps per second of a stage: median steps over median milliseconds.
+fn steps_per_second(steps: &[f64], stage_ms: Option<&Vec<f64>>) -> Option<f64> {
+    let ms = median(stage_ms?);
+    (ms > 0.0).then(|| median(steps) / (ms * 1e-3))
+}
+
+fn settings_json(d: &FrameDesc) -> Value {
+    json!({
+        "size": [d.camera.width, d.camera.height],
+        "volume": [d.volume.dims.x, d.volume.dims.y, d.volume.dims.z],
+        "photons": d.photons,
+        "samples": d.samples,
+        "triangles": d.meshes.iter().map(|m| m.mesh.triangles.len()).sum::<usize>(),
+        "lights": d.lights.len(),
+        "fog": d.fog.is_some(),
+    })
+}
+
+fn scene_json(name: &str, run: &SceneRun, roofline: Option<&roofline::Roofline>) -> Value {
+    let stages: BTreeMap<_, _> = run.stages.iter().map(|(k, v)| (k.to_string(), Spread::of(v))).collect();
+    let photon_rate = steps_per_second(&run.photon_steps, run.stages.get("march"));
+    let view_rate = steps_per_second(&run.view_steps, run.stages.get("view"));
+    json!({
+        "name": name,
+        "settings": settings_json(&run.desc),
+        "frames": run.wall.len(),
+        "stages_ms": stages,
+        "gpu_ms": Spread::of(&run.gpu),
+        "wall_ms": Spread::of(&run.wall),
+        "gpu_fps": 1e3 / median(&run.gpu),
+        "photon_steps_per_s": photon_rate,
+        "view_steps_per_s": view_rate,
+        "fraction_of_bare_kernels": roofline.map(|r| json!({
+            "march": photon_rate.map(|p| p / r.march_steps_per_s),
+            "view": view_rate.map(|v| v / r.view_steps_per_s),
+        })),
+    })
+}
+
+/// Caustic noise against photon count on `seed`'s first frame: RMSE of the caustic layer against
+/// a reference with 64× the photons, and the photon stages' GPU time.
+fn quality_curve(renderer: &mut Renderer, source: &mut SceneSource, eval: &EvalOptions, base: u32) -> Result<Value> {
+    let at = |renderer: &mut Renderer, source: &mut SceneSource, photons: u32| -> Result<(Vec<f32>, f64)> {
+        let desc = source.frame_desc(0.0, &EvalOptions { photons: Some(photons), ..eval.clone() })?;
+        let image = renderer.frame(&desc)?;
+        let ms = renderer.profiler.last.iter().filter(|(l, _)| matches!(*l, "photons" | "march" | "caustics")).map(|t| t.1).sum();
+        Ok((image.layer("caustic").map(|l| l.data.clone()).unwrap_or_default(), ms))
+    };
+    let (reference, _) = at(renderer, source, base * 64)?;
+    let mut points = Vec::new();
+    for factor in [0.125, 0.25, 0.5, 1.0, 2.0, 4.0] {
+        let photons = (base as f64 * factor) as u32;
+        let (caustic, ms) = at(renderer, source, photons)?;
+        let rmse = (caustic.iter().zip(&reference).map(|(a, b)| ((a - b) as f64).powi(2)).sum::<f64>() / caustic.len().max(1) as f64).sqrt();
+        points.push(json!({ "photons": photons, "photon_stages_ms": ms, "caustic_rmse": rmse }));
+    }
+    Ok(json!({ "reference_photons": base * 64, "points": points }))
+}
+
+/// How each stage's time grows with one setting of `seed` (the others at their seed values).
+fn scaling(renderer: &mut Renderer, source: &mut SceneSource, base: &EvalOptions, frames: u32) -> Result<Value> {
+    let mut rows = Vec::new();
+    let sweeps: Vec<(&str, Vec<EvalOptions>)> = vec![
+        ("photons", [17_500u32, 35_000, 70_000, 140_000, 280_000, 1_000_000].iter().map(|&p| EvalOptions { photons: Some(p), ..base.clone() }).collect()),
+        ("volume", [64u32, 96, 128, 192, 256].iter().map(|&v| EvalOptions { resolution: Some(v), ..base.clone() }).collect()),
+        ("image", [(512u32, 288u32), (1024, 576), (1920, 1080), (3840, 2160)].iter().map(|&s| EvalOptions { size: Some(s), ..base.clone() }).collect()),
+    ];
+    for (what, options) in sweeps {
+        for o in options {
+            let run = run_scene(renderer, source, &o, frames, 24.0)?;
+            rows.push(json!({
+                "sweep": what,
+                "settings": settings_json(&run.desc),
+                "stages_ms": run.stages.iter().map(|(k, v)| (k.to_string(), median(v))).collect::<BTreeMap<_, _>>(),
+                "gpu_ms": median(&run.gpu),
+            }));
+        }
+    }
+    Ok(Value::Array(rows))
+}
+
+/// The voxelize stage alone on the meshes: the bunny at 128³ and 100k triangles at 256³.
+fn voxelize_meshes(renderer: &mut Renderer, bunny: Option<&Path>, runs: u32) -> Result<Value> {
+    use crate::scene::{mesh, obj};
+    use std::sync::Arc;
+    let mut cases = Vec::new();
+    if let Some(b) = bunny {
+        cases.push(("bunny", Arc::new(obj::load(b)?), 128));
+    }
+    cases.push(("blob-100k", Arc::new(mesh::blob(0.5, 0.15, 1, 71)), 256));
+    let mut out = Vec::new();
+    for (name, m, resolution) in cases {
+        if let Some(t) = crate::pipeline::voxelize_mesh::benchmark(renderer, m, resolution, runs)? {
+            out.push(json!({
+                "mesh": name, "triangles": t.triangles, "volume": [t.dims.x, t.dims.y, t.dims.z],
+                "meshes_ms": t.meshes_ms, "composite_ms": t.composite_ms, "voxelize_ms": t.meshes_ms + t.composite_ms,
+            }));
+        }
+    }
+    Ok(Value::Array(out))
+}
+
+/// Runs the benchmark and returns its JSON document.
+pub fn run(opts: &BenchOptions) -> Result<Value> {
+    let ctx = crate::gpu::GpuContext::new(opts.adapter.as_deref())?;
+    let adapter = ctx.adapter_name();
+    let mut renderer = Renderer::new(ctx)?;
+    if !renderer.profiler.enable(&renderer.ctx) {
+        bail!("the adapter \"{adapter}\" has no GPU timestamp queries, so stage times cannot be measured");
+    }
+    let frames = if opts.quick { opts.frames.min(3) } else { opts.frames };
+    let mut scenes = Vec::new();
+    let mut roof = None;
+    let mut quality = Value::Null;
+    let mut sweep = Value::Null;
+    for name in &opts.scenes {
+        let (source, allow) = scene_source(name, opts)?;
+        let (mut scene, _dir) = load_scene(name, &source, &allow)?;
+        let eval = if opts.quick { quick_eval() } else { EvalOptions::default() };
+        let run = run_scene(&mut renderer, &mut scene, &eval, frames, 24.0)?;
+        if roof.is_none() {
+            roof = Some(roofline::measure(&mut renderer, 3)?);
+        }
+        scenes.push(scene_json(name, &run, roof.as_ref()));
+        if name == "seed" && opts.quality {
+            quality = quality_curve(&mut renderer, &mut scene, &eval, run.desc.photons)?;
+        }
+        if name == "seed" && opts.scaling {
+            sweep = scaling(&mut renderer, &mut scene, &eval, frames.min(5))?;
+        }
+    }
+    let voxelize = if opts.quick { Value::Null } else { voxelize_meshes(&mut renderer, opts.mesh.as_deref(), 5)? };
+    Ok(json!({
+        "refrakt": env!("CARGO_PKG_VERSION"),
+        "adapter": adapter,
+        "quick": opts.quick,
+        "bare_kernels": roof,
+        "scenes": scenes,
+        "seed_quality": quality,
+        "seed_scaling": sweep,
+        "voxelize": voxelize,
+    }))
+}
+
+/// Ratios of this run's median times to an earlier run's, per scene and stage.
+pub fn compare(now: &Value, before: &Value) -> Vec<String> {
+    let mut lines = Vec::new();
+    let scenes = |v: &Value| v["scenes"].as_array().cloned().unwrap_or_default();
+    for s in scenes(now) {
+        let name = s["name"].as_str().unwrap_or("?");
+        let Some(old) = scenes(before).into_iter().find(|o| o["name"] == s["name"]) else { continue };
+        let ratio = |a: &Value, b: &Value| match (a.as_f64(), b.as_f64()) {
+            (Some(a), Some(b)) if b > 0.0 => format!("{b:.3} → {a:.3} ms ({:.2}×)", a / b),
+            _ => "—".into(),
+        };
+        lines.push(format!("{name}: GPU {}", ratio(&s["gpu_ms"]["median"], &old["gpu_ms"]["median"])));
+        if let Some(stages) = s["stages_ms"].as_object() {
+            for (stage, t) in stages {
+                lines.push(format!("  {stage}: {}", ratio(&t["median"], &old["stages_ms"][stage]["median"])));
+            }
+        }
+    }
+    lines
+}

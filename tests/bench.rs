@@ -1,0 +1,48 @@
+//! `refrakt bench --quick` runs on a CPU adapter and emits complete JSON: every field present,
+//! every time positive. The numbers themselves are not asserted (speed is measured, not tested).
+
+use std::process::Command;
+
+use serde_json::Value;
+
+fn positive(v: &Value, what: &str) -> f64 {
+    let x = v.as_f64().unwrap_or_else(|| panic!("{what} missing or not a number: {v}"));
+    assert!(x > 0.0 && x.is_finite(), "{what} = {x}");
+    x
+}
+
+#[test]
+fn quick_bench_emits_complete_json() {
+    let out = Command::new(env!("CARGO_BIN_EXE_refrakt")).args(["bench", "--quick"]).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let report: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(&out.stdout)));
+    assert!(report["adapter"].as_str().is_some_and(|a| !a.is_empty()));
+    positive(&report["bare_kernels"]["march_steps_per_s"], "bare march rate");
+    positive(&report["bare_kernels"]["view_steps_per_s"], "bare view rate");
+    let scenes = report["scenes"].as_array().expect("scenes");
+    let names: Vec<&str> = scenes.iter().map(|s| s["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["seed", "heavy", "grin"]);
+    for s in scenes {
+        let name = s["name"].as_str().unwrap();
+        positive(&s["frames"], "frames");
+        for what in ["gpu_ms", "wall_ms"] {
+            positive(&s[what]["median"], &format!("{name}.{what}.median"));
+            positive(&s[what]["p90"], &format!("{name}.{what}.p90"));
+        }
+        // Every stage of the frame ran and was timed.
+        for stage in ["voxelize", "gradient", "octree", "photons", "march", "caustics", "view"] {
+            positive(&s["stages_ms"][stage]["median"], &format!("{name}.{stage}"));
+        }
+        positive(&s["photon_steps_per_s"], &format!("{name} photon steps/s"));
+        positive(&s["view_steps_per_s"], &format!("{name} view steps/s"));
+        positive(&s["fraction_of_bare_kernels"]["march"], &format!("{name} march fraction"));
+        positive(&s["fraction_of_bare_kernels"]["view"], &format!("{name} view fraction"));
+        for key in ["size", "volume", "photons", "samples", "triangles", "lights", "fog"] {
+            assert!(!s["settings"][key].is_null(), "{name}.settings.{key} missing");
+        }
+    }
+    // The seed and heavy scenes are meshes: mesh voxelization ran and was timed.
+    positive(&scenes[0]["stages_ms"]["voxelize.meshes"]["median"], "seed mesh voxelization");
+    assert!(scenes[0]["settings"]["triangles"].as_u64().unwrap() > 4000);
+}

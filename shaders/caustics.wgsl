@@ -9,8 +9,8 @@
 // box sum is itself below 2³² (deposits saturate at 2³¹ per texel) and modular differences of
 // the table give it back.
 //
-// Entry points, in order: `sat_rows`, `sat_columns` (one thread per row/column of each chart),
-// `filter` (one thread per texel).
+// Entry points, in order: `sat_rows`, `sat_columns` (one workgroup per row/column of each
+// chart), `filter_charts` (one thread per texel).
 
 #import shared/types.wgsl
 
@@ -22,38 +22,72 @@
 // Irradiance (W/m², rgb) and the photon count of the footprint used.
 @group(0) @binding(4) var<storage, read_write> caustic_irradiance: array<vec4<f32>>;
 
-@compute @workgroup_size(64)
-fn sat_rows(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.y >= params.chart_count {
-        return;
+// One workgroup scans one row (or column) of one chart: each thread sums a contiguous run of
+// texels, the workgroup scans the 256 run totals (Hillis–Steele, in workgroup memory), and each
+// thread rewrites its run with the totals before it. Wrapping u32 sums, so the order of
+// additions does not matter.
+const SCAN_THREADS: u32 = 256u;
+var<workgroup> runs: array<vec4<u32>, 256>;
+
+// Texel index of element k of line `line` (a row when `rows`, else a column) of a chart.
+fn line_texel(chart: Chart, rows: bool, line: u32, k: u32) -> u32 {
+    if rows {
+        return chart.offset + k + chart.width * line;
     }
-    let chart = charts[id.y];
-    if id.x >= chart.height {
-        return;
+    return chart.offset + line + chart.width * k;
+}
+
+// The value a scan adds up at texel t: raw deposits for rows, row sums for columns.
+fn scan_input(rows: bool, t: u32) -> vec4<u32> {
+    if rows {
+        return vec4<u32>(caustic_atlas[4u * t], caustic_atlas[4u * t + 1u], caustic_atlas[4u * t + 2u], caustic_atlas[4u * t + 3u]);
     }
-    var running = vec4<u32>(0u);
-    for (var x = 0u; x < chart.width; x++) {
-        let t = chart.offset + x + chart.width * id.x;
-        running += vec4<u32>(caustic_atlas[4u * t], caustic_atlas[4u * t + 1u], caustic_atlas[4u * t + 2u], caustic_atlas[4u * t + 3u]);
+    return sat[t];
+}
+
+fn scan_line(chart: Chart, rows: bool, line: u32, lid: u32) {
+    let length = select(chart.height, chart.width, rows);
+    let per = (length + SCAN_THREADS - 1u) / SCAN_THREADS;
+    let first = lid * per;
+    let last = min(first + per, length);
+    var sum = vec4<u32>(0u);
+    for (var k = first; k < last; k++) {
+        sum += scan_input(rows, line_texel(chart, rows, line, k));
+    }
+    runs[lid] = sum;
+    workgroupBarrier();
+    for (var offset = 1u; offset < SCAN_THREADS; offset *= 2u) {
+        let before = select(vec4<u32>(0u), runs[lid - offset], lid >= offset);
+        workgroupBarrier();
+        runs[lid] += before;
+        workgroupBarrier();
+    }
+    var running = select(vec4<u32>(0u), runs[lid - 1u], lid > 0u);
+    for (var k = first; k < last; k++) {
+        let t = line_texel(chart, rows, line, k);
+        running += scan_input(rows, t);
         sat[t] = running;
     }
 }
 
-@compute @workgroup_size(64)
-fn sat_columns(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.y >= params.chart_count {
+// (Each workgroup's line is uniform across it: all its threads return, or none, so the
+// barriers in scan_line are reached by all.)
+@compute @workgroup_size(256)
+fn sat_rows(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let chart = charts[group.y];
+    if group.x >= chart.height {
         return;
     }
-    let chart = charts[id.y];
-    if id.x >= chart.width {
+    scan_line(chart, true, group.x, lid);
+}
+
+@compute @workgroup_size(256)
+fn sat_columns(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let chart = charts[group.y];
+    if group.x >= chart.width {
         return;
     }
-    var running = vec4<u32>(0u);
-    for (var y = 0u; y < chart.height; y++) {
-        let t = chart.offset + id.x + chart.width * y;
-        running += sat[t];
-        sat[t] = running;
-    }
+    scan_line(chart, false, group.x, lid);
 }
 
 // Sum over texels [lo, hi] (inclusive, clamped to the chart) from the summed-area table.

@@ -175,13 +175,21 @@ fn march_photon(photon: Photon) -> u32 {
     var s = ray_start(ior_grid, grid_sampler, grid, photon.origin + d * max(span.x, 0.0), d);
     var refracted = false;
     let box_max = grid_box_max(grid);
+    // Whether `hit` is the receiver ahead along the current direction. After the path bends it
+    // is not, and the next cast waits until a step could actually reach a receiver.
+    var cast_valid = true;
     var n_steps = 0u;
     for (; n_steps < params.max_steps; n_steps++) {
         let x0 = s.x;
-        let ahead = hit.t - dot(x0 - cast_from, d);
         var jump = octree_step(x0, d, params.min_step, params.max_step);
         let bends = jump <= params.min_step;
         jump = min(jump, ray_box(x0, d, grid.origin, box_max).y + 1e-4 * grid.voxel_size);
+        if !cast_valid && bvh_may_hit(x0, d, jump) {
+            cast_from = x0;
+            hit = bvh_closest_hit(cast_from, d, 0.0, NO_HIT);
+            cast_valid = true;
+        }
+        let ahead = select(NO_HIT, hit.t - dot(x0 - cast_from, d), cast_valid);
         if ahead <= jump {
             // The receiver comes first: finish the segment on it.
             let p = x0 + d * ahead;
@@ -210,10 +218,9 @@ fn march_photon(photon: Photon) -> u32 {
         refracted = refracted || s.g.w - 1.0 > params.eps_refract;
         let d_new = normalize(s.v);
         if dot(d_new, d) < 1.0 - 1e-9 {
-            // The path bent: look for the receiver ahead along the new direction.
+            // The path bent: the receiver ahead must be looked for again along the new direction.
             d = d_new;
-            cast_from = s.x;
-            hit = bvh_closest_hit(cast_from, d, 0.0, NO_HIT);
+            cast_valid = false;
         }
         if max(flux.r, max(flux.g, flux.b)) < 1e-6 * params.flux_unit {
             return n_steps + 1u;
@@ -223,6 +230,10 @@ fn march_photon(photon: Photon) -> u32 {
             n_steps++;
             break;
         }
+    }
+    if !cast_valid {
+        cast_from = s.x;
+        hit = bvh_closest_hit(cast_from, d, 0.0, NO_HIT);
     }
     let ahead = hit.t - dot(s.x - cast_from, d);
     land(hit, s.x + d * ahead, d, flux, refracted);

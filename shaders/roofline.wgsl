@@ -15,17 +15,22 @@
 
 const STEPS: u32 = 256u;
 
-// A start point and direction per thread, spread over the grid (a cheap integer hash).
+// Threads walk in step like the rays of a view or the photons of one raster cell do: thread i
+// starts on a 1024-wide sheet across the grid and marches mostly along +z, so neighbouring
+// threads read neighbouring texels.
 fn start(i: u32) -> vec3<f32> {
-    let h = vec3<u32>(i * 73856093u, i * 19349663u, i * 83492791u);
-    return vec3<f32>(h % 1024u) / 1024.0;
+    return vec3<f32>(f32(i % 1024u) / 1024.0, f32((i / 1024u) % 1024u) / 1024.0, 0.0);
+}
+
+fn direction() -> vec3<f32> {
+    return normalize(vec3<f32>(0.3, 0.2, 1.0)) / vec3<f32>(grid.dims);
 }
 
 @compute @workgroup_size(64)
 fn bare_march(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = id.x + id.y * groups.x * 64u;
     var p = start(i);
-    let d = normalize(start(i + 7919u) - 0.5) / vec3<f32>(grid.dims);
+    let d = direction();
     var acc = 0.0;
     for (var k = 0u; k < STEPS; k++) {
         p = fract(p + d);
@@ -40,7 +45,7 @@ fn bare_march(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
 fn bare_view(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = id.x + id.y * groups.x * 64u;
     var p = start(i);
-    let d = normalize(start(i + 7919u) - 0.5) / vec3<f32>(grid.dims);
+    let d = direction();
     var acc = 0.0;
     for (var k = 0u; k < STEPS; k++) {
         p = fract(p + d);

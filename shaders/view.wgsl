@@ -121,7 +121,7 @@ fn shadow_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
 
 // Visibility of a light from p along w up to dist: opaque receivers, then media.
 fn visibility(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
-    if bvh_closest_hit(p, w, 1e-4, dist).t < dist {
+    if bvh_any_hit(p, w, 1e-4, dist) {
         return vec3<f32>(0.0);
     }
     return shadow_transmittance(p, w, dist);
@@ -254,13 +254,20 @@ fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
     if span.x <= span.y && span.y > 0.0 && hit.t > max(span.x, 0.0) {
         let box_max = grid_box_max(grid);
         var s = ray_start(ior_grid, grid_sampler, grid, origin + d * max(span.x, 0.0), d);
+        // Whether `hit` is the receiver ahead along the current direction (see march.wgsl).
+        var cast_valid = true;
         for (var i = 0u; i < params.max_steps; i++) {
             out.steps++;
             let x0 = s.x;
-            let ahead = hit.t - dot(x0 - cast_from, d);
             var jump = octree_step(x0, d, params.step, params.max_step);
             let bends = jump <= params.step;
             jump = min(jump, ray_box(x0, d, grid.origin, box_max).y + 1e-4 * grid.voxel_size);
+            if !cast_valid && bvh_may_hit(x0, d, jump) {
+                cast_from = x0;
+                hit = bvh_closest_hit(cast_from, d, 0.0, NO_HIT);
+                cast_valid = true;
+            }
+            let ahead = select(NO_HIT, hit.t - dot(x0 - cast_from, d), cast_valid);
             var end_on_hit = false;
             if ahead <= jump {
                 s.x = x0 + d * ahead;
@@ -293,8 +300,7 @@ fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
             let d_new = normalize(s.v);
             if dot(d_new, d) < 1.0 - 1e-9 {
                 d = d_new;
-                cast_from = s.x;
-                hit = bvh_closest_hit(cast_from, d, 0.0, NO_HIT);
+                cast_valid = false;
             }
             if all(transmittance < vec3<f32>(1e-4)) {
                 out.radiance = out.volume;
@@ -306,6 +312,10 @@ fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
             }
         }
         x = s.x;
+        if !cast_valid {
+            cast_from = x;
+            hit = bvh_closest_hit(cast_from, d, 0.0, NO_HIT);
+        }
     }
     if hit.t < NO_HIT {
         let ahead = hit.t - dot(x - cast_from, d);

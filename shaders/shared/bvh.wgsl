@@ -23,6 +23,22 @@ fn bvh_slab(o: vec3<f32>, inv: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>, t_min: f
     return near <= far;
 }
 
+// Möller–Trumbore: where o + t·d crosses triangle k (either face); t = −1 if it misses.
+fn moller_trumbore(k: u32, o: vec3<f32>, d: vec3<f32>) -> BvhHit {
+    let tri = bvh_triangles[k];
+    let p = cross(d, tri.e2);
+    let det = dot(tri.e1, p);
+    let inv_det = 1.0 / det;
+    let s = o - tri.v0;
+    let u = dot(s, p) * inv_det;
+    let q = cross(s, tri.e1);
+    let v = dot(d, q) * inv_det;
+    if abs(det) < 1e-12 || u < 0.0 || u > 1.0 || v < 0.0 || u + v > 1.0 {
+        return BvhHit(-1.0, k, 0.0, 0.0);
+    }
+    return BvhHit(dot(tri.e2, q) * inv_det, k, u, v);
+}
+
 // The closest triangle along o + t·d with t in (t_min, t_max); t = t_max when none.
 fn bvh_closest_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> BvhHit {
     var hit = BvhHit(t_max, 0xffffffffu, 0.0, 0.0);
@@ -45,20 +61,9 @@ fn bvh_closest_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> BvhHit
             continue;
         }
         for (var k = node.first; k < node.first + node.count; k++) {
-            let tri = bvh_triangles[k];
-            let p = cross(d, tri.e2);
-            let det = dot(tri.e1, p);
-            if abs(det) < 1e-12 {
-                continue;
-            }
-            let inv_det = 1.0 / det;
-            let s = o - tri.v0;
-            let u = dot(s, p) * inv_det;
-            let q = cross(s, tri.e1);
-            let v = dot(d, q) * inv_det;
-            let t = dot(tri.e2, q) * inv_det;
-            if u >= 0.0 && u <= 1.0 && v >= 0.0 && u + v <= 1.0 && t > t_min && t < hit.t {
-                hit = BvhHit(t, k, u, v);
+            let h = moller_trumbore(k, o, d);
+            if h.t > t_min && h.t < hit.t {
+                hit = h;
             }
         }
     }
@@ -68,4 +73,45 @@ fn bvh_closest_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> BvhHit
 fn bvh_triangle_normal(k: u32) -> vec3<f32> {
     let tri = bvh_triangles[k];
     return normalize(cross(tri.e1, tri.e2));
+}
+
+// Whether the segment o → o + d·len can reach any receiver at all (it meets their root box).
+// Marching loops use it to skip the traversal while a bent path is nowhere near a receiver.
+fn bvh_may_hit(o: vec3<f32>, d: vec3<f32>, len: f32) -> bool {
+    let root = bvh_nodes[0];
+    if root.count == 0u && root.first == 0u {
+        return false;
+    }
+    return bvh_slab(o, 1.0 / d, root.min, root.max, 0.0, len);
+}
+
+// Whether anything lies along o + t·d for t in (t_min, t_max): shadow rays stop at the first
+// triangle found instead of looking for the closest.
+fn bvh_any_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> bool {
+    let inv = 1.0 / d;
+    var stack: array<u32, BVH_STACK>;
+    var top = 1u;
+    stack[0] = 0u;
+    while top > 0u {
+        top--;
+        let node = bvh_nodes[stack[top]];
+        if !bvh_slab(o, inv, node.min, node.max, t_min, t_max) {
+            continue;
+        }
+        if node.count == 0u {
+            if node.first != 0u && top + 2u <= BVH_STACK {
+                stack[top] = node.first;
+                stack[top + 1u] = node.first + 1u;
+                top += 2u;
+            }
+            continue;
+        }
+        for (var k = node.first; k < node.first + node.count; k++) {
+            let t = moller_trumbore(k, o, d).t;
+            if t > t_min && t < t_max {
+                return true;
+            }
+        }
+    }
+    return false;
 }

@@ -88,9 +88,9 @@ impl Caustics {
         let mut pass = profiler.pass(enc, "caustics");
         pass.set_bind_group(0, bg, &[]);
         pass.set_pipeline(&self.rows);
-        pass.dispatch_workgroups(max_h.div_ceil(64), n, 1);
+        pass.dispatch_workgroups(max_h, n, 1);
         pass.set_pipeline(&self.columns);
-        pass.dispatch_workgroups(max_w.div_ceil(64), n, 1);
+        pass.dispatch_workgroups(max_w, n, 1);
         pass.set_pipeline(&self.filter);
         pass.dispatch_workgroups(max_w.div_ceil(8), max_h.div_ceil(8), n);
     }

@@ -258,7 +258,16 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
         if roof.is_none() {
             roof = Some(roofline::measure(&mut renderer, 3)?);
         }
-        scenes.push(scene_json(name, &run, roof.as_ref()));
+        let mut report = scene_json(name, &run, roof.as_ref());
+        if run.desc.fog.is_some() {
+            // How much of the march is the radiance deposits (the light-shaft fluence): the same
+            // frames without them.
+            renderer.settings.never_deposit = true;
+            let bare = run_scene(&mut renderer, &mut scene, &eval, frames.min(5), 24.0)?;
+            renderer.settings.never_deposit = false;
+            report["march_ms_without_deposits"] = json!(bare.stages.get("march").map(|v| Spread::of(v)));
+        }
+        scenes.push(report);
         if name == "seed" && opts.quality {
             quality = quality_curve(&mut renderer, &mut scene, &eval, run.desc.photons)?;
         }

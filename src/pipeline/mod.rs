@@ -67,6 +67,8 @@ pub struct RenderSettings {
     pub photon_seed: u32,
     /// Deposit into the radiance grid even when nothing scatters (tests of the deposits).
     pub always_deposit: bool,
+    /// Never deposit into the radiance grid (benchmarks: the cost of the deposits alone).
+    pub never_deposit: bool,
     /// How many times the mean photon flux one photon may carry before fixed-point deposits
     /// could saturate (see `march::flux_scale`). Tests lower it to force saturation.
     pub fixed_point_headroom: f32,
@@ -78,6 +80,7 @@ impl Default for RenderSettings {
             caustic_filter: CausticFilter::default(),
             photon_seed: 0x5eed_cafe,
             always_deposit: false,
+            never_deposit: false,
             fixed_point_headroom: march::MAX_RELATIVE_FLUX,
         }
     }
@@ -276,7 +279,7 @@ impl Renderer {
     }
 
     fn deposits(&self, desc: &FrameDesc) -> bool {
-        needs_scattering(desc) || self.settings.always_deposit
+        (needs_scattering(desc) || self.settings.always_deposit) && !self.settings.never_deposit
     }
 
     /// Stages 1–3: the frame's index-of-refraction volume and its octree, left on the GPU.

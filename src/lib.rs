@@ -2,13 +2,15 @@
 //! and the caustics and light shafts they throw, after Sun, Zhou, Stollnitz, Shi and Guo,
 //! "Interactive Relighting of Dynamic Refractive Objects" (SIGGRAPH 2008).
 //!
-//! Data flow of a frame: a scene (Lua script) is evaluated into a [`frame::FrameDesc`]; the
+//! Data flow of a frame: a scene (Lua script or glTF file) is evaluated into a [`frame::FrameDesc`]; the
 //! [`pipeline::Renderer`] turns that into an [`output::Image`] on the GPU.
 
 pub mod bench;
 pub mod bvh;
 pub mod cpu;
+pub mod dump;
 pub mod frame;
+pub mod gltf;
 pub mod gpu;
 pub mod lua;
 pub mod output;

@@ -8,6 +8,7 @@ use std::time::Duration;
 use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 
+use refrakt::gltf::ImportOptions;
 use refrakt::output::Format;
 use refrakt::output::png::{PngOptions, ToneMap};
 use refrakt::progress::ProgressMode;
@@ -26,8 +27,11 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render a scene (a .lua script) to EXR/PNG frames.
+    /// Render a scene (a .lua script or a .gltf/.glb file) to EXR/PNG frames.
     Render(Box<RenderArgs>),
+    /// Print the evaluated scene of each frame as one line of JSON (nodes, camera, lights,
+    /// materials, volume); no GPU needed. Schema in docs/gltf.md.
+    Dump(Box<SceneArgs>),
     /// Show the GPU adapter refrakt would use, its limits, and why it was chosen.
     Info {
         #[command(flatten)]
@@ -74,9 +78,10 @@ struct GpuArgs {
     adapter: Option<String>,
 }
 
+/// What picks the scene and the frames: shared by `render` and `dump`.
 #[derive(Args)]
-struct RenderArgs {
-    /// The scene: a .lua script.
+struct SceneArgs {
+    /// The scene: a .lua script, or a .gltf/.glb file (rendered with its own cameras, lights and materials).
     scene: PathBuf,
     /// Frames to render, e.g. 1..48 (inclusive); frame k is the scene at t = k / fps.
     #[arg(long, value_name = "A..B")]
@@ -87,12 +92,6 @@ struct RenderArgs {
     /// Render a still of the scene at this time, seconds (what frame k of --frames shows at k / fps).
     #[arg(long, value_name = "SECONDS", default_value_t = 0.0, conflicts_with = "frames", allow_hyphen_values = true)]
     time: f64,
-    /// Folder for the frames.
-    #[arg(long, short, default_value = "render", value_name = "DIR")]
-    out: PathBuf,
-    /// Base name of the files (default: the scene's file name).
-    #[arg(long)]
-    name: Option<String>,
     /// Image size, overriding the camera's, e.g. 1920x1080.
     #[arg(long, value_name = "WxH", value_parser = parse_size)]
     size: Option<(u32, u32)>,
@@ -108,6 +107,33 @@ struct RenderArgs {
     /// Use the node of this name that carries a camera.
     #[arg(long)]
     camera: Option<String>,
+    /// glTF: render the scene of this name (default: the file's default scene, else its first).
+    #[arg(long = "scene", value_name = "NAME")]
+    gltf_scene: Option<String>,
+    /// glTF: play only the animation of this name (default: all of the file's animations at once).
+    #[arg(long, value_name = "NAME")]
+    animation: Option<String>,
+    /// Let the scene read files below this folder too (repeatable).
+    #[arg(long, value_name = "DIR")]
+    allow_read: Vec<PathBuf>,
+    /// Seconds a script may run per call (loading, each update) before it is stopped.
+    #[arg(long, default_value_t = 10.0, value_name = "SECONDS")]
+    script_timeout: f64,
+    /// Memory a script may use, MiB.
+    #[arg(long, default_value_t = 1024, value_name = "MIB")]
+    script_memory: usize,
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Folder for the frames.
+    #[arg(long, short, default_value = "render", value_name = "DIR")]
+    out: PathBuf,
+    /// Base name of the files (default: the scene's file name).
+    #[arg(long)]
+    name: Option<String>,
     /// Output formats, comma separated.
     #[arg(long, value_delimiter = ',', default_value = "exr,png")]
     format: Vec<Format>,
@@ -123,17 +149,41 @@ struct RenderArgs {
     /// How to show progress.
     #[arg(long, value_enum, default_value_t = ProgressMode::Auto)]
     progress: ProgressMode,
-    /// Let the script read files below this folder too (repeatable).
-    #[arg(long, value_name = "DIR")]
-    allow_read: Vec<PathBuf>,
-    /// Seconds a script may run per call (loading, each update) before it is stopped.
-    #[arg(long, default_value_t = 10.0, value_name = "SECONDS")]
-    script_timeout: f64,
-    /// Memory a script may use, MiB.
-    #[arg(long, default_value_t = 1024, value_name = "MIB")]
-    script_memory: usize,
     #[command(flatten)]
     gpu: GpuArgs,
+}
+
+/// The options `render` and `dump` share, checked; render-only ones at their defaults.
+fn scene_options(a: SceneArgs) -> Result<(PathBuf, RenderOptions)> {
+    if !(a.fps.is_finite() && a.fps > 0.0) {
+        anyhow::bail!("--fps must be a positive number, got {}", a.fps);
+    }
+    if !a.time.is_finite() {
+        anyhow::bail!("--time must be a finite number of seconds, got {}", a.time);
+    }
+    if !(a.script_timeout.is_finite() && a.script_timeout > 0.0) {
+        anyhow::bail!("--script-timeout must be a positive number of seconds");
+    }
+    let opts = RenderOptions {
+        frames: a.frames,
+        fps: a.fps,
+        time: a.time,
+        out: PathBuf::from("render"),
+        name: None,
+        formats: vec![Format::Exr, Format::Png],
+        eval: EvalOptions { size: a.size, resolution: a.volume, camera: a.camera, samples: a.samples, photons: a.photons },
+        png: PngOptions { exposure: 0.0, tonemap: ToneMap::Neutral, alpha: false },
+        skip_existing: false,
+        progress: ProgressMode::Auto,
+        adapter: None,
+        allow_read: a.allow_read,
+        limits: refrakt::lua::Limits {
+            time_budget: Duration::from_secs_f64(a.script_timeout),
+            memory_bytes: a.script_memory << 20,
+        },
+        gltf: ImportOptions { scene: a.gltf_scene, animation: a.animation },
+    };
+    Ok((a.scene, opts))
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -179,34 +229,23 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Render(a) => {
-            if !(a.fps.is_finite() && a.fps > 0.0) {
-                anyhow::bail!("--fps must be a positive number, got {}", a.fps);
-            }
-            if !a.time.is_finite() {
-                anyhow::bail!("--time must be a finite number of seconds, got {}", a.time);
-            }
-            if !(a.script_timeout.is_finite() && a.script_timeout > 0.0) {
-                anyhow::bail!("--script-timeout must be a positive number of seconds");
-            }
+            let a = *a;
+            let (scene, base) = scene_options(a.scene)?;
             let opts = RenderOptions {
-                frames: a.frames,
-                fps: a.fps,
-                time: a.time,
                 out: a.out,
                 name: a.name,
                 formats: a.format,
-                eval: EvalOptions { size: a.size, resolution: a.volume, camera: a.camera, samples: a.samples, photons: a.photons },
                 png: PngOptions { exposure: a.exposure, tonemap: a.tonemap, alpha: false },
                 skip_existing: a.skip_existing,
                 progress: a.progress,
                 adapter: a.gpu.adapter,
-                allow_read: a.allow_read,
-                limits: refrakt::lua::Limits {
-                    time_budget: Duration::from_secs_f64(a.script_timeout),
-                    memory_bytes: a.script_memory << 20,
-                },
+                ..base
             };
-            render::run(&a.scene, &opts)
+            render::run(&scene, &opts)
+        }
+        Command::Dump(a) => {
+            let (scene, opts) = scene_options(*a)?;
+            refrakt::dump::run(&scene, &opts, &mut std::io::stdout().lock())
         }
     }
 }

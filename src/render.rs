@@ -9,10 +9,13 @@ use std::time::Instant;
 use anyhow::{Result, anyhow, bail};
 
 use crate::frame::FrameDesc;
+use crate::gltf::{ImportOptions, Player};
+use crate::lua::sandbox::FileAccess;
 use crate::lua::{Limits, ScriptHost};
 use crate::output::{self, Format, Image, png::PngOptions};
 use crate::pipeline::Renderer;
 use crate::progress::{Progress, ProgressMode};
+use crate::scene::Scene;
 use crate::scene::eval::{EvalOptions, evaluate};
 
 /// Set by Ctrl-C / SIGTERM: the render stops after the frame in hand.
@@ -57,19 +60,59 @@ pub struct RenderOptions {
     pub adapter: Option<String>,
     pub allow_read: Vec<PathBuf>,
     pub limits: Limits,
+    /// `--scene` / `--animation` for a glTF scene.
+    pub gltf: ImportOptions,
 }
 
 /// A scene that can be evaluated at any time.
 pub enum SceneSource {
     Lua(ScriptHost),
+    Gltf(Box<GltfScene>),
+}
+
+/// A `.gltf`/`.glb` file rendered as it is: its scene graph and the player of its animations.
+pub struct GltfScene {
+    pub scene: Scene,
+    pub player: Player,
+    /// The file policy its buffers and images were read through (and the record of them).
+    pub access: FileAccess,
+}
+
+impl GltfScene {
+    pub fn load(path: &Path, allow_read: &[PathBuf], opts: &ImportOptions) -> Result<Self> {
+        let base = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let access = FileAccess::new(base, allow_read).map_err(|e| anyhow!("cannot open the scene's folder {}: {e}", base.display()))?;
+        let import = crate::gltf::import(path, &path.display().to_string(), &access, opts)?;
+        for w in &import.warnings {
+            tracing::warn!("{w}");
+        }
+        let mut scene = Scene { roots: import.roots, base_dir: access.base.clone(), ..Scene::default() };
+        import.settings.apply(&mut scene);
+        Ok(Self { scene, player: import.player, access })
+    }
 }
 
 impl SceneSource {
     pub fn load(path: &Path, allow_read: &[PathBuf], limits: &Limits) -> Result<Self> {
+        Self::load_with(path, allow_read, limits, &ImportOptions::default())
+    }
+
+    /// Loads a `.lua` script or a `.gltf`/`.glb` file (`gltf` picks its scene and animation).
+    pub fn load_with(path: &Path, allow_read: &[PathBuf], limits: &Limits, gltf: &ImportOptions) -> Result<Self> {
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
         match ext.as_str() {
-            "lua" => Ok(SceneSource::Lua(ScriptHost::load(path, allow_read, limits)?)),
-            _ => bail!("{}: a scene is a .lua script (glTF support is planned)", path.display()),
+            "lua" => {
+                if gltf.scene.is_some() || gltf.animation.is_some() {
+                    bail!(
+                        "{}: --scene and --animation choose within a glTF file; in a Lua script pass them to \
+                         refrakt.gltf{{file = …, scene = …, animation = …}}",
+                        path.display()
+                    );
+                }
+                Ok(SceneSource::Lua(ScriptHost::load(path, allow_read, limits)?))
+            }
+            "gltf" | "glb" => Ok(SceneSource::Gltf(Box::new(GltfScene::load(path, allow_read, gltf)?))),
+            _ => bail!("{}: a scene is a .lua script or a .gltf/.glb file", path.display()),
         }
     }
 
@@ -85,15 +128,35 @@ impl SceneSource {
                     if msg.starts_with(&file) { anyhow!(msg) } else { anyhow!("{file}: {msg}") }
                 })
             }
+            SceneSource::Gltf(g) => {
+                g.player.pose(t);
+                g.player.deform(&g.scene);
+                evaluate(&g.scene, t, opts)
+            }
         }
     }
 
-    /// Every file the scene read (script, modules, images…), for `refrakt watch`.
+    /// The scene graph as it stands (after the last `frame_desc`).
+    pub fn with_scene<R>(&self, f: impl FnOnce(&Scene) -> R) -> R {
+        match self {
+            SceneSource::Lua(host) => f(&host.scene().borrow()),
+            SceneSource::Gltf(g) => f(&g.scene),
+        }
+    }
+
+    /// Every file the scene read (script, modules, glTF files, their buffers and images…), for
+    /// `refrakt watch`.
     pub fn files_read(&self) -> Vec<PathBuf> {
         match self {
             SceneSource::Lua(host) => host.files_read(),
+            SceneSource::Gltf(g) => g.access.read.borrow().clone(),
         }
     }
+}
+
+/// The scene time of frame `k` (k / fps), or of the still (`--time`).
+pub fn frame_time(frame: Option<i64>, opts: &RenderOptions) -> f64 {
+    frame.map_or(opts.time, |k| k as f64 / opts.fps)
 }
 
 /// The files frame `k` goes to: `<name>.<ext>` for a still, `<name>.<k:04>.<ext>` in a range.
@@ -199,7 +262,7 @@ impl Drop for FrameWriter {
 /// thread. Frames are still written in order, and an error leaves every earlier frame whole.
 fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &mut Progress, current: &mut Option<i64>) -> Result<()> {
     let started = Instant::now();
-    let mut source = SceneSource::load(scene_path, &opts.allow_read, &opts.limits)?;
+    let mut source = SceneSource::load_with(scene_path, &opts.allow_read, &opts.limits, &opts.gltf)?;
     let ctx = crate::gpu::GpuContext::new(opts.adapter.as_deref())?;
     tracing::info!("adapter: {}", ctx.adapter_name());
     let mut renderer = Renderer::new(ctx)?;
@@ -225,7 +288,7 @@ fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &mut Progress, 
             }
             *current = numbered;
             let t0 = Instant::now();
-            let t = numbered.map_or(opts.time, |k| k as f64 / opts.fps);
+            let t = frame_time(numbered, opts);
             let desc = source.frame_desc(t, &opts.eval).map_err(|e| match numbered {
                 Some(k) if k > first => anyhow!(
                     "frame {k} (t = {t:.4} s): {e:#} (frames {first} to {} are written; fix the scene and re-run with \

@@ -53,6 +53,7 @@ pub fn module(lua: &Lua) -> mlua::Result<Table> {
         lua.create_function(|lua, t: Option<Table>| shape(lua, Shape::Plane { size: glam::Vec2::ONE }, t, &["size"]))?,
     )?;
     r.raw_set("field", lua.create_function(|lua, t: Option<Table>| super::field::new_field(lua, t))?)?;
+    r.raw_set("gltf", lua.create_function(|lua, v: mlua::Value| super::imports::new_import(lua, v))?)?;
     super::meshes::register(lua, &r)?;
     r.raw_set("glass", lua.create_function(|lua, t: Option<Table>| new_glass(lua, t))?)?;
     r.raw_set(

@@ -5,6 +5,7 @@
 pub mod api;
 pub mod convert;
 pub mod field;
+pub mod imports;
 pub mod meshes;
 pub mod objects;
 pub mod sandbox;
@@ -95,14 +96,19 @@ impl ScriptHost {
     }
 
     pub fn is_animated(&self) -> bool {
-        self.update.is_some()
+        self.update.is_some() || imports::is_animated(&self.lua)
     }
 
-    /// Calls `update(scene, t)` (t in seconds), if the script defines it.
+    /// Poses imported glTF files at t (seconds), calls `update(scene, t)` if the script
+    /// defines it, then deforms the imports' skinned and morphed meshes for the final pose.
     pub fn update(&self, t: f64) -> Result<()> {
-        let Some(f) = &self.update else { return Ok(()) };
-        sandbox::start_budget(&self.lua);
-        f.call::<()>((Obj(self.scene.clone()), t)).map_err(|e| script_error(&self.lua, &e))
+        imports::pose(&self.lua, t);
+        if let Some(f) = &self.update {
+            sandbox::start_budget(&self.lua);
+            f.call::<()>((Obj(self.scene.clone()), t)).map_err(|e| script_error(&self.lua, &e))?;
+        }
+        imports::deform(&self.lua, &self.scene.borrow());
+        Ok(())
     }
 
     /// Every file the script read so far (itself, modules, images, meshes).

@@ -114,7 +114,7 @@ pub fn vec_value(lua: &Lua, v: Vec3) -> mlua::Result<Value> {
 
 /// The f64 a script most likely wrote for a value stored as f32: the shortest decimal that
 /// rounds to it. So `glass.ior = 1.62` reads back as exactly 1.62, not 1.6200000047683716.
-fn decimal(x: f32) -> f64 {
+pub(crate) fn decimal(x: f32) -> f64 {
     x.to_string().parse().unwrap_or(x as f64)
 }
 

@@ -55,21 +55,22 @@ impl FileAccess {
     /// folder and records it as read. Errors name the script's file:line.
     pub fn resolve(lua: &Lua, given: &str) -> mlua::Result<PathBuf> {
         let access = lua.app_data_ref::<FileAccess>().ok_or_else(|| error_at(lua, "file access is not available here"))?;
-        let joined = access.base.join(given);
-        let path = joined.canonicalize().map_err(|e| {
-            error_at(lua, format!("cannot open \"{given}\" (looked for {}): {e}", joined.display()))
-        })?;
-        if !access.roots.iter().any(|r| path.starts_with(r)) {
-            return Err(error_at(
-                lua,
-                format!(
-                    "\"{given}\" is outside the scene's folder {}; scripts may read only files below \
-                     it (add a folder with --allow-read DIR)",
-                    access.base.display()
-                ),
+        access.resolve_in(&access.base, given).map_err(|m| error_at(lua, m))
+    }
+
+    /// Resolves `given` relative to `dir` (a glTF file names its buffers relative to itself) to
+    /// a readable file inside an allowed folder, and records it as read.
+    pub fn resolve_in(&self, dir: &Path, given: &str) -> Result<PathBuf, String> {
+        let joined = dir.join(given);
+        let path = joined.canonicalize().map_err(|e| format!("cannot open \"{given}\" (looked for {}): {e}", joined.display()))?;
+        if !self.roots.iter().any(|r| path.starts_with(r)) {
+            return Err(format!(
+                "\"{given}\" is outside the scene's folder {}; scenes may read only files below \
+                 it (add a folder with --allow-read DIR)",
+                self.base.display()
             ));
         }
-        access.record(&path);
+        self.record(&path);
         Ok(path)
     }
 

@@ -8,6 +8,7 @@ use mlua::{Function, Lua, Table, Value};
 use super::convert::{self as cv, FieldName, error_at};
 use super::objects::{LQuat, vec_value};
 use crate::scene::look_rotation;
+use crate::scene::material::srgb_to_linear;
 
 /// Adds `refrakt.vec`, the rotation constructors and `refrakt.srgb` to the module table.
 pub fn install(lua: &Lua, r: &Table) -> mlua::Result<()> {
@@ -146,11 +147,6 @@ fn srgb(lua: &Lua, v: Value) -> mlua::Result<Value> {
         }
     };
     vec_value(lua, encoded.map(srgb_to_linear))
-}
-
-/// The sRGB transfer function, inverted (IEC 61966-2-1).
-fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
 }
 
 fn hex_color(s: &str) -> Option<Vec3> {

@@ -26,9 +26,17 @@ pub struct EvalOptions {
 }
 
 /// A node with its world matrix.
-struct Placed {
-    node: Shared<Node>,
-    world: Mat4,
+pub struct Placed {
+    pub node: Shared<Node>,
+    pub world: Mat4,
+}
+
+/// The visible nodes in evaluation order (depth first, parents before children) with their
+/// world matrices: the order a frame's lights and shapes come in.
+pub fn placed_nodes(scene: &Scene) -> Vec<Placed> {
+    let mut placed = Vec::new();
+    flatten(&scene.roots, Mat4::IDENTITY, &mut placed);
+    placed
 }
 
 fn flatten(nodes: &[Shared<Node>], parent: Mat4, out: &mut Vec<Placed>) {
@@ -56,8 +64,7 @@ struct Contents {
 
 /// Evaluates the scene as it stands (after `update` ran) into a frame description.
 pub fn evaluate(scene: &Scene, time: f64, opts: &EvalOptions) -> Result<FrameDesc> {
-    let mut placed = Vec::new();
-    flatten(&scene.roots, Mat4::IDENTITY, &mut placed);
+    let placed = placed_nodes(scene);
     let settings = scene.volume.borrow().clone();
     let resolution = opts.resolution.unwrap_or(settings.resolution);
 

@@ -23,6 +23,11 @@ impl Default for Glass {
     }
 }
 
+/// The sRGB transfer function, inverted (IEC 61966-2-1): an encoded value in [0, 1] to linear.
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+}
+
 /// A linear-light RGBA texture, row 0 at the top (glTF's convention for UV (0, 0)).
 #[derive(Debug, PartialEq)]
 pub struct Texture2d {

@@ -4,6 +4,8 @@
 
 use std::path::{Path, PathBuf};
 
+pub mod gltf_builder;
+
 use refrakt::frame::FrameDesc;
 use refrakt::gpu::GpuContext;
 use refrakt::lua::{Limits, ScriptHost};

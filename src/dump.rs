@@ -1,0 +1,179 @@
+//! `refrakt dump`: the evaluated scene of each frame as one JSON document per line — node world
+//! matrices, the camera, lights in their photometric and radiometric units, materials,
+//! refractive meshes and the volume box — for Lua and glTF scenes alike, without a GPU. It is
+//! what the Blender add-on's round-trip tests read (schema in docs/gltf.md).
+
+use std::collections::HashMap;
+use std::io::Write;
+use std::path::Path;
+use std::rc::Rc;
+
+use anyhow::{Result, anyhow};
+use glam::{Mat4, Vec3};
+use serde_json::{Value, json};
+
+use crate::frame::{FrameDesc, LightDesc};
+use crate::lua::objects::decimal;
+use crate::render::{RenderOptions, SceneSource, frame_time};
+use crate::scene::eval::placed_nodes;
+use crate::scene::{EnvironmentSource, LightKind, Material, Scene};
+
+fn vec3(v: Vec3) -> Value {
+    json!([v.x, v.y, v.z])
+}
+
+fn matrix(m: &Mat4) -> Value {
+    json!(m.to_cols_array())
+}
+
+/// The JSON document of one evaluated frame (`frame`: its number, `None` for a still).
+pub fn frame_json(scene: &Scene, desc: &FrameDesc, frame: Option<i64>) -> Result<Value> {
+    let placed = placed_nodes(scene);
+    // Materials in the order nodes first use them, each once (they are shared objects).
+    let mut material_index: HashMap<*const std::cell::RefCell<Material>, usize> = HashMap::new();
+    let mut materials = Vec::new();
+    let nodes: Vec<Value> = placed
+        .iter()
+        .map(|p| {
+            let node = p.node.borrow();
+            let material = node.material.as_ref().map(|m| {
+                *material_index.entry(Rc::as_ptr(m)).or_insert_with(|| {
+                    materials.push(material_json(&m.borrow()));
+                    materials.len() - 1
+                })
+            });
+            json!({
+                "name": node.name,
+                "world": matrix(&p.world),
+                "material": material,
+                "shape": node.shape.as_ref().map(|s| s.borrow().kind_name()),
+                "light": node.light.is_some(),
+                "camera": node.camera.is_some(),
+            })
+        })
+        .collect();
+    let light_nodes: Vec<_> = placed.iter().filter(|p| p.node.borrow().light.is_some()).collect();
+    if light_nodes.len() != desc.lights.len() {
+        return Err(anyhow!("internal error: {} light nodes but {} lights in the frame", light_nodes.len(), desc.lights.len()));
+    }
+    let lights: Vec<Value> = light_nodes
+        .iter()
+        .zip(&desc.lights)
+        .map(|(p, d)| light_json(&p.node.borrow().light.as_ref().expect("filtered above").borrow(), d))
+        .collect();
+    let c = &desc.camera;
+    let meshes: Vec<Value> = desc
+        .meshes
+        .iter()
+        .map(|m| {
+            let (lo, hi) = m.mesh.bounds().unwrap_or_default();
+            json!({ "node": m.name, "vertices": m.mesh.positions.len(), "triangles": m.mesh.triangles.len(),
+                    "local_min": vec3(lo), "local_max": vec3(hi), "world": matrix(&m.world) })
+        })
+        .collect();
+    let env = &desc.environment;
+    let (env_kind, env_name) = match &env.source {
+        EnvironmentSource::Color(_) => ("color", String::new()),
+        EnvironmentSource::Image { path, .. } => ("image", path.display().to_string()),
+        EnvironmentSource::Preset { name, .. } => ("preset", name.clone()),
+    };
+    Ok(json!({
+        "frame": frame,
+        "time": desc.time,
+        "nodes": nodes,
+        "camera": {
+            "position": vec3(c.position),
+            "forward": vec3(c.forward()),
+            "up": vec3(c.orientation * Vec3::Y),
+            "yfov": c.fov_y,
+            "size": [c.width, c.height],
+        },
+        "lights": lights,
+        "materials": materials,
+        "meshes": meshes,
+        "fields": desc.fields.iter().map(|f| json!({ "node": f.name, "ior": f.ior })).collect::<Vec<_>>(),
+        "receivers": desc.receivers.iter().map(|r| r.name.clone()).collect::<Vec<_>>(),
+        "environment": { "kind": env_kind, "source": env_name, "intensity": env.intensity,
+                         "rotation": env.rotation, "visible": env.visible },
+        "fog": desc.fog.map(|f| json!({ "scattering": vec3(f.scattering), "absorption": vec3(f.absorption), "g": f.g })),
+        "photons": desc.photons,
+        "samples": desc.samples,
+        "volume": {
+            "dims": [desc.volume.dims.x, desc.volume.dims.y, desc.volume.dims.z],
+            "min": vec3(desc.volume.min),
+            "max": vec3(desc.volume.max()),
+            "voxel_size": desc.volume.voxel_size,
+        },
+    }))
+}
+
+fn material_json(m: &Material) -> Value {
+    match m {
+        Material::Glass(g) => json!({ "kind": "glass", "ior": g.ior, "absorption": vec3(g.absorption),
+                                      "scattering": vec3(g.scattering), "g": g.g }),
+        Material::Diffuse(d) => json!({ "kind": "diffuse", "color": vec3(d.color),
+                                        "texture": d.texture.as_ref().map(|t| [t.width, t.height]) }),
+    }
+}
+
+/// A light as authored (kind, photometric intensity and its unit, cone angles) and as the
+/// frame has it (world position and direction, radiometric `radiant`).
+fn light_json(l: &crate::scene::Light, d: &LightDesc) -> Value {
+    let (kind, unit) = match l.kind {
+        LightKind::Point => ("point", "cd"),
+        LightKind::Spot { .. } => ("spot", "cd"),
+        LightKind::Sun { .. } => ("sun", "lx"),
+        LightKind::Rect { .. } => ("rect", "nit"),
+    };
+    let mut v = json!({
+        "node": d.name, "kind": kind, "unit": unit, "intensity": l.intensity, "color": vec3(l.color),
+        "radiant": vec3(d.radiant), "position": vec3(d.position), "direction": vec3(d.direction),
+    });
+    match l.kind {
+        LightKind::Spot { angle, blend } => {
+            v["outer_cone_angle"] = json!(angle);
+            v["inner_cone_angle"] = json!(angle * (1.0 - blend));
+        }
+        LightKind::Sun { angular_diameter } => v["angular_diameter"] = json!(angular_diameter),
+        LightKind::Rect { size } => v["size"] = json!([size.x, size.y]),
+        LightKind::Point => {}
+    }
+    v
+}
+
+/// Numbers that are f32 values (all but the time) written as the shortest decimal that reads
+/// back as the same f32: 0.7, not 0.699999988079071.
+fn shorten(v: &mut Value) {
+    match v {
+        Value::Number(n) if n.is_f64() => {
+            let x = n.as_f64().unwrap_or_default();
+            if (x as f32) as f64 == x {
+                *v = json!(decimal(x as f32));
+            }
+        }
+        Value::Array(items) => items.iter_mut().for_each(shorten),
+        Value::Object(fields) => fields.values_mut().for_each(shorten),
+        _ => {}
+    }
+}
+
+/// Loads the scene and writes one line of JSON per frame (or one for a still) to `out`.
+pub fn run(scene_path: &Path, opts: &RenderOptions, out: &mut impl Write) -> Result<()> {
+    let mut source = SceneSource::load_with(scene_path, &opts.allow_read, &opts.limits, &opts.gltf)?;
+    let frames: Vec<Option<i64>> = match opts.frames {
+        Some(r) => (r.first..=r.last).map(Some).collect(),
+        None => vec![None],
+    };
+    for frame in frames {
+        let t = frame_time(frame, opts);
+        let desc = source.frame_desc(t, &opts.eval).map_err(|e| match frame {
+            Some(k) => anyhow!("frame {k} (t = {t:.4} s): {e:#}"),
+            None => e,
+        })?;
+        let mut doc = source.with_scene(|scene| frame_json(scene, &desc, frame))?;
+        shorten(&mut doc);
+        writeln!(out, "{}", serde_json::to_string(&doc)?)?;
+    }
+    out.flush()?;
+    Ok(())
+}

@@ -1,0 +1,223 @@
+//! refrakt's settings carried in glTF `extras` (glTF 2.0 §3.12: "application-specific data"),
+//! as the Blender add-on writes them (blender_addon/extras.py; schema in docs/gltf.md):
+//!
+//! - `scenes[i].extras.refrakt`: photons, samples, volume, environment, fog;
+//! - `nodes[i].extras.refrakt`: an analytic index field instead of the node's mesh, or
+//!   `{"role": "ignore"}`;
+//! - `materials[i].extras.refrakt`: absorption, scattering, g and boundary of the medium.
+//!
+//! Unknown keys are skipped with a warning (a newer add-on may write more); values out of
+//! range are errors naming the object and key.
+
+use anyhow::{Result, anyhow, bail};
+use glam::Vec3;
+use serde::Deserialize;
+use serde::de::DeserializeOwned;
+
+/// The `refrakt` object in an `extras`, parsed as `T`; `None` when there is none.
+fn refrakt_object<T: DeserializeOwned>(
+    extras: &gltf::json::Extras,
+    file: &str,
+    what: &str,
+    known: &[&str],
+    warnings: &mut Vec<String>,
+) -> Result<Option<T>> {
+    let Some(raw) = extras else { return Ok(None) };
+    let Ok(serde_json::Value::Object(all)) = serde_json::from_str::<serde_json::Value>(raw.get()) else { return Ok(None) };
+    let Some(ours) = all.get("refrakt") else { return Ok(None) };
+    let serde_json::Value::Object(fields) = ours else {
+        bail!("{file}: {what}.extras.refrakt must be an object, got {ours}");
+    };
+    for key in fields.keys().filter(|k| !known.contains(&k.as_str())) {
+        warnings.push(format!("{file}: {what}.extras.refrakt.{key} is not a refrakt setting (known: {}); skipped", known.join(", ")));
+    }
+    T::deserialize(ours).map(Some).map_err(|e| anyhow!("{file}: {what}.extras.refrakt: {e} (see docs/gltf.md for the schema)"))
+}
+
+fn check(ok: bool, file: &str, what: &str, key: &str, expected: &str) -> Result<()> {
+    if ok { Ok(()) } else { bail!("{file}: {what}.extras.refrakt.{key} must be {expected}") }
+}
+
+fn non_negative(v: Option<[f32; 3]>) -> bool {
+    v.is_none_or(|c| c.iter().all(|x| x.is_finite() && *x >= 0.0))
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scenes.
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default)]
+pub struct VolumeExtras {
+    pub resolution: Option<u32>,
+    pub margin: Option<f32>,
+    pub boundary: Option<f32>,
+    pub step: Option<f32>,
+    pub min: Option<[f32; 3]>,
+    pub max: Option<[f32; 3]>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default)]
+pub struct EnvironmentExtras {
+    pub visible: Option<bool>,
+    pub color: Option<[f32; 3]>,
+    pub intensity: Option<f32>,
+    /// An equirectangular .exr or .hdr, relative to the glTF file.
+    pub image: Option<String>,
+    /// Degrees about +Y.
+    pub rotation: Option<f32>,
+    /// A built-in environment (refrakt's own addition; the add-on does not write it).
+    pub preset: Option<String>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default)]
+pub struct FogExtras {
+    pub scattering: Option<[f32; 3]>,
+    pub absorption: Option<[f32; 3]>,
+    pub g: Option<f32>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default)]
+pub struct SceneExtras {
+    pub photons: Option<u32>,
+    pub samples: Option<u32>,
+    pub volume: Option<VolumeExtras>,
+    pub environment: Option<EnvironmentExtras>,
+    pub fog: Option<FogExtras>,
+}
+
+const SCENE_KEYS: &[&str] = &["photons", "samples", "volume", "environment", "fog"];
+
+pub fn scene_extras(scene: &gltf::Scene, file: &str, warnings: &mut Vec<String>) -> Result<Option<SceneExtras>> {
+    let what = format!("scenes[{}]", scene.index());
+    let Some(s) = refrakt_object::<SceneExtras>(scene.extras(), file, &what, SCENE_KEYS, warnings)? else { return Ok(None) };
+    check(s.photons.is_none_or(|p| p <= 1 << 30), file, &what, "photons", "from 0 to 2³⁰")?;
+    check(s.samples.is_none_or(|n| (1..=256).contains(&n)), file, &what, "samples", "from 1 to 256")?;
+    if let Some(v) = &s.volume {
+        check(v.resolution.is_none_or(|r| (8..=2048).contains(&r)), file, &what, "volume.resolution", "from 8 to 2048")?;
+        check(v.margin.is_none_or(|m| m.is_finite() && m >= 0.0), file, &what, "volume.margin", "≥ 0 (metres)")?;
+        check(v.boundary.is_none_or(|b| (0.0..=16.0).contains(&b)), file, &what, "volume.boundary", "from 0 to 16 (voxels)")?;
+        check(v.step.is_none_or(|b| (0.01..=8.0).contains(&b)), file, &what, "volume.step", "from 0.01 to 8 (voxels)")?;
+        check(v.min.is_some() == v.max.is_some(), file, &what, "volume.min", "given together with volume.max")?;
+    }
+    if let Some(e) = &s.environment {
+        check(non_negative(e.color), file, &what, "environment.color", "three numbers ≥ 0")?;
+        check(e.intensity.is_none_or(|i| i.is_finite() && i >= 0.0), file, &what, "environment.intensity", "a number ≥ 0")?;
+        check(e.rotation.is_none_or(f32::is_finite), file, &what, "environment.rotation", "a number of degrees")?;
+        let sources = [e.color.is_some(), e.image.is_some(), e.preset.is_some()].iter().filter(|x| **x).count();
+        check(sources <= 1, file, &what, "environment", "one of color, image or preset")?;
+    }
+    if let Some(f) = &s.fog {
+        check(non_negative(f.scattering) && non_negative(f.absorption), file, &what, "fog", "per-metre coefficients ≥ 0")?;
+        check(f.g.is_none_or(|g| (-0.99..=0.99).contains(&g)), file, &what, "fog.g", "from −0.99 to 0.99")?;
+    }
+    Ok(Some(s))
+}
+
+// ---------------------------------------------------------------------------------------------
+// Nodes.
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default)]
+pub struct NodeExtras {
+    pub role: Option<String>,
+    pub field: Option<String>,
+    pub radius: Option<f32>,
+    pub size: Option<[f32; 3]>,
+    pub ior: Option<f32>,
+    pub gradient: Option<f32>,
+    pub boundary: Option<f32>,
+}
+
+/// What a node's extras make of it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum NodeRole {
+    /// Left out: the node keeps only its transform (its children stay).
+    Ignore,
+    /// An analytic index field replaces the node's mesh.
+    Field(FieldExtras),
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct FieldExtras {
+    pub kind: FieldType,
+    pub radius: f32,
+    pub size: Vec3,
+    pub ior: f32,
+    pub gradient: f32,
+    pub boundary: Option<f32>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FieldType {
+    Luneburg,
+    Sphere,
+    Box,
+    Slab,
+}
+
+const NODE_KEYS: &[&str] = &["role", "field", "radius", "size", "ior", "gradient", "boundary"];
+
+pub fn node_role(node: &gltf::Node, file: &str, warnings: &mut Vec<String>) -> Result<Option<NodeRole>> {
+    let what = format!("nodes[{}]", node.index());
+    let Some(n) = refrakt_object::<NodeExtras>(node.extras(), file, &what, NODE_KEYS, warnings)? else { return Ok(None) };
+    match n.role.as_deref() {
+        Some("ignore") => return Ok(Some(NodeRole::Ignore)),
+        None | Some("field") => {}
+        Some(other) => bail!("{file}: {what}.extras.refrakt.role is \"{other}\"; it can be \"ignore\" (or leave it out)"),
+    }
+    let Some(field) = n.field.as_deref() else { return Ok(None) };
+    let kind = match field {
+        "luneburg" => FieldType::Luneburg,
+        "sphere" => FieldType::Sphere,
+        "box" => FieldType::Box,
+        "slab" => FieldType::Slab,
+        other => bail!("{file}: {what}.extras.refrakt.field is \"{other}\"; refrakt knows luneburg, sphere, box and slab"),
+    };
+    let round = matches!(kind, FieldType::Luneburg | FieldType::Sphere);
+    let radius = n.radius.unwrap_or(0.0);
+    let size = Vec3::from(n.size.unwrap_or([0.0; 3]));
+    if round {
+        check(radius.is_finite() && radius > 0.0, file, &what, "radius", "a number > 0 (metres)")?;
+    } else {
+        check(size.is_finite() && size.min_element() > 0.0, file, &what, "size", "three numbers > 0 (metres)")?;
+    }
+    let ior = n.ior.unwrap_or(1.5);
+    check((1.0..=4.0).contains(&ior), file, &what, "ior", "from 1 to 4")?;
+    let gradient = n.gradient.unwrap_or(0.0);
+    check(gradient.is_finite(), file, &what, "gradient", "a finite number (per metre)")?;
+    check(n.boundary.is_none_or(|b| (0.0..=16.0).contains(&b)), file, &what, "boundary", "from 0 to 16 (voxels)")?;
+    Ok(Some(NodeRole::Field(FieldExtras { kind, radius, size, ior, gradient, boundary: n.boundary })))
+}
+
+// ---------------------------------------------------------------------------------------------
+// Materials.
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default)]
+pub struct MediumExtras {
+    pub absorption: Option<[f32; 3]>,
+    pub scattering: Option<[f32; 3]>,
+    pub g: Option<f32>,
+    pub boundary: Option<f32>,
+}
+
+const MATERIAL_KEYS: &[&str] = &["absorption", "scattering", "g", "boundary"];
+
+pub fn medium(material: &gltf::Material, file: &str, what: &str, warnings: &mut Vec<String>) -> Result<Option<MediumExtras>> {
+    let Some(m) = refrakt_object::<MediumExtras>(material.extras(), file, what, MATERIAL_KEYS, warnings)? else { return Ok(None) };
+    check(non_negative(m.absorption), file, what, "absorption", "three numbers ≥ 0 (per metre)")?;
+    check(non_negative(m.scattering), file, what, "scattering", "three numbers ≥ 0 (per metre)")?;
+    check(m.g.is_none_or(|g| (-0.99..=0.99).contains(&g)), file, what, "g", "from −0.99 to 0.99")?;
+    check(m.boundary.is_none_or(|b| (0.0..=16.0).contains(&b)), file, what, "boundary", "from 0 to 16 (voxels)")?;
+    Ok(Some(m))
+}
+
+impl MediumExtras {
+    /// Whether the medium absorbs or scatters at all.
+    pub fn is_medium(&self) -> bool {
+        [self.absorption, self.scattering].iter().flatten().any(|c| c.iter().any(|x| *x > 0.0))
+    }
+}

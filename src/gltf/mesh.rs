@@ -1,0 +1,172 @@
+//! Mesh primitives (glTF 2.0 §3.7.2) as refrakt triangle meshes: positions, triangles (from
+//! TRIANGLES, TRIANGLE_STRIP or TRIANGLE_FAN), texture coordinates for a textured receiver, and
+//! what deforms them — morph target displacements (§3.7.2.2) and skin influences (§3.7.3.3).
+
+use std::sync::Arc;
+
+use anyhow::{Result, bail};
+use glam::{Vec2, Vec3};
+use gltf::Semantic;
+use gltf::mesh::Mode;
+
+use super::accessor::Accessors;
+use crate::scene::MeshData;
+
+/// Up to 4·n joints per vertex, with their weights (JOINTS_0/WEIGHTS_0, JOINTS_1/WEIGHTS_1, …).
+#[derive(Clone, Debug, Default)]
+pub struct Influences {
+    pub per_vertex: usize,
+    pub joints: Vec<u32>,
+    pub weights: Vec<f32>,
+}
+
+/// One primitive, ready to place on a node.
+#[derive(Clone, Debug)]
+pub struct Part {
+    pub primitive: usize,
+    pub material: Option<usize>,
+    /// The rest shape (morph weights 0, no skin).
+    pub rest: Arc<MeshData>,
+    /// Per morph target, a displacement per vertex.
+    pub targets: Vec<Vec<Vec3>>,
+    pub influences: Option<Influences>,
+}
+
+/// The mesh's primitives; `uv_set(material)` says which TEXCOORD_n a material samples.
+pub fn read_mesh(mesh: &gltf::Mesh, acc: &Accessors, uv_set: impl Fn(Option<usize>) -> Option<u32>) -> Result<Vec<Part>> {
+    mesh.primitives()
+        .map(|p| {
+            let what = format!("meshes[{}]{} primitives[{}]", mesh.index(), quoted(mesh.name()), p.index());
+            read_primitive(&p, acc, &what, uv_set(p.material().index()))
+        })
+        .collect()
+}
+
+pub fn quoted(name: Option<&str>) -> String {
+    name.map_or(String::new(), |n| format!(" \"{n}\""))
+}
+
+fn read_primitive(p: &gltf::Primitive, acc: &Accessors, what: &str, uv_set: Option<u32>) -> Result<Part> {
+    let Some(position) = p.get(&Semantic::Positions) else {
+        bail!("{}: {what} has no POSITION attribute; every primitive refrakt reads needs one", acc.file);
+    };
+    let positions: Vec<Vec3> = vec3s(acc, position.index(), &format!("{what} POSITION"))?;
+    if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+        bail!("{}: {what}: vertex {i} has a NaN or infinite POSITION; fix the mesh and re-export", acc.file);
+    }
+    let n = positions.len();
+    let order = match p.indices() {
+        Some(a) => {
+            let indices = acc.uints(a.index(), &format!("{what} indices"), 1)?;
+            if let Some(bad) = indices.iter().find(|&&i| i as usize >= n) {
+                bail!("{}: {what}: index {bad} names a vertex, but POSITION has only {n}; re-export the mesh", acc.file);
+            }
+            indices
+        }
+        None => (0..n as u32).collect(),
+    };
+    let triangles = triangles(p.mode(), &order).map_err(|m| anyhow::anyhow!("{}: {what}: {m}", acc.file))?;
+    let uvs = match uv_set.and_then(|set| p.get(&Semantic::TexCoords(set)).map(|a| (set, a))) {
+        Some((set, a)) => Some(same_count(acc, vec2s(acc, a.index(), &format!("{what} TEXCOORD_{set}"))?, n, what, "TEXCOORD")?),
+        None => None,
+    };
+    let targets = p
+        .morph_targets()
+        .enumerate()
+        .map(|(k, t)| match t.positions() {
+            Some(a) => same_count(acc, vec3s(acc, a.index(), &format!("{what} targets[{k}] POSITION"))?, n, what, "morph target"),
+            None => Ok(vec![Vec3::ZERO; n]),
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(Part {
+        primitive: p.index(),
+        material: p.material().index(),
+        rest: Arc::new(MeshData { positions, triangles, uvs }),
+        targets,
+        influences: influences(p, acc, what, n)?,
+    })
+}
+
+fn same_count<T>(acc: &Accessors, v: Vec<T>, n: usize, what: &str, attribute: &str) -> Result<Vec<T>> {
+    if v.len() != n {
+        bail!("{}: {what}: {attribute} has {} elements, POSITION has {n}; every attribute needs one per vertex", acc.file, v.len());
+    }
+    Ok(v)
+}
+
+fn vec3s(acc: &Accessors, index: usize, what: &str) -> Result<Vec<Vec3>> {
+    Ok(acc.floats_of(index, what, 3)?.values.chunks_exact(3).map(Vec3::from_slice).collect())
+}
+
+fn vec2s(acc: &Accessors, index: usize, what: &str) -> Result<Vec<Vec2>> {
+    Ok(acc.floats_of(index, what, 2)?.values.chunks_exact(2).map(Vec2::from_slice).collect())
+}
+
+/// §3.7.2.1 "Topology types": the triangles a primitive's vertex order describes.
+fn triangles(mode: Mode, v: &[u32]) -> Result<Vec<[u32; 3]>, String> {
+    match mode {
+        Mode::Triangles if v.len().is_multiple_of(3) => Ok(v.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()),
+        Mode::Triangles => Err(format!("{} indices do not make whole triangles (TRIANGLES needs a multiple of 3)", v.len())),
+        // pᵢ = {vᵢ, vᵢ₊₍₁₊ᵢ mod 2₎, vᵢ₊₍₂₋ᵢ mod 2₎}: every other triangle flipped to keep the winding.
+        Mode::TriangleStrip => Ok((0..v.len().saturating_sub(2))
+            .map(|i| [v[i], v[i + 1 + i % 2], v[i + 2 - i % 2]])
+            .collect()),
+        // pᵢ = {vᵢ₊₁, vᵢ₊₂, v₀}.
+        Mode::TriangleFan => Ok((0..v.len().saturating_sub(2)).map(|i| [v[i + 1], v[i + 2], v[0]]).collect()),
+        other => Err(format!(
+            "its mode is {other:?}; refrakt reads triangle meshes only (TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN), so points \
+             and lines cannot be glass or receivers (remove the primitive or turn it into faces)"
+        )),
+    }
+}
+
+/// JOINTS_n / WEIGHTS_n pairs, all sets the primitive has.
+fn influences(p: &gltf::Primitive, acc: &Accessors, what: &str, n: usize) -> Result<Option<Influences>> {
+    let mut inf = Influences::default();
+    for set in 0.. {
+        let (Some(j), Some(w)) = (p.get(&Semantic::Joints(set)), p.get(&Semantic::Weights(set))) else { break };
+        let joints = acc.uints(j.index(), &format!("{what} JOINTS_{set}"), 4)?;
+        let weights = acc.floats_of(w.index(), &format!("{what} WEIGHTS_{set}"), 4)?.values;
+        if joints.len() != 4 * n || weights.len() != 4 * n {
+            bail!("{}: {what}: JOINTS_{set} and WEIGHTS_{set} need one element per vertex ({n})", acc.file);
+        }
+        if weights.iter().any(|w| !w.is_finite()) {
+            bail!("{}: {what}: WEIGHTS_{set} holds NaN or infinite weights; re-export the skin", acc.file);
+        }
+        inf.per_vertex += 4;
+        interleave(&mut inf.joints, &joints, set as usize, n);
+        interleave(&mut inf.weights, &weights, set as usize, n);
+    }
+    Ok((inf.per_vertex > 0).then_some(inf))
+}
+
+/// Appends a set of 4 values per vertex to `all`, which holds `set` sets per vertex so far.
+fn interleave<T: Copy>(all: &mut Vec<T>, next: &[T], set: usize, n: usize) {
+    let old = std::mem::take(all);
+    all.reserve(old.len() + next.len());
+    for v in 0..n {
+        all.extend_from_slice(&old[v * 4 * set..(v + 1) * 4 * set]);
+        all.extend_from_slice(&next[v * 4..(v + 1) * 4]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strips_and_fans_keep_the_winding() {
+        assert_eq!(triangles(Mode::TriangleStrip, &[0, 1, 2, 3]).unwrap(), vec![[0, 1, 2], [1, 3, 2]]);
+        assert_eq!(triangles(Mode::TriangleFan, &[0, 1, 2, 3]).unwrap(), vec![[1, 2, 0], [2, 3, 0]]);
+        assert!(triangles(Mode::Lines, &[0, 1]).unwrap_err().contains("Lines"));
+        assert!(triangles(Mode::Triangles, &[0, 1]).is_err());
+    }
+
+    #[test]
+    fn influence_sets_interleave_per_vertex() {
+        let mut all = Vec::new();
+        interleave(&mut all, &[1, 1, 1, 1, 2, 2, 2, 2], 0, 2);
+        interleave(&mut all, &[3, 3, 3, 3, 4, 4, 4, 4], 1, 2);
+        assert_eq!(all, vec![1, 1, 1, 1, 3, 3, 3, 3, 2, 2, 2, 2, 4, 4, 4, 4]);
+    }
+}

@@ -1,0 +1,292 @@
+//! The node hierarchy of one glTF scene (§3.5) as refrakt scene-graph nodes: transforms, meshes
+//! with their materials, cameras (§3.10), KHR_lights_punctual lights, the analytic fields and
+//! "ignore" roles of refrakt's node extras, and the skins and morph targets that deform meshes.
+
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::rc::{Rc, Weak};
+
+use anyhow::{Result, anyhow, bail};
+use glam::{Mat4, Quat, Vec3};
+
+use super::accessor::Accessors;
+use super::extras::{self, FieldExtras, FieldType, NodeRole};
+use super::material::{self, Converted, Materials};
+use super::mesh::{self, Part};
+use super::player::{Deformable, Skin};
+use crate::scene::{Camera, Glass, Light, LightKind, Material, Node, Origin, Shape, Shared, shared};
+
+/// Height of the image a glTF camera gets when the file gives only its aspect ratio (the width
+/// follows from it; `--size` overrides both). 576 keeps refrakt's default 1024×576 for 16:9.
+const DEFAULT_HEIGHT: u32 = 576;
+
+/// Angular diameter of a glTF directional light: refrakt's sun default (the real sun, and
+/// Blender's default sun angle), since glTF gives none.
+const SUN_ANGULAR_DIAMETER_DEG: f32 = 0.53;
+
+/// The built graph of one scene.
+pub struct Graph {
+    pub roots: Vec<Shared<Node>>,
+    /// The node made for each glTF node (dangling where a node is not in the scene).
+    pub nodes: Vec<Weak<RefCell<Node>>>,
+    pub weights: Vec<Vec<f32>>,
+    pub deformables: Vec<Deformable>,
+}
+
+/// A converted material, shared by every node that uses it: (material, boundary, TEXCOORD set).
+#[derive(Clone)]
+struct MaterialEntry(Shared<Material>, Option<f32>, Option<u32>);
+
+struct Builder<'a, 'b> {
+    acc: &'a Accessors<'a>,
+    materials: Materials<'b>,
+    converted: HashMap<Option<usize>, MaterialEntry>,
+    meshes: HashMap<usize, Vec<Part>>,
+    graph: Graph,
+    /// (deformable, skin index) pairs whose joints are filled in once every node exists.
+    skinned: Vec<(usize, usize)>,
+    warnings: &'a mut Vec<String>,
+}
+
+pub fn build(doc: &gltf::Document, acc: &Accessors, materials: Materials, roots: &[usize], warnings: &mut Vec<String>) -> Result<Graph> {
+    let n = doc.nodes().count();
+    let graph = Graph { roots: Vec::new(), nodes: (0..n).map(|_| Weak::new()).collect(), weights: vec![Vec::new(); n], deformables: Vec::new() };
+    let mut b = Builder { acc, materials, converted: HashMap::new(), meshes: HashMap::new(), graph, skinned: Vec::new(), warnings };
+    for &r in roots {
+        let node = doc.nodes().nth(r).ok_or_else(|| anyhow!("{}: nodes[{r}] does not exist", acc.file))?;
+        let built = b.node(&node)?;
+        b.graph.roots.push(built);
+    }
+    b.bind_skins(doc)?;
+    Ok(b.graph)
+}
+
+/// §3.5.2: a node's matrix must be a TRS (no shear); refrakt keeps transforms as TRS.
+fn transform(node: &gltf::Node, file: &str, what: &str) -> Result<crate::scene::Transform> {
+    let t = match node.transform() {
+        gltf::scene::Transform::Matrix { matrix } => {
+            let m = Mat4::from_cols_array_2d(&matrix);
+            let (scale, rotation, translation) = m.to_scale_rotation_translation();
+            let back = Mat4::from_scale_rotation_translation(scale, rotation, translation);
+            let tolerance = 1e-4 * m.abs().to_cols_array().iter().fold(1.0f32, |a, b| a.max(*b));
+            if !(back - m).abs().to_cols_array().iter().all(|d| *d <= tolerance) {
+                bail!("{file}: {what}: its matrix has shear or is degenerate; glTF requires a matrix made of translation, rotation and scale");
+            }
+            crate::scene::Transform { translation, rotation, scale }
+        }
+        gltf::scene::Transform::Decomposed { translation, rotation, scale } => crate::scene::Transform {
+            translation: Vec3::from(translation),
+            // Quaternions written as text drift off unit length; the spec requires unit ones.
+            rotation: Quat::from_array(rotation).normalize(),
+            scale: Vec3::from(scale),
+        },
+    };
+    if !(t.translation.is_finite() && t.rotation.is_finite() && t.scale.is_finite()) {
+        bail!("{file}: {what}: its transform is not finite (a zero rotation quaternion?)");
+    }
+    Ok(t)
+}
+
+impl<'a> Builder<'a, '_> {
+    fn file(&self) -> &'a str {
+        self.acc.file
+    }
+
+    fn node(&mut self, g: &gltf::Node) -> Result<Shared<Node>> {
+        let what = format!("nodes[{}]{}", g.index(), mesh::quoted(g.name()));
+        let mut node = Node::new(g.name().unwrap_or(""));
+        node.origin = Origin(format!("{} nodes[{}]", self.file(), g.index()));
+        node.transform = transform(g, self.file(), &what)?;
+        let role = extras::node_role(g, self.file(), self.warnings)?;
+        let node = shared(node);
+        self.graph.nodes[g.index()] = Rc::downgrade(&node);
+        if role != Some(NodeRole::Ignore) {
+            self.camera(g, &node, &what);
+            self.light(g, &node)?;
+            match role {
+                Some(NodeRole::Field(f)) => self.field(g, &node, &f)?,
+                _ => self.mesh(g, &node)?,
+            }
+        }
+        for child in g.children() {
+            let c = self.node(&child)?;
+            node.borrow_mut().children.push(c);
+        }
+        Ok(node)
+    }
+
+    fn camera(&mut self, g: &gltf::Node, node: &Shared<Node>, what: &str) {
+        let Some(cam) = g.camera() else { return };
+        match cam.projection() {
+            gltf::camera::Projection::Perspective(p) => {
+                let size = match p.aspect_ratio() {
+                    Some(a) if a.is_finite() && a > 0.0 => (((DEFAULT_HEIGHT as f32 * a).round() as u32).clamp(1, 16384), DEFAULT_HEIGHT),
+                    _ => Camera::default().size,
+                };
+                let fov_y = p.yfov();
+                if !(fov_y > 0.0 && fov_y < std::f32::consts::PI) {
+                    self.warnings.push(format!("{}: {what}: camera yfov {fov_y} is not an angle in (0, π); the camera is skipped", self.file()));
+                    return;
+                }
+                node.borrow_mut().camera = Some(shared(Camera { fov_y, size, ..Camera::default() }));
+            }
+            gltf::camera::Projection::Orthographic(_) => self.warnings.push(format!(
+                "{}: {what}: orthographic cameras are not supported (refrakt has pinhole cameras only); the camera is skipped",
+                self.file()
+            )),
+        }
+    }
+
+    /// KHR_lights_punctual: intensity in candela (point, spot) or lux (directional), which is
+    /// what refrakt's lights take; spot cones by their outer and inner half-angles.
+    fn light(&mut self, g: &gltf::Node, node: &Shared<Node>) -> Result<()> {
+        let Some(l) = g.light() else { return Ok(()) };
+        let what = format!("KHR_lights_punctual lights[{}]{}", l.index(), mesh::quoted(l.name()));
+        let kind = match l.kind() {
+            gltf::khr_lights_punctual::Kind::Point => LightKind::Point,
+            gltf::khr_lights_punctual::Kind::Directional => LightKind::Sun { angular_diameter: SUN_ANGULAR_DIAMETER_DEG.to_radians() },
+            gltf::khr_lights_punctual::Kind::Spot { inner_cone_angle, outer_cone_angle } => {
+                if !(outer_cone_angle > 0.0 && outer_cone_angle <= std::f32::consts::FRAC_PI_2 && (0.0..outer_cone_angle).contains(&inner_cone_angle)) {
+                    bail!("{}: {what}: spot cone angles must satisfy 0 ≤ innerConeAngle < outerConeAngle ≤ π/2 (got {inner_cone_angle}, {outer_cone_angle})", self.file());
+                }
+                // refrakt's spot is full inside angle·(1 − blend).
+                LightKind::Spot { angle: outer_cone_angle, blend: 1.0 - inner_cone_angle / outer_cone_angle }
+            }
+        };
+        let color = Vec3::from(l.color());
+        let intensity = l.intensity();
+        if !(color.is_finite() && color.min_element() >= 0.0 && intensity.is_finite() && intensity >= 0.0) {
+            bail!("{}: {what}: color and intensity must be finite and ≥ 0", self.file());
+        }
+        node.borrow_mut().light = Some(shared(Light { color, intensity, ..Light::new(kind) }));
+        Ok(())
+    }
+
+    /// The refrakt material of glTF material `index` (None: the default material), made once.
+    fn material(&mut self, index: Option<usize>) -> Result<MaterialEntry> {
+        if let Some(m) = self.converted.get(&index) {
+            return Ok(m.clone());
+        }
+        let Converted { material, boundary, uv_set } = match index.and_then(|i| self.materials.doc.materials().nth(i)) {
+            Some(m) => self.materials.convert(&m, self.warnings)?,
+            None => material::default_material(),
+        };
+        let entry = MaterialEntry(shared(material), boundary, uv_set);
+        self.converted.insert(index, entry.clone());
+        Ok(entry)
+    }
+
+    fn parts(&mut self, m: &gltf::Mesh) -> Result<Vec<Part>> {
+        if let Some(p) = self.meshes.get(&m.index()) {
+            return Ok(p.clone());
+        }
+        let mut uv_sets = HashMap::new();
+        for p in m.primitives() {
+            let i = p.material().index();
+            uv_sets.insert(i, self.material(i)?.2);
+        }
+        let parts = mesh::read_mesh(m, self.acc, |i| uv_sets.get(&i).copied().flatten())?;
+        self.meshes.insert(m.index(), parts.clone());
+        Ok(parts)
+    }
+
+    /// The node's mesh: one primitive goes on the node itself, several on one child node each
+    /// ("NAME.0", "NAME.1", …), since a refrakt node has one shape and one material.
+    fn mesh(&mut self, g: &gltf::Node, node: &Shared<Node>) -> Result<()> {
+        let Some(m) = g.mesh() else { return Ok(()) };
+        let parts = self.parts(&m)?;
+        let targets = parts.iter().map(|p| p.targets.len()).max().unwrap_or(0);
+        let weights = g.weights().or(m.weights()).map(<[f32]>::to_vec).unwrap_or_default();
+        self.graph.weights[g.index()] = (0..targets).map(|k| weights.get(k).copied().unwrap_or(0.0)).collect();
+        let single = parts.len() == 1;
+        for part in parts {
+            let MaterialEntry(material, boundary, _) = self.material(part.material)?;
+            let source = format!("{} meshes[{}]{}", self.file(), m.index(), mesh::quoted(m.name()));
+            let shape = Shape::Mesh { mesh: part.rest.clone(), source, boundary };
+            let carrier = if single {
+                node.clone()
+            } else {
+                let name = node.borrow().name.clone();
+                let mut child = Node::new(format!("{name}.{}", part.primitive));
+                child.origin = node.borrow().origin.clone();
+                let child = shared(child);
+                node.borrow_mut().children.push(child.clone());
+                child
+            };
+            {
+                let mut c = carrier.borrow_mut();
+                c.shape = Some(shared(shape));
+                c.material = Some(material);
+            }
+            let skinned = g.skin().filter(|_| part.influences.is_some());
+            if !part.targets.is_empty() || skinned.is_some() {
+                if let Some(s) = &skinned {
+                    self.skinned.push((self.graph.deformables.len(), s.index()));
+                }
+                let current = part.rest.clone();
+                self.graph.deformables.push(Deformable { node: Rc::downgrade(&carrier), weights_of: g.index(), part, skin: None, current });
+            }
+        }
+        Ok(())
+    }
+
+    /// An analytic field from the node's extras, in place of its mesh. Its medium comes from
+    /// the mesh's (first) material when that is glass; a sphere or box takes the index the
+    /// extras give.
+    fn field(&mut self, g: &gltf::Node, node: &Shared<Node>, f: &FieldExtras) -> Result<()> {
+        let first = match g.mesh() {
+            Some(m) => m.primitives().next().map(|p| p.material().index()),
+            None => None,
+        };
+        let mut glass = match first {
+            Some(i) => match &*self.material(i)?.0.borrow() {
+                Material::Glass(g) => g.clone(),
+                Material::Diffuse(_) => Glass::default(),
+            },
+            None => Glass::default(),
+        };
+        glass.ior = f.ior;
+        let shape = match f.kind {
+            FieldType::Luneburg => Shape::Luneburg { radius: f.radius, boundary: f.boundary },
+            FieldType::Sphere => Shape::Sphere { radius: f.radius, boundary: f.boundary },
+            FieldType::Box => Shape::Box { size: f.size, boundary: f.boundary },
+            FieldType::Slab => Shape::Slab { size: f.size, ior: f.ior, gradient: f.gradient, boundary: f.boundary },
+        };
+        let mut n = node.borrow_mut();
+        n.shape = Some(shared(shape));
+        n.material = Some(shared(Material::Glass(glass)));
+        Ok(())
+    }
+
+    /// §3.7.3: joints are nodes anywhere in the scene, so skins are bound once all exist.
+    fn bind_skins(&mut self, doc: &gltf::Document) -> Result<()> {
+        for &(d, s) in &self.skinned {
+            let skin = doc.skins().nth(s).ok_or_else(|| anyhow!("{}: skins[{s}] does not exist", self.acc.file))?;
+            let what = format!("skins[{s}]{}", mesh::quoted(skin.name()));
+            let joints: Vec<usize> = skin.joints().map(|j| j.index()).collect();
+            let inverse_bind = match skin.inverse_bind_matrices() {
+                Some(a) => {
+                    let m = self.acc.floats_of(a.index(), &format!("{what} inverseBindMatrices"), 16)?;
+                    if m.len() < joints.len() || m.values.iter().any(|x| !x.is_finite()) {
+                        bail!("{}: {what}: inverseBindMatrices needs a finite matrix per joint ({}), it has {}", self.acc.file, joints.len(), m.len());
+                    }
+                    m.values.chunks_exact(16).map(Mat4::from_cols_slice).collect()
+                }
+                // §3.7.3.1: "When undefined, each matrix is a 4x4 identity matrix."
+                None => vec![Mat4::IDENTITY; joints.len()],
+            };
+            let deformable = &mut self.graph.deformables[d];
+            let inf = deformable.part.influences.as_ref().expect("skinned parts have influences");
+            if let Some(j) = inf.joints.iter().find(|&&j| j as usize >= joints.len()) {
+                bail!("{}: {what}: a vertex names joint {j}, but the skin has {} joints", self.acc.file, joints.len());
+            }
+            let missing = joints.iter().filter(|&&j| self.graph.nodes[j].strong_count() == 0).count();
+            if missing > 0 {
+                self.warnings.push(format!("{}: {what}: {missing} joint(s) are not in the imported scene; the mesh keeps its rest shape", self.acc.file));
+            }
+            let joints = joints.iter().map(|&j| self.graph.nodes[j].clone()).collect();
+            deformable.skin = Some(Skin { joints, inverse_bind });
+        }
+        Ok(())
+    }
+}

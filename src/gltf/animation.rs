@@ -72,7 +72,7 @@ impl Sampler {
                 let (h00, h10, h01, h11) = (2.0 * u3 - 3.0 * u2 + 1.0, u3 - 2.0 * u2 + u, -2.0 * u3 + 3.0 * u2, u3 - u2);
                 let (v0, b0, v1, a1) = (self.value(k), self.out_tangent(k), self.value(k + 1), self.in_tangent(k + 1));
                 for (i, o) in out.iter_mut().enumerate() {
-                    *o = h00 * v0[i] + h10 * b0[i] + h01 * v1[i] + h11 * a1[i];
+                    *o = h00 * v0[i] + td * h10 * b0[i] + h01 * v1[i] + td * h11 * a1[i];
                 }
                 if self.rotation {
                     // "When interpolating rotations, the result MUST be normalized."
@@ -90,7 +90,7 @@ impl Sampler {
 /// falling back to a normalized lerp where the two are too close for sin(a) to divide by.
 pub fn slerp(q0: Vec4, q1: Vec4, u: f32) -> Vec4 {
     let d = q0.dot(q1);
-    let s = 1.0;
+    let s = if d < 0.0 { -1.0 } else { 1.0 };
     let a = d.abs().min(1.0).acos();
     if a < 1e-4 {
         return (q0 * (1.0 - u) + q1 * s * u).normalize_or(Vec4::W);
@@ -259,6 +259,6 @@ mod tests {
         let a = Vec4::new(0.0, 0.0, 0.0, 1.0);
         let b = -Vec4::from(Quat::from_rotation_y(0.5).to_array());
         let mid = Quat::from_vec4(slerp(a, b, 0.5));
-        assert!(mid.angle_between(Quat::from_rotation_y(0.25)) < 1e-5);
+        assert!(1.0 - mid.dot(Quat::from_rotation_y(0.25)) < 1e-6, "{mid:?}");
     }
 }

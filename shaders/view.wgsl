@@ -44,6 +44,10 @@
 @group(0) @binding(17) var direction_grid: texture_3d<f32>;
 // (low, high) words of a 64-bit count of the ray-equation steps taken (benchmarks).
 @group(0) @binding(18) var<storage, read_write> view_steps: array<atomic<u32>>;
+// Two vec4 of texture coordinates per BVH triangle, (uv₀, uv₁) and (uv₂, 0, 0), and the base
+// color textures' texels, 8-bit sRGB RGBA (src/pipeline/receivers.rs).
+@group(0) @binding(19) var<storage, read> triangle_uvs: array<vec4<f32>>;
+@group(0) @binding(20) var<storage, read> albedo_texels: array<u32>;
 
 const FAR_DEPTH: f32 = 1e10;
 const NO_HIT: f32 = 3.4e38;
@@ -187,13 +191,43 @@ struct Shading {
     direct: vec3<f32>,
 }
 
+// The inverse sRGB transfer function (IEC 61966-2-1): the texels are stored encoded.
+fn srgb_decode(c: vec3<f32>) -> vec3<f32> {
+    return select(pow((c + 0.055) / 1.055, vec3<f32>(2.4)), c / 12.92, c <= vec3<f32>(0.04045));
+}
+
+fn albedo_texel(r: ReceiverGpu, x: i32, y: i32) -> vec3<f32> {
+    let size = vec2<i32>(i32(r.texture_width), i32(r.texture_height));
+    let c = ((vec2<i32>(x, y) % size) + size) % size;
+    return srgb_decode(unpack4x8unorm(albedo_texels[r.texture + u32(c.x + size.x * c.y)]).rgb);
+}
+
+// The receiver's albedo at a hit: its color times its base color texture, looked up at the
+// hit's interpolated texture coordinates, bilinear with repeat — the twin of Texture2d::sample.
+fn albedo_at(hit: BvhHit, receiver: u32) -> vec3<f32> {
+    let r = receivers[receiver];
+    if r.texture_width == 0u {
+        return r.albedo;
+    }
+    let a = triangle_uvs[2u * hit.triangle];
+    let b = triangle_uvs[2u * hit.triangle + 1u];
+    // Möller–Trumbore's (u, v) weigh the second and third corners.
+    let uv = a.xy * (1.0 - hit.u - hit.v) + a.zw * hit.u + b.xy * hit.v;
+    let f = (uv - floor(uv)) * vec2<f32>(f32(r.texture_width), f32(r.texture_height)) - 0.5;
+    let i = vec2<i32>(floor(f));
+    let t = f - floor(f);
+    let top = mix(albedo_texel(r, i.x, i.y), albedo_texel(r, i.x + 1, i.y), t.x);
+    let bottom = mix(albedo_texel(r, i.x, i.y + 1), albedo_texel(r, i.x + 1, i.y + 1), t.x);
+    return r.albedo * mix(top, bottom, t.y);
+}
+
 // Radiance leaving a receiver toward the camera at the hit, split into caustic and direct.
 fn shade_receiver(hit: BvhHit, p: vec3<f32>, d: vec3<f32>, k: u32) -> Shading {
     let n = bvh_triangle_normal(hit.triangle);
     let back = dot(n, d) > 0.0;
     let facing = select(n, -n, back);
     let receiver = bvh_triangles[hit.triangle].receiver;
-    let albedo = receivers[receiver].albedo;
+    let albedo = albedo_at(hit, receiver);
     // Lift the shading point off the surface so its own triangle does not shadow it.
     let q = p + facing * (1e-4 + 1e-3 * params.grid.voxel_size);
     var e_direct = PI * params.ambient;

@@ -21,6 +21,9 @@ pub const MAX_DEPTH: u32 = 30;
 pub struct Triangle {
     pub v: [Vec3; 3],
     pub receiver: u32,
+    /// Its index among the receiver mesh's triangles (to find its texture coordinates after
+    /// the build has reordered the triangles).
+    pub index: u32,
 }
 
 impl Triangle {
@@ -190,7 +193,7 @@ mod tests {
         let tris: Vec<Triangle> = mesh
             .triangles
             .iter()
-            .map(|t| Triangle { v: t.map(|i| mesh.positions[i as usize]), receiver: 0 })
+            .map(|t| Triangle { v: t.map(|i| mesh.positions[i as usize]), receiver: 0, index: 0 })
             .collect();
         let bvh = Bvh::build(tris.clone());
         assert!(bvh.nodes.len() > 100);

@@ -245,7 +245,7 @@ fn encloses(r: &Receiver, p: Vec3) -> bool {
         .filter(|t| t.iter().all(|&i| (i as usize) < r.mesh.positions.len()))
         .filter(|t| {
             let v = t.map(|i| r.world.transform_point3(r.mesh.positions[i as usize]));
-            crate::bvh::moller_trumbore(&crate::bvh::Triangle { v, receiver: 0 }, p, dir).is_some_and(|h| h.0 > 0.0)
+            crate::bvh::moller_trumbore(&crate::bvh::Triangle { v, receiver: 0, index: 0 }, p, dir).is_some_and(|h| h.0 > 0.0)
         })
         .count();
     crossings % 2 == 1

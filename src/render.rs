@@ -136,6 +136,14 @@ impl SceneSource {
         }
     }
 
+    /// Whether frames differ over time (a Lua `update`, or animations in a glTF file).
+    pub fn is_animated(&self) -> bool {
+        match self {
+            SceneSource::Lua(host) => host.is_animated(),
+            SceneSource::Gltf(g) => g.player.is_animated(),
+        }
+    }
+
     /// The scene graph as it stands (after the last `frame_desc`).
     pub fn with_scene<R>(&self, f: impl FnOnce(&Scene) -> R) -> R {
         match self {

@@ -30,13 +30,26 @@ fn write(g: &GltfBuilder, name: &str) -> (tempfile::TempDir, PathBuf) {
     (dir, path)
 }
 
-/// A channel on node `node`: a sampler over TIMES with `values` (already laid out as the
-/// interpolation needs: 3 per keyframe for CUBICSPLINE).
-fn channel(g: &mut GltfBuilder, channels: &mut Vec<serde_json::Value>, samplers: &mut Vec<serde_json::Value>, node: usize, path: &str, interpolation: &str, values: &[f32], kind: &str) {
-    let input = g.floats(&TIMES, "SCALAR");
-    let output = g.floats(values, kind);
-    samplers.push(json!({ "input": input, "output": output, "interpolation": interpolation }));
-    channels.push(json!({ "sampler": samplers.len() - 1, "target": { "node": node, "path": path } }));
+/// An animation's channels and samplers, as they are added.
+#[derive(Default)]
+struct Anim {
+    channels: Vec<serde_json::Value>,
+    samplers: Vec<serde_json::Value>,
+}
+
+impl Anim {
+    /// A channel on node `node`: a sampler over TIMES with `values` (already laid out as the
+    /// interpolation needs: 3 per keyframe for CUBICSPLINE).
+    fn channel(&mut self, g: &mut GltfBuilder, node: usize, path: &str, interpolation: &str, values: &[f32], kind: &str) {
+        let input = g.floats(&TIMES, "SCALAR");
+        let output = g.floats(values, kind);
+        self.samplers.push(json!({ "input": input, "output": output, "interpolation": interpolation }));
+        self.channels.push(json!({ "sampler": self.samplers.len() - 1, "target": { "node": node, "path": path } }));
+    }
+
+    fn add_to(self, g: &mut GltfBuilder, name: &str) {
+        g.push("animations", json!({ "name": name, "channels": self.channels, "samplers": self.samplers }));
+    }
 }
 
 /// The keyframe interval [k, k+1] holding t and the fraction u, or the clamped end keyframe.
@@ -92,13 +105,13 @@ fn translation_step_linear_and_cubic_spline_match_the_spec_at_and_between_keyfra
     let tangents_in: [[f32; 3]; 3] = [[9.0, 9.0, 9.0], [1.0, 2.0, -3.0], [0.5, -0.5, 2.0]];
     let tangents_out: [[f32; 3]; 3] = [[-1.0, 0.5, 4.0], [2.0, 0.0, -1.0], [9.0, 9.0, 9.0]];
     let nodes: Vec<usize> = ["step", "linear", "cubic"].iter().map(|n| g.push("nodes", json!({ "name": n }))).collect();
-    let (mut channels, mut samplers) = (Vec::new(), Vec::new());
+    let mut anim = Anim::default();
     let flat: Vec<f32> = values.iter().flatten().copied().collect();
-    channel(&mut g, &mut channels, &mut samplers, nodes[0], "translation", "STEP", &flat, "VEC3");
-    channel(&mut g, &mut channels, &mut samplers, nodes[1], "translation", "LINEAR", &flat, "VEC3");
+    anim.channel(&mut g, nodes[0], "translation", "STEP", &flat, "VEC3");
+    anim.channel(&mut g, nodes[1], "translation", "LINEAR", &flat, "VEC3");
     let cubic: Vec<f32> = (0..3).flat_map(|k| [tangents_in[k], values[k], tangents_out[k]]).flatten().collect();
-    channel(&mut g, &mut channels, &mut samplers, nodes[2], "translation", "CUBICSPLINE", &cubic, "VEC3");
-    g.push("animations", json!({ "name": "move", "channels": channels, "samplers": samplers }));
+    anim.channel(&mut g, nodes[2], "translation", "CUBICSPLINE", &cubic, "VEC3");
+    anim.add_to(&mut g, "move");
     g.scene("S", &nodes);
     let (_dir, path) = write(&g, "t.glb");
     let mut s = load(&path, &ImportOptions::default());
@@ -126,15 +139,15 @@ fn rotation_linear_is_a_shortest_arc_slerp_and_cubic_spline_is_normalized() {
     let qs = [Quat::IDENTITY, Quat::from_rotation_y(1.2), -Quat::from_euler(glam::EulerRot::XYZ, 0.4, 2.0, -0.3)];
     assert!(qs[1].dot(qs[2]) < 0.0);
     let nodes: Vec<usize> = ["linear", "cubic", "scaled"].iter().map(|n| g.push("nodes", json!({ "name": n }))).collect();
-    let (mut channels, mut samplers) = (Vec::new(), Vec::new());
+    let mut anim = Anim::default();
     let flat: Vec<f32> = qs.iter().flat_map(|q| q.to_array()).collect();
-    channel(&mut g, &mut channels, &mut samplers, nodes[0], "rotation", "LINEAR", &flat, "VEC4");
+    anim.channel(&mut g, nodes[0], "rotation", "LINEAR", &flat, "VEC4");
     let tan = [[0.1f32, -0.2, 0.3, 0.0], [0.5, 0.1, -0.4, 0.2], [-0.3, 0.2, 0.1, 0.1]];
     let cubic: Vec<f32> = (0..3).flat_map(|k| [tan[k], qs[k].to_array(), tan[2 - k]]).flatten().collect();
-    channel(&mut g, &mut channels, &mut samplers, nodes[1], "rotation", "CUBICSPLINE", &cubic, "VEC4");
+    anim.channel(&mut g, nodes[1], "rotation", "CUBICSPLINE", &cubic, "VEC4");
     let scales = [1.0f32, 1.0, 1.0, 2.0, 0.5, 1.0, 0.25, 3.0, 1.5];
-    channel(&mut g, &mut channels, &mut samplers, nodes[2], "scale", "LINEAR", &scales, "VEC3");
-    g.push("animations", json!({ "channels": channels, "samplers": samplers }));
+    anim.channel(&mut g, nodes[2], "scale", "LINEAR", &scales, "VEC3");
+    anim.add_to(&mut g, "animation");
     g.scene("S", &nodes);
     let (_dir, path) = write(&g, "r.glb");
     let mut s = load(&path, &ImportOptions::default());
@@ -192,9 +205,9 @@ fn morph_weights_blend_the_targets_and_unchanged_meshes_keep_their_arc() {
     let m = g.push("nodes", json!({ "name": "morph", "mesh": morph }));
     let still = g.push("nodes", json!({ "name": "still", "mesh": plain }));
     let weights = [0.0f32, 0.0, 1.0, 0.5, 0.2, 1.0];
-    let (mut channels, mut samplers) = (Vec::new(), Vec::new());
-    channel(&mut g, &mut channels, &mut samplers, m, "weights", "LINEAR", &weights, "SCALAR");
-    g.push("animations", json!({ "channels": channels, "samplers": samplers }));
+    let mut anim = Anim::default();
+    anim.channel(&mut g, m, "weights", "LINEAR", &weights, "SCALAR");
+    anim.add_to(&mut g, "animation");
     g.scene("S", &[m, still]);
     let (_dir, path) = write(&g, "m.glb");
     let mut s = load(&path, &ImportOptions::default());
@@ -243,9 +256,9 @@ fn a_skinned_mesh_follows_its_joints_and_ignores_its_own_transform() {
     let armature = g.push("nodes", json!({ "name": "Armature", "translation": arm_t.to_array(), "rotation": arm_r.to_array(), "children": [root, skinned] }));
     g.push("skins", json!({ "joints": [root, tip], "inverseBindMatrices": ibm, "skeleton": root }));
     let bend = [Quat::IDENTITY, Quat::from_rotation_z(std::f32::consts::FRAC_PI_2), Quat::from_rotation_z(std::f32::consts::FRAC_PI_2)];
-    let (mut channels, mut samplers) = (Vec::new(), Vec::new());
-    channel(&mut g, &mut channels, &mut samplers, tip, "rotation", "LINEAR", &bend.iter().flat_map(|q| q.to_array()).collect::<Vec<_>>(), "VEC4");
-    g.push("animations", json!({ "channels": channels, "samplers": samplers }));
+    let mut anim = Anim::default();
+    anim.channel(&mut g, tip, "rotation", "LINEAR", &bend.iter().flat_map(|q| q.to_array()).collect::<Vec<_>>(), "VEC4");
+    anim.add_to(&mut g, "animation");
     g.scene("S", &[armature]);
     let (_dir, path) = write(&g, "skin.glb");
     let mut s = load(&path, &ImportOptions::default());
@@ -277,10 +290,10 @@ fn two_animations() -> GltfBuilder {
     let mut g = GltfBuilder::new();
     let n = g.push("nodes", json!({ "name": "mover" }));
     for (name, v) in [("Up", [0.0f32, 1.0, 0.0]), ("Side", [1.0, 0.0, 0.0])] {
-        let (mut channels, mut samplers) = (Vec::new(), Vec::new());
+        let mut anim = Anim::default();
         let values: Vec<f32> = [0.0f32, 1.0, 2.0].iter().flat_map(|k| v.map(|x| x * k)).collect();
-        channel(&mut g, &mut channels, &mut samplers, n, "translation", "LINEAR", &values, "VEC3");
-        g.push("animations", json!({ "name": name, "channels": channels, "samplers": samplers }));
+        anim.channel(&mut g, n, "translation", "LINEAR", &values, "VEC3");
+        anim.add_to(&mut g, name);
     }
     g.scene("S", &[n]);
     g

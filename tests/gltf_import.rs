@@ -143,8 +143,8 @@ fn transmission_ior_and_volume_make_glass_with_beer_lambert_absorption() {
     let Material::Glass(glass) = material_of(&s, "glass") else { panic!("glass") };
     assert_eq!(glass.ior, 1.33);
     // Beer–Lambert: exp(−σ d) = c, per channel, computed here in f64.
-    for k in 0..3 {
-        let sigma = -(c[k] as f64).ln() / d as f64;
+    for (k, &ck) in c.iter().enumerate() {
+        let sigma = -(ck as f64).ln() / d as f64;
         assert!((glass.absorption[k] as f64 - sigma).abs() < 1e-5 * sigma, "channel {k}: {} vs {sigma}", glass.absorption[k]);
     }
     let Material::Glass(clear) = material_of(&s, "clear") else { panic!("clear") };

@@ -146,10 +146,14 @@ struct BvhTriangle {
 
 struct ReceiverGpu {
     albedo: vec3<f32>,
-    _pad0: u32,
+    texture: u32,
     charts_a: vec4<i32>,
     charts_b: vec4<i32>,
     charts_c: vec4<i32>,
+    texture_width: u32,
+    texture_height: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 struct Chart {

@@ -186,6 +186,14 @@ impl<'a> Builder<'a, '_> {
             uv_sets.insert(i, self.material(i)?.2);
         }
         let parts = mesh::read_mesh(m, self.acc, |i| uv_sets.get(&i).copied().flatten())?;
+        for p in parts.iter().filter(|p| p.rest.uvs.is_none()) {
+            if let Some(set) = uv_sets.get(&p.material).copied().flatten() {
+                self.warnings.push(format!(
+                    "{}: meshes[{}]{} primitives[{}] has no TEXCOORD_{set} for its material's base color texture; the texture is not used",
+                    self.file(), m.index(), mesh::quoted(m.name()), p.primitive
+                ));
+            }
+        }
         self.meshes.insert(m.index(), parts.clone());
         Ok(parts)
     }

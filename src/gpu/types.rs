@@ -245,13 +245,18 @@ gpu_struct! {
     /// An opaque receiver: its albedo and its caustic charts, one per side a surface faces: slot
     /// 2·axis + (0 for +, 1 for −), plus 6 when it is the back of the triangles that face that
     /// way (the inside of a room) — slots 0–3 in `charts_a`, 4–7 in `charts_b`, 8–11 in
-    /// `charts_c`; −1 where it has none.
+    /// `charts_c`; −1 where it has none. A base color texture (multiplying the albedo) starts
+    /// at `texture` in the albedo texels, `texture_width` × `texture_height` (width 0: none).
     pub struct ReceiverGpu {
         pub albedo: [f32; 3],
-        pub _pad0: u32,
+        pub texture: u32,
         pub charts_a: [i32; 4],
         pub charts_b: [i32; 4],
         pub charts_c: [i32; 4],
+        pub texture_width: u32,
+        pub texture_height: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
     }
 }
 

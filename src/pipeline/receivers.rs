@@ -1,5 +1,5 @@
-//! The opaque receivers on the GPU: their triangles in a BVH, their albedo, and the caustic
-//! charts refracted photons land in (`shaders/shared/receivers.wgsl`).
+//! The opaque receivers on the GPU: their triangles in a BVH, their albedo (and base color
+//! texture), and the caustic charts refracted photons land in (`shaders/shared/receivers.wgsl`).
 //!
 //! A chart is a world-axis-aligned grid of texels over the triangles of one receiver whose
 //! surfaces face one of the six axis directions, on one side (front faces, or back faces — the
@@ -41,9 +41,39 @@ fn world_triangles(r: &Receiver, index: u32) -> Vec<Triangle> {
     r.mesh
         .triangles
         .iter()
-        .filter(|t| t.iter().all(|&i| (i as usize) < p.len()))
-        .map(|t| Triangle { v: t.map(|i| p[i as usize]), receiver: index })
+        .enumerate()
+        .filter(|(_, t)| t.iter().all(|&i| (i as usize) < p.len()))
+        .map(|(k, t)| Triangle { v: t.map(|i| p[i as usize]), receiver: index, index: k as u32 })
         .collect()
+}
+
+/// The texture coordinates of a receiver mesh, when it has a texture to use them for.
+fn textured(r: &Receiver) -> Option<(&crate::scene::Texture2d, &[Vec2])> {
+    let t = r.diffuse.texture.as_deref()?;
+    let uvs = r.mesh.uvs.as_deref().filter(|uv| uv.len() == r.mesh.positions.len())?;
+    (t.width > 0 && t.height > 0).then_some((t, uvs))
+}
+
+/// Per BVH triangle (in leaf order), its corners' texture coordinates as two vec4s:
+/// (uv₀, uv₁), (uv₂, 0, 0); zeros for untextured receivers.
+fn triangle_uvs(bvh: &Bvh, receivers: &[Receiver]) -> Vec<[f32; 4]> {
+    let mut out = Vec::with_capacity(2 * bvh.triangles.len());
+    for t in &bvh.triangles {
+        let corners = textured(&receivers[t.receiver as usize]).map_or([Vec2::ZERO; 3], |(_, uv)| {
+            receivers[t.receiver as usize].mesh.triangles[t.index as usize].map(|i| uv[i as usize])
+        });
+        out.push([corners[0].x, corners[0].y, corners[1].x, corners[1].y]);
+        out.push([corners[2].x, corners[2].y, 0.0, 0.0]);
+    }
+    out
+}
+
+/// A linear color as the 8-bit sRGB RGBA texel the GPU decodes (`unpack4x8unorm`, then the
+/// inverse transfer function): the base color textures' own encoding, 4 bytes a texel.
+fn srgb8(c: [f32; 4]) -> u32 {
+    let byte = |x: f32| (x.clamp(0.0, 1.0) * 255.0).round() as u32;
+    let e = |x: f32| byte(crate::output::png::srgb_encode(x));
+    e(c[0]) | e(c[1]) << 8 | e(c[2]) << 16 | byte(c[3]) << 24
 }
 
 /// CPU-side layout of the receivers: what goes into the GPU buffers.
@@ -52,6 +82,10 @@ pub struct ReceiverLayout {
     pub receivers: Vec<ReceiverGpu>,
     pub charts: Vec<Chart>,
     pub texels: u32,
+    /// Two vec4 of texture coordinates per BVH triangle (see `triangle_uvs`).
+    pub triangle_uvs: Vec<[f32; 4]>,
+    /// Every base color texture's texels, sRGB8-packed, one after another.
+    pub albedo_texels: Vec<u32>,
 }
 
 /// Lays out BVH and charts; `texel` is the wanted texel size (metres), grown where a chart or
@@ -94,6 +128,9 @@ pub fn layout(receivers: &[Receiver], texel: f32) -> ReceiverLayout {
     let mut charts = Vec::new();
     let mut table = Vec::with_capacity(receivers.len());
     let mut offset = 0u32;
+    let mut albedo_texels = Vec::new();
+    // Receivers sharing a texture share its texels.
+    let mut placed: Vec<(*const crate::scene::Texture2d, u32)> = Vec::new();
     for (i, r) in receivers.iter().enumerate() {
         let mut slots = [-1i32; 12];
         for (slot, e) in extents[i].iter().enumerate() {
@@ -113,15 +150,35 @@ pub fn layout(receivers: &[Receiver], texel: f32) -> ReceiverLayout {
             });
             offset += size.x * size.y;
         }
+        let (texture, size) = match textured(r) {
+            Some((t, _)) => {
+                let start = match placed.iter().find(|(p, _)| std::ptr::eq(*p, t)) {
+                    Some(&(_, start)) => start,
+                    None => {
+                        let start = albedo_texels.len() as u32;
+                        albedo_texels.extend(t.texels.iter().map(|&c| srgb8(c)));
+                        placed.push((t, start));
+                        start
+                    }
+                };
+                (start, [t.width, t.height])
+            }
+            None => (0, [0, 0]),
+        };
         table.push(ReceiverGpu {
             albedo: r.diffuse.color.into(),
-            _pad0: 0,
+            texture,
             charts_a: slots[0..4].try_into().expect("4"),
             charts_b: slots[4..8].try_into().expect("4"),
             charts_c: slots[8..12].try_into().expect("4"),
+            texture_width: size[0],
+            texture_height: size[1],
+            _pad0: 0,
+            _pad1: 0,
         });
     }
-    ReceiverLayout { bvh, receivers: table, charts, texels: offset }
+    let triangle_uvs = triangle_uvs(&bvh, receivers);
+    ReceiverLayout { bvh, receivers: table, charts, texels: offset, triangle_uvs, albedo_texels }
 }
 
 /// The receivers' GPU buffers and the caustic maps sized by their charts. Buffers only grow:
@@ -131,6 +188,9 @@ pub struct Receivers {
     pub bvh_triangles: GrowableBuffer,
     pub receivers: GrowableBuffer,
     pub charts: GrowableBuffer,
+    /// Texture coordinates of the BVH triangles and the base color texels (view stage).
+    pub triangle_uvs: GrowableBuffer,
+    pub albedo_texels: GrowableBuffer,
     /// 4 u32 per texel: photon count, flux r, g, b (fixed point), written by the march stage.
     pub caustic_atlas: GrowableBuffer,
     /// Summed-area table of the atlas (caustics stage).
@@ -140,17 +200,23 @@ pub struct Receivers {
     pub layout: ReceiverLayout,
     /// Changes when a buffer was reallocated (consumers rebind).
     pub generation: u64,
-    key: Option<Vec<(usize, glam::Mat4, [u32; 3])>>,
+    key: Option<Vec<ReceiverKey>>,
 }
 
-/// What identifies the receivers of a frame (meshes by pointer, placement, albedo bits).
-fn key_of(desc: &FrameDesc, texel: f32) -> Vec<(usize, glam::Mat4, [u32; 3])> {
+/// What identifies a receiver: its mesh and texture by pointer, placement, albedo bits.
+type ReceiverKey = (usize, usize, glam::Mat4, [u32; 3]);
+
+/// What identifies the receivers of a frame.
+fn key_of(desc: &FrameDesc, texel: f32) -> Vec<ReceiverKey> {
     let mut key: Vec<_> = desc
         .receivers
         .iter()
-        .map(|r| (std::sync::Arc::as_ptr(&r.mesh) as usize, r.world, r.diffuse.color.to_array().map(f32::to_bits)))
+        .map(|r| {
+            let texture = r.diffuse.texture.as_ref().map_or(0, |t| std::sync::Arc::as_ptr(t) as usize);
+            (std::sync::Arc::as_ptr(&r.mesh) as usize, texture, r.world, r.diffuse.color.to_array().map(f32::to_bits))
+        })
         .collect();
-    key.push((0, glam::Mat4::from_scale(Vec3::splat(texel)), [0; 3]));
+    key.push((0, 0, glam::Mat4::from_scale(Vec3::splat(texel)), [0; 3]));
     key
 }
 
@@ -167,6 +233,8 @@ impl Receivers {
             bvh_triangles: buffer("bvh triangles"),
             receivers: buffer("receivers"),
             charts: buffer("charts"),
+            triangle_uvs: buffer("triangle uvs"),
+            albedo_texels: buffer("albedo texels"),
             caustic_atlas: buffer("caustic atlas"),
             caustic_sat: buffer("caustic sat"),
             caustic_irradiance: buffer("caustic irradiance"),
@@ -192,8 +260,14 @@ impl Receivers {
         let texel_bytes = self.layout.texels.max(1) as u64 * 16;
         let mut grown = self.bvh_nodes.write(ctx, bytemuck::cast_slice(&nodes));
         grown |= self.bvh_triangles.write(ctx, bytemuck::cast_slice(&triangles));
-        grown |= self.receivers.write(ctx, bytemuck::cast_slice(&self.layout.receivers));
+        // Empty arrays still bind a buffer of at least one element.
+        let table = if self.layout.receivers.is_empty() { vec![ReceiverGpu::default()] } else { self.layout.receivers.clone() };
+        grown |= self.receivers.write(ctx, bytemuck::cast_slice(&table));
         grown |= self.charts.write(ctx, bytemuck::cast_slice(&self.layout.charts));
+        let uvs = if self.layout.triangle_uvs.is_empty() { vec![[0.0f32; 4]] } else { self.layout.triangle_uvs.clone() };
+        grown |= self.triangle_uvs.write(ctx, bytemuck::cast_slice(&uvs));
+        let texels = if self.layout.albedo_texels.is_empty() { vec![0u32] } else { self.layout.albedo_texels.clone() };
+        grown |= self.albedo_texels.write(ctx, bytemuck::cast_slice(&texels));
         grown |= self.caustic_atlas.reserve(ctx, texel_bytes);
         grown |= self.caustic_sat.reserve(ctx, texel_bytes);
         grown |= self.caustic_irradiance.reserve(ctx, texel_bytes);

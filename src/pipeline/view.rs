@@ -114,6 +114,8 @@ impl View {
                 layout::texture(16, d3),
                 layout::texture(17, d3),
                 layout::storage(18, false),
+                layout::storage(19, true),
+                layout::storage(20, true),
             ],
         )?;
         let params = layout::uniform_buffer::<ViewParams>(device, "view params");
@@ -156,6 +158,8 @@ impl View {
                     wgpu::BindGroupEntry { binding: 16, resource: layout::texture_view(&radiance.fluence.view) },
                     wgpu::BindGroupEntry { binding: 17, resource: layout::texture_view(&radiance.direction.view) },
                     wgpu::BindGroupEntry { binding: 18, resource: self.steps.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 19, resource: receivers.triangle_uvs.buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 20, resource: receivers.albedo_texels.buffer.as_entire_binding() },
                 ],
             });
             self.bound = Some((generations, bg));

@@ -37,9 +37,12 @@ pub struct Texture2d {
 }
 
 impl Texture2d {
-    /// Bilinear lookup with repeat addressing (glTF's default sampler).
+    /// Bilinear lookup with repeat addressing (glTF's default sampler) — the CPU twin of
+    /// `albedo_at` in `shaders/view.wgsl`.
     pub fn sample(&self, uv: Vec2) -> Vec3 {
         let (w, h) = (self.width as i64, self.height as i64);
+        // Repeat first, so large coordinates keep their precision.
+        let uv = uv - uv.floor();
         let fx = uv.x * w as f32 - 0.5;
         let fy = uv.y * h as f32 - 0.5;
         let (x0, y0) = (fx.floor(), fy.floor());

@@ -1,6 +1,7 @@
 //! Writes small glTF files for tests: JSON built with serde_json, binary data appended to one
 //! buffer, saved as a .glb, a .gltf with a data: URI, or a .gltf with an external .bin.
 
+use std::f32::consts::FRAC_1_SQRT_2;
 use std::path::{Path, PathBuf};
 
 use base64::Engine;
@@ -227,7 +228,7 @@ pub fn sample_scene() -> GltfBuilder {
     let bar_node = g.push("nodes", json!({ "name": "Bar", "mesh": bar, "skin": 0 }));
     let rig = g.push("nodes", json!({ "name": "Rig", "translation": [1.0, 0.0, 0.0], "scale": [0.5, 0.5, 0.5], "children": [root, bar_node] }));
     let lens = g.push("nodes", json!({ "name": "Lens", "translation": [-1.0, 0.5, 0.0], "extras": { "refrakt": { "field": "luneburg", "radius": 0.3 } } }));
-    let spot = g.push("nodes", json!({ "name": "Spot", "translation": [0.0, 3.0, 0.0], "rotation": [-0.7071068, 0.0, 0.0, 0.7071068],
+    let spot = g.push("nodes", json!({ "name": "Spot", "translation": [0.0, 3.0, 0.0], "rotation": [-FRAC_1_SQRT_2, 0.0, 0.0, FRAC_1_SQRT_2],
                                        "extensions": { "KHR_lights_punctual": { "light": 0 } } }));
     let sun = g.push("nodes", json!({ "name": "Sun", "rotation": [-0.38268343, 0.0, 0.0, 0.9238795], "extensions": { "KHR_lights_punctual": { "light": 1 } } }));
     let cam = g.push("nodes", json!({ "name": "Camera", "camera": 0, "translation": [0.0, 1.0, 4.0] }));
@@ -235,7 +236,7 @@ pub fn sample_scene() -> GltfBuilder {
 
     let times = g.floats(&[0.0, 0.5, 1.0], "SCALAR");
     let gem_t = g.floats(&[0.0, 0.5, 0.0, 0.0, 0.7, 0.0, 0.0, 0.5, 0.0], "VEC3");
-    let tip_r = g.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.38268343, 0.9238795, 0.0, 0.0, 0.7071068, 0.7071068], "VEC4");
+    let tip_r = g.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.38268343, 0.9238795, 0.0, 0.0, FRAC_1_SQRT_2, FRAC_1_SQRT_2], "VEC4");
     let weights = g.floats(&[0.0, 1.0, 0.25], "SCALAR");
     g.push("animations", json!({ "name": "Play", "samplers": [
         { "input": times, "output": gem_t, "interpolation": "LINEAR" },

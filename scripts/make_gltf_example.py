@@ -6,7 +6,7 @@ Python standard library (so the file is reproducible and its making readable):
   pendulum: a pivot node with a LINEAR rotation channel sampled at 24 fps from θ(t) = A·sin(2πt/T);
 - a glass drop whose morph target squashes it, its weight animated LINEARly;
 - a Luneburg lens, marked by refrakt's node extras (an empty node with a radius);
-- a floor with a checker base color texture (an 8×8 PNG made here), a KHR_lights_punctual
+- a floor with a checker base color texture (a 64×64 PNG made here), a KHR_lights_punctual
   spot light in candela, a perspective camera, and refrakt's scene extras (photons, samples,
   volume, environment preset).
 
@@ -99,9 +99,12 @@ def icosphere(radius, subdivisions):
     return [tuple(radius * x for x in v) for v in verts], faces
 
 
-def checker_png(n=8, dark=(150, 75, 55), light=(225, 215, 190)):
-    """An n×n checkerboard PNG (RGB, 8-bit), one texel per square."""
-    rows = b"".join(b"\0" + b"".join(bytes(light if (x + y) % 2 else dark) for x in range(n)) for y in range(n))
+def checker_png(squares=8, texels=8, dark=(150, 75, 55), light=(225, 215, 190)):
+    """A checkerboard PNG (RGB, 8-bit) of squares × squares, each texels × texels wide, so the
+    bilinear lookup keeps the edges sharp."""
+    n = squares * texels
+    square = lambda x, y: light if (x // texels + y // texels) % 2 else dark
+    rows = b"".join(b"\0" + b"".join(bytes(square(x, y)) for x in range(n)) for y in range(n))
     chunk = lambda kind, data: struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
     return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", n, n, 8, 2, 0, 0, 0))
             + chunk(b"IDAT", zlib.compress(rows, 9)) + chunk(b"IEND", b""))

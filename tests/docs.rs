@@ -5,7 +5,8 @@
 //! Conventions inside a ```lua block: a first line `-- file: NAME` makes the block a module
 //! file NAME for the blocks after it; `-- error: TEXT` means the script must fail with an error
 //! containing TEXT; any other block is a scene that must load, and whose `update` (if any) and
-//! frame evaluation must succeed at t = 0, 0.5 and 1 s.
+//! frame evaluation must succeed at t = 0, 0.5 and 1 s. The examples' assets (examples/*.glb)
+//! sit next to the scene, so blocks can import them by name.
 
 mod common;
 
@@ -47,10 +48,23 @@ fn run_scene(path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The examples' assets (everything in examples/ but the Lua scenes), so doc examples can use
+/// them by name: `refrakt.gltf("pendulum.glb")`.
+fn copy_example_assets(to: &Path) {
+    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
+    for entry in std::fs::read_dir(examples).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_file() && path.extension().is_some_and(|e| e != "lua") {
+            std::fs::copy(&path, to.join(path.file_name().unwrap())).unwrap();
+        }
+    }
+}
+
 /// Runs every block of `doc` (a path relative to the crate); returns how many were scenes.
 fn run_doc(doc: &str) -> usize {
     let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(doc)).unwrap();
     let dir = tempfile::tempdir().unwrap();
+    copy_example_assets(dir.path());
     let scene = dir.path().join("scene.lua");
     let blocks = lua_blocks(&text);
     assert_eq!(blocks.len(), text.matches("```lua").count(), "{doc}: every ```lua block is parsed");

@@ -172,8 +172,14 @@ pub fn run(scene_path: &Path, opts: &RenderOptions, out: &mut impl Write) -> Res
         })?;
         let mut doc = source.with_scene(|scene| frame_json(scene, &desc, frame))?;
         shorten(&mut doc);
-        writeln!(out, "{}", serde_json::to_string(&doc)?)?;
+        match writeln!(out, "{}", serde_json::to_string(&doc)?) {
+            // A reader that has seen enough (`refrakt dump … | head -1`) is not an error.
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => return Ok(()),
+            other => other?,
+        }
     }
-    out.flush()?;
-    Ok(())
+    match out.flush() {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
+        _ => Ok(()),
+    }
 }

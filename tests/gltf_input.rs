@@ -151,6 +151,17 @@ fn other_damage_gets_its_own_message() {
         damage(&mut g);
         assert_refused(&g.write_glb(&dir.path().join(name)), needles);
     }
+    // A chain of 1200 nodes: deeper than refrakt walks (a stack overflow otherwise).
+    let mut g = GltfBuilder::new();
+    for i in 0..1200usize {
+        let mut node = json!({ "name": format!("n{i}") });
+        if i + 1 < 1200 {
+            node["children"] = json!([i + 1]);
+        }
+        g.push("nodes", node);
+    }
+    g.scene("Deep", &[0]);
+    assert_refused(&g.write_glb(&dir.path().join("deep.glb")), &["1001 levels deep", "up to 1000 levels"]);
     let p = write(dir.path(), "json.glb", br#"{"asset": {"version": "2.0"}}"#);
     assert_refused(&p, &["not a binary glTF file"]);
     let p = write(dir.path(), "broken.gltf", br#"{"asset": {"version": "2.0"}, "nodes": [ {"name": 1} ]"#);

@@ -6,9 +6,9 @@ use anyhow::{Result, anyhow, bail};
 use gltf::json;
 use gltf::json::accessor::{ComponentType, Type};
 
-/// Elements an accessor with no bufferView (all zeros, §3.6.2.3, or filled by sparse values)
-/// may have: there are no bytes to check its count against.
-const MAX_ELEMENTS_WITHOUT_DATA: u64 = 1 << 24;
+/// Components (floats) an accessor with no bufferView (all zeros, §3.6.2.3, or filled by sparse
+/// values) may have: there are no bytes to check its count against, so it is capped (64 MiB).
+const MAX_VALUES_WITHOUT_DATA: u64 = 1 << 24;
 
 /// An accessor's elements as floats, `components` per element.
 pub struct Floats {
@@ -185,7 +185,7 @@ impl<'a> Accessors<'a> {
                 }
                 out
             }
-            None if count <= MAX_ELEMENTS_WITHOUT_DATA => vec![0.0; count as usize * components],
+            None if count.saturating_mul(components as u64) <= MAX_VALUES_WITHOUT_DATA => vec![0.0; count as usize * components],
             None => return Err(self.err(index, what, format!("count {count} with no bufferView (more than refrakt reads without data)"))),
         };
         if let Some(sparse) = &a.sparse {

@@ -172,8 +172,12 @@ pub fn ignored_extensions(doc: &gltf::Document) -> Vec<String> {
     doc.extensions_used().filter(|e| !SUPPORTED_EXTENSIONS.contains(e)).map(str::to_string).collect()
 }
 
+/// Deepest node hierarchy refrakt reads (every level is a step of recursion when the graph is
+/// walked; real files stay far below it).
+pub const MAX_DEPTH: usize = 1000;
+
 /// Every node has at most one parent and no node is its own ancestor, so walking the hierarchy
-/// ends; scene roots have no parent.
+/// ends; it is at most [`MAX_DEPTH`] deep; scene roots have no parent.
 fn check_trees(root: &json::Root, file: &str) -> Result<()> {
     let n = root.nodes.len();
     let mut parent: Vec<Option<usize>> = vec![None; n];
@@ -186,16 +190,35 @@ fn check_trees(root: &json::Root, file: &str) -> Result<()> {
             parent[c] = Some(i);
         }
     }
+    // Depth of every node, each found once: walk up to a node of known depth (or a root), then
+    // number the walk back down. A walk that meets itself is a cycle.
+    const UNKNOWN: usize = usize::MAX;
+    let mut depth = vec![UNKNOWN; n];
+    let mut walked_from = vec![UNKNOWN; n];
+    let mut walk = Vec::new();
     for start in 0..n {
-        // Walking up from any node must reach a root within n steps.
         let mut at = start;
-        for _ in 0..=n {
+        while depth[at] == UNKNOWN {
+            if walked_from[at] == start {
+                bail!("{file}: nodes[{at}] is its own ancestor (a cycle in the node hierarchy)");
+            }
+            walked_from[at] = start;
+            walk.push(at);
             match parent[at] {
-                Some(p) if p == start => bail!("{file}: nodes[{start}] is its own ancestor (a cycle in the node hierarchy)"),
                 Some(p) => at = p,
                 None => break,
             }
         }
+        let mut d = if depth[at] == UNKNOWN { 0 } else { depth[at] + 1 };
+        while let Some(i) = walk.pop() {
+            if depth[i] == UNKNOWN {
+                depth[i] = d;
+                d += 1;
+            }
+        }
+    }
+    if let Some(deep) = (0..n).find(|&i| depth[i] >= MAX_DEPTH) {
+        bail!("{file}: nodes[{deep}] is {} levels deep; refrakt reads hierarchies up to {MAX_DEPTH} levels", depth[deep] + 1);
     }
     for (s, scene) in root.scenes.iter().enumerate() {
         if let Some(node) = scene.nodes.iter().find(|i| parent[i.value()].is_some()) {

@@ -127,10 +127,22 @@ fn place_shape(p: &Placed, c: &mut Contents) -> Result<()> {
     let shape = shape.borrow().clone();
     let name = display_name(&node);
     let (scale, _, _) = p.world.to_scale_rotation_translation();
-    if !p.world.is_finite() || scale.min_element() <= 0.0 {
+    let det = p.world.determinant();
+    if !p.world.is_finite() || det == 0.0 || !det.is_finite() {
         bail!("{}: node {name} has a degenerate or non-finite transform (scale {scale})", node.origin);
     }
     let material = node.material.as_ref().map(|m| m.borrow().clone());
+    // Triangles may be mirrored (a negative scale, common in glTF files): the solid
+    // voxelization counts crossings and receivers are two-sided, so winding does not matter.
+    // Analytic fields measure distance in local units and need a positive scale.
+    let triangles = matches!(material, Some(Material::Diffuse(_))) || matches!(shape, Shape::Mesh { .. });
+    if !triangles && scale.min_element() <= 0.0 {
+        bail!(
+            "{}: node {name} is mirrored (scale {scale}); an analytic {} cannot be, give it a positive scale",
+            node.origin,
+            shape.kind_name()
+        );
+    }
     match (material, &shape) {
         (Some(Material::Diffuse(diffuse)), _) => {
             let mesh = match &shape {

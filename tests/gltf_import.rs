@@ -105,9 +105,11 @@ fn a_scene_is_chosen_by_name_or_the_files_default() {
 /// A material of each kind on its own tetrahedron node: (name, material JSON).
 fn material_scene(materials: &[(&str, serde_json::Value)]) -> GltfBuilder {
     let mut g = GltfBuilder::new();
+    // Required extensions refrakt reads are accepted; unknown ones used (not required) warn.
     for ext in ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume"] {
-        g.uses(ext, false);
+        g.uses(ext, true);
     }
+    g.uses("KHR_materials_dispersion", false);
     let mut roots = Vec::new();
     for (i, (name, m)) in materials.iter().enumerate() {
         let mi = g.push("materials", m.clone());
@@ -157,6 +159,9 @@ fn transmission_ior_and_volume_make_glass_with_beer_lambert_absorption() {
     assert_eq!((smoke.ior, smoke.scattering), (1.0, Vec3::splat(0.5)));
     let Material::Diffuse(paint) = material_of(&s, "paint") else { panic!("paint") };
     assert_eq!(paint.color, Vec3::new(0.2, 0.4, 0.6));
+    let path = dir.path().join("m.glb");
+    let import = refrakt::gltf::import(&path, "m.glb", &refrakt::lua::sandbox::FileAccess::new(dir.path(), &[]).unwrap(), &ImportOptions::default()).unwrap();
+    assert!(import.warnings.iter().any(|w| w.contains("KHR_materials_dispersion is not supported")), "{:?}", import.warnings);
 }
 
 #[test]

@@ -215,9 +215,10 @@ impl Renderer {
                 dims.x, dims.y, dims.z, l.max_texture_dimension_3d
             );
         }
-        // The radiance grid's deposits are the largest buffer: 24 bytes per voxel.
-        let per_voxel = if needs_scattering(desc) { 24 } else { 4 };
-        let grid_bytes = desc.volume.voxel_count() * per_voxel;
+        // The largest buffers bound at once: the octree (16 bytes per cell) and, with a
+        // scattering medium, the radiance grid's deposits (24 bytes per voxel).
+        let deposits = if needs_scattering(desc) { desc.volume.voxel_count() * 24 } else { 0 };
+        let grid_bytes = Grids::largest_binding(dims).max(deposits);
         if grid_bytes > binding {
             bail!(
                 "the volume's {}×{}×{} voxels need {} MiB in one buffer, more than the {} MiB the adapter \"{name}\" \

@@ -18,8 +18,10 @@ use crate::gpu::types::{BvhNode, BvhTriangle, Chart, ReceiverGpu};
 
 /// Texels along the longest side of one chart, at most.
 pub const MAX_CHART_SIDE: f32 = 2048.0;
-/// Texels over all charts, at most (16 bytes each in three buffers).
-pub const MAX_ATLAS_TEXELS: f32 = 8.0 * 1024.0 * 1024.0;
+/// Texels over all charts, at most (16 bytes each in three buffers). 7.5 Mi texels, so that an
+/// atlas — with the percent or so that rounding chart sizes up may add — stays under the
+/// 128 MiB one binding may hold on many adapters (lavapipe, WebGPU's defaults).
+pub const MAX_ATLAS_TEXELS: f32 = 7.5 * 1024.0 * 1024.0;
 
 /// Chart slot of a direction: 2·axis + (0 for +, 1 for −); dominant-axis ties resolve to x,
 /// then y, exactly as `chart_for` in WGSL.

@@ -81,6 +81,14 @@ pub struct Grids {
 }
 
 impl Grids {
+    /// Bytes of the largest buffer the grids of a `dims` volume bind at once: the octree's
+    /// (16 bytes per cell over all its levels, about 8/7 of the dual grid's cells).
+    pub fn largest_binding(dims: UVec3) -> u64 {
+        let voxels = dims.x as u64 * dims.y as u64 * dims.z as u64;
+        let octree_layout = super::octree::layout_for(crate::gpu::types::GridParams { dims: dims.into(), ..Default::default() });
+        (super::octree::cell_count(&octree_layout) * 16).max(voxels * 4)
+    }
+
     pub fn new(ctx: &GpuContext, dims: UVec3) -> Result<Self> {
         let device = &ctx.device;
         let voxels = dims.x as u64 * dims.y as u64 * dims.z as u64;
@@ -309,16 +317,23 @@ impl GrowableBuffer {
     pub fn reserve(&mut self, ctx: &GpuContext, bytes: u64) -> bool {
         let grown = bytes > self.capacity;
         if grown {
-            *self = Self::new(&ctx.device, self.label, bytes.next_power_of_two());
+            *self = Self::new(&ctx.device, self.label, Self::grown_capacity(ctx, bytes));
         }
         grown
+    }
+
+    /// The next power of two above `bytes`, but no more than one binding may hold (when `bytes`
+    /// fits in one): rounding up must not be what makes a buffer unbindable.
+    fn grown_capacity(ctx: &GpuContext, bytes: u64) -> u64 {
+        let binding = ctx.limits.max_storage_buffer_binding_size.min(ctx.limits.max_buffer_size);
+        bytes.next_power_of_two().min(binding.max(bytes))
     }
 
     /// Uploads `bytes`; returns true when the buffer was reallocated (bind groups must be rebuilt).
     pub fn write(&mut self, ctx: &GpuContext, bytes: &[u8]) -> bool {
         let grown = bytes.len() as u64 > self.capacity;
         if grown {
-            *self = Self::new(&ctx.device, self.label, (bytes.len() as u64).next_power_of_two());
+            *self = Self::new(&ctx.device, self.label, Self::grown_capacity(ctx, bytes.len() as u64));
         }
         if !bytes.is_empty() {
             ctx.queue.write_buffer(&self.buffer, 0, bytes);

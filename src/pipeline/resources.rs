@@ -243,23 +243,28 @@ impl FrameTarget {
     }
 
     /// The image after the submission with [`encode_readback`](Self::encode_readback) finished.
+    /// The planes are converted into layers straight from the mapped staging buffer: the frame is
+    /// the largest readback (80 bytes a pixel), and copying it whole first doubled its cost.
     pub fn read(&self, ctx: &GpuContext, slot: usize) -> Result<Image> {
-        let bytes = self.staging[slot].read(ctx, self.buffer.size())?;
-        let floats: &[f32] = bytemuck::cast_slice(&bytes);
         let n = (self.width * self.height) as usize;
-        let plane = |k: usize| &floats[4 * n * k..4 * n * (k + 1)];
-        let rgb = |k: usize| plane(k).chunks(4).flat_map(|c| [c[0], c[1], c[2]]).collect::<Vec<f32>>();
-        Ok(Image {
-            width: self.width,
-            height: self.height,
-            layers: vec![
+        let layers = self.staging[slot].read_with(ctx, self.buffer.size(), |bytes| {
+            let floats: &[f32] = bytemuck::cast_slice(bytes);
+            let plane = |k: usize| &floats[4 * n * k..4 * n * (k + 1)];
+            // (flat_map's size hint is unknown, so reserve the exact length up front)
+            let rgb = |k: usize| {
+                let mut out = Vec::with_capacity(3 * n);
+                out.extend(plane(k).chunks_exact(4).flat_map(|c| [c[0], c[1], c[2]]));
+                out
+            };
+            vec![
                 Layer::new("beauty", &["R", "G", "B", "A"], plane(0).to_vec()),
-                Layer::new("depth", &["Z"], plane(1).chunks(4).map(|c| c[0]).collect()),
+                Layer::new("depth", &["Z"], plane(1).chunks_exact(4).map(|c| c[0]).collect()),
                 Layer::new("caustic", &["R", "G", "B"], rgb(2)),
                 Layer::new("direct", &["R", "G", "B"], rgb(3)),
                 Layer::new("volume", &["R", "G", "B"], rgb(4)),
-            ],
-        })
+            ]
+        })?;
+        Ok(Image { width: self.width, height: self.height, layers })
     }
 }
 

@@ -137,9 +137,11 @@ fn deposit_segment(a: vec3<f32>, b: vec3<f32>, flux: vec3<f32>) {
         for (var k = 0u; k < 3u; k++) {
             add_radiance(v + k, to_fixed(rel[k] * len, params.radiance_scale));
         }
-        let d = vec3<i32>(dir * (lum * len * params.radiance_scale));
-        for (var k = 0u; k < 3u; k++) {
-            atomicAdd(&radiance[v + 3u + k], bitcast<u32>(d[k]));
+        if (params.flags & MARCH_FLAG_DEPOSIT_DIRECTION) != 0u {
+            let d = vec3<i32>(dir * (lum * len * params.radiance_scale));
+            for (var k = 0u; k < 3u; k++) {
+                atomicAdd(&radiance[v + 3u + k], bitcast<u32>(d[k]));
+            }
         }
     }
 }

@@ -90,6 +90,19 @@ fn scene_source(name: &str, opts: &BenchOptions, detail: u32) -> Result<(String,
     Ok((source, allow))
 }
 
+/// A scene to benchmark: a built-in one by name, or a scene file (`examples/default.lua`) as it
+/// is. The folder holds a built-in scene's source while it runs.
+fn open_scene(name: &str, opts: &BenchOptions) -> Result<(SceneSource, Option<tempfile::TempDir>)> {
+    let path = Path::new(name);
+    if path.extension().is_some_and(|e| e == "lua") {
+        let scene = SceneSource::load(path, &[], &Limits::default()).with_context(|| format!("bench scene {name}"))?;
+        return Ok((scene, None));
+    }
+    let (source, allow) = scene_source(name, opts, SEED_DETAIL)?;
+    let (scene, dir) = load_scene(name, &source, &allow)?;
+    Ok((scene, Some(dir)))
+}
+
 /// Settings `--quick` shrinks every scene to.
 fn quick_eval() -> EvalOptions {
     EvalOptions { size: Some((96, 54)), resolution: Some(32), photons: Some(4_000), samples: Some(1), ..Default::default() }
@@ -286,8 +299,7 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
     let mut quality = Value::Null;
     let mut sweep = Value::Null;
     for name in &opts.scenes {
-        let (source, allow) = scene_source(name, opts, SEED_DETAIL)?;
-        let (mut scene, _dir) = load_scene(name, &source, &allow)?;
+        let (mut scene, _dir) = open_scene(name, opts)?;
         let eval = if opts.quick { quick_eval() } else { EvalOptions::default() };
         if let Some(why) = beyond_adapter(&renderer, &mut scene, &eval)? {
             scenes.push(json!({ "name": name, "skipped": why }));

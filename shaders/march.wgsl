@@ -55,18 +55,40 @@ const STAT_SATURATED: u32 = 12u;
 // A 64-bit count of the integration steps all photons took (benchmarks: photon-steps/s).
 const STAT_STEPS: u32 = 13u;
 
+const STAT_COUNT: u32 = 14u;
+
 const FIXED_SATURATION: u32 = 0x80000000u;
+
+// The statistics of this workgroup's photons, as (low, high) word pairs like `stats`. Every
+// photon adds to the same few counters, so adding each straight to `stats` would queue all of a
+// frame's photons on a dozen global words; photons add here instead (workgroup memory, which
+// wgpu zero-initializes), and one thread per counter adds the workgroup's total to `stats`.
+var<workgroup> workgroup_stats: array<atomic<u32>, 28>;
 
 fn to_fixed(value: f32, scale: f32) -> u32 {
     return u32(clamp(value * scale, 0.0, 1073741823.0));
 }
 
-// Adds v to the 64-bit counter `stat` (words 2·stat, 2·stat + 1): the carry is exact because
-// atomicAdd returns the value it added to.
+// Adds v to the workgroup's 64-bit counter `stat` (words 2·stat, 2·stat + 1): the carry is
+// exact because atomicAdd returns the value it added to.
 fn stat_add(stat: u32, v: u32) {
-    let old = atomicAdd(&stats[2u * stat], v);
+    let old = atomicAdd(&workgroup_stats[2u * stat], v);
     if old + v < old {
-        atomicAdd(&stats[2u * stat + 1u], 1u);
+        atomicAdd(&workgroup_stats[2u * stat + 1u], 1u);
+    }
+}
+
+// Adds the workgroup's counter `stat` to the frame's, carrying into the high word the same way.
+fn stat_flush(stat: u32) {
+    let low = atomicLoad(&workgroup_stats[2u * stat]);
+    let high = atomicLoad(&workgroup_stats[2u * stat + 1u]);
+    var carry = 0u;
+    if low != 0u {
+        let old = atomicAdd(&stats[2u * stat], low);
+        carry = select(0u, 1u, old + low < old);
+    }
+    if high + carry != 0u {
+        atomicAdd(&stats[2u * stat + 1u], high + carry);
     }
 }
 
@@ -115,9 +137,11 @@ fn deposit_segment(a: vec3<f32>, b: vec3<f32>, flux: vec3<f32>) {
         for (var k = 0u; k < 3u; k++) {
             add_radiance(v + k, to_fixed(rel[k] * len, params.radiance_scale));
         }
-        let d = vec3<i32>(dir * (lum * len * params.radiance_scale));
-        for (var k = 0u; k < 3u; k++) {
-            atomicAdd(&radiance[v + 3u + k], bitcast<u32>(d[k]));
+        if (params.flags & MARCH_FLAG_DEPOSIT_DIRECTION) != 0u {
+            let d = vec3<i32>(dir * (lum * len * params.radiance_scale));
+            for (var k = 0u; k < 3u; k++) {
+                atomicAdd(&radiance[v + 3u + k], bitcast<u32>(d[k]));
+            }
         }
     }
 }
@@ -241,17 +265,23 @@ fn march_photon(photon: Photon) -> u32 {
 }
 
 @compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+fn main(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(local_invocation_index) lane: u32,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
     // Dispatched as a 2D grid of workgroups when there are more than 65 535 of them.
     let i = id.x + id.y * groups.x * 64u;
-    if i >= params.photon_count {
-        return;
+    if i < params.photon_count {
+        let photon = photons[i];
+        if photon.flags != 0u {
+            stat_add(STAT_STEPS, march_photon(photon));
+        }
     }
-    let photon = photons[i];
-    if photon.flags == 0u {
-        return;
+    workgroupBarrier();
+    if lane < STAT_COUNT {
+        stat_flush(lane);
     }
-    stat_add(STAT_STEPS, march_photon(photon));
 }
 
 // Fluence (W/m²) and mean photon direction per voxel, for the view pass's in-scattering.

@@ -43,7 +43,7 @@ enum Command {
 
 #[derive(Args)]
 struct BenchArgs {
-    /// Built-in scenes to run: seed, heavy, grin.
+    /// Scenes to run: built-in ones (seed, heavy, grin) or scene files (examples/default.lua).
     #[arg(long, value_delimiter = ',', default_value = "seed,heavy,grin")]
     scenes: Vec<String>,
     /// Tiny sizes and three frames (a smoke test for CPU adapters and CI).

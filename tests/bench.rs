@@ -46,3 +46,17 @@ fn quick_bench_emits_complete_json() {
     positive(&scenes[0]["stages_ms"]["voxelize.meshes"]["median"], "seed mesh voxelization");
     assert!(scenes[0]["settings"]["triangles"].as_u64().unwrap() > 4000);
 }
+
+#[test]
+fn a_scene_file_can_be_benchmarked() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/default.lua");
+    let out = Command::new(env!("CARGO_BIN_EXE_refrakt")).args(["bench", "--quick", "--scenes", scene]).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let s = &report["scenes"][0];
+    assert_eq!(s["name"], scene);
+    positive(&s["gpu_ms"]["median"], "default.lua gpu_ms");
+    // The default scene has no lights: no photon stages ran.
+    assert!(s["stages_ms"]["march"].is_null(), "{s}");
+    positive(&s["stages_ms"]["view"]["median"], "default.lua view");
+}

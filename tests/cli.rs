@@ -98,6 +98,28 @@ fn volume_beyond_the_adapter_is_refused_before_allocating() {
     assert_clean_failure(code, &err, &["lower the volume resolution"]);
 }
 
+/// The octree (16 bytes per cell over all levels) is the volume's largest buffer; a volume
+/// whose octree outgrows what the adapter binds at once must be refused with the message, not
+/// end in a GPU validation error. (On lavapipe, 128 MiB: about 205³.)
+#[test]
+fn volume_whose_octree_outgrows_one_binding_is_refused() {
+    let ctx = refrakt::gpu::GpuContext::new(None).unwrap();
+    let binding = ctx.limits.max_storage_buffer_binding_size.min(ctx.limits.max_buffer_size);
+    let fits = |n: u32| refrakt::pipeline::resources::Grids::largest_binding(glam::UVec3::splat(n)) <= binding;
+    let Some(n) = (64..=ctx.limits.max_texture_dimension_3d.min(2048)).find(|&n| !fits(n)) else {
+        eprintln!("this adapter binds every volume its 3D textures allow; nothing to refuse here");
+        return;
+    };
+    // A cube of side n voxels: a box-shaped volume fixed by the script.
+    let src = format!(
+        "local r = require(\"refrakt\")\nlocal scene = r.scene{{ volume = {{ resolution = {n}, min = {{-1, -1, -1}}, max = {{1, 1, 1}} }} }}\n\
+         scene:add(r.node{{ shape = r.luneburg{{ radius = 0.5 }} }})\nreturn scene\n"
+    );
+    let (code, err) = render_script(&src, &[]);
+    assert_clean_failure(code, &err, &["binds at once", "lower the volume resolution"]);
+    assert!(!err.contains("Validation Error"), "{err}");
+}
+
 #[test]
 fn bad_command_line_values_are_usage_errors() {
     let (code, _, err) = refrakt(&["render", "x.lua", "--size", "0x10"]);

@@ -68,8 +68,12 @@ fn load_scene(name: &str, source: &str, allow_read: &[PathBuf]) -> Result<(Scene
     Ok((SceneSource::load(&path, allow_read, &Limits::default())?, dir))
 }
 
-/// The source of built-in scene `name` with the bench's substitutions.
-fn scene_source(name: &str, opts: &BenchOptions) -> Result<(String, Vec<PathBuf>)> {
+/// Subdivision of `seed`'s procedural pebble: 20·16² = 5120 triangles, the seed's ~5k.
+const SEED_DETAIL: u32 = 16;
+
+/// The source of built-in scene `name` with the bench's substitutions (`seed`'s pebble made with
+/// `detail`).
+fn scene_source(name: &str, opts: &BenchOptions, detail: u32) -> Result<(String, Vec<PathBuf>)> {
     let (_, source, _) = SCENES.iter().find(|s| s.0 == name).ok_or_else(|| {
         anyhow!("no built-in scene \"{name}\" (scenes: {})", SCENES.iter().map(|s| s.0).collect::<Vec<_>>().join(", "))
     })?;
@@ -82,7 +86,21 @@ fn scene_source(name: &str, opts: &BenchOptions) -> Result<(String, Vec<PathBuf>
             mesh = m.display().to_string();
         }
     }
-    Ok((source.replace("@MESH@", &mesh.replace('\\', "\\\\").replace('"', "\\\"")), allow))
+    let source = source.replace("@MESH@", &mesh.replace('\\', "\\\\").replace('"', "\\\"")).replace("@DETAIL@", &detail.to_string());
+    Ok((source, allow))
+}
+
+/// A scene to benchmark: a built-in one by name, or a scene file (`examples/default.lua`) as it
+/// is. The folder holds a built-in scene's source while it runs.
+fn open_scene(name: &str, opts: &BenchOptions) -> Result<(SceneSource, Option<tempfile::TempDir>)> {
+    let path = Path::new(name);
+    if path.extension().is_some_and(|e| e == "lua") {
+        let scene = SceneSource::load(path, &[], &Limits::default()).with_context(|| format!("bench scene {name}"))?;
+        return Ok((scene, None));
+    }
+    let (source, allow) = scene_source(name, opts, SEED_DETAIL)?;
+    let (scene, dir) = load_scene(name, &source, &allow)?;
+    Ok((scene, Some(dir)))
 }
 
 /// Settings `--quick` shrinks every scene to.
@@ -129,6 +147,13 @@ fn run_scene(renderer: &mut Renderer, source: &mut SceneSource, eval: &EvalOptio
         run.desc = desc;
     }
     Ok(run)
+}
+
+/// Why the adapter cannot render a scene at these settings (its limits), if it cannot: such a
+/// scene or sweep point is reported as skipped rather than ending the benchmark.
+fn beyond_adapter(renderer: &Renderer, source: &mut SceneSource, eval: &EvalOptions) -> Result<Option<String>> {
+    let desc = source.frame_desc(0.0, eval)?;
+    Ok(renderer.check_limits(&desc).err().map(|e| format!("{e:#}")))
 }
 
 fn median(v: &[f64]) -> f64 {
@@ -194,8 +219,19 @@ fn quality_curve(renderer: &mut Renderer, source: &mut SceneSource, eval: &EvalO
     Ok(json!({ "reference_photons": base * 64, "points": points }))
 }
 
-/// How each stage's time grows with one setting of `seed` (the others at their seed values).
-fn scaling(renderer: &mut Renderer, source: &mut SceneSource, base: &EvalOptions, frames: u32) -> Result<Value> {
+/// One row of a scaling sweep: the settings and each stage's median time.
+fn scaling_row(what: &str, run: &SceneRun) -> Value {
+    json!({
+        "sweep": what,
+        "settings": settings_json(&run.desc),
+        "stages_ms": run.stages.iter().map(|(k, v)| (k.to_string(), median(v))).collect::<BTreeMap<_, _>>(),
+        "gpu_ms": median(&run.gpu),
+    })
+}
+
+/// How each stage's time grows with one setting of `seed` (the others at their seed values):
+/// photons, volume resolution, image size, and the triangle count of the procedural pebble.
+fn scaling(renderer: &mut Renderer, source: &mut SceneSource, base: &EvalOptions, frames: u32, opts: &BenchOptions) -> Result<Value> {
     let mut rows = Vec::new();
     let sweeps: Vec<(&str, Vec<EvalOptions>)> = vec![
         ("photons", [17_500u32, 35_000, 70_000, 140_000, 280_000, 1_000_000].iter().map(|&p| EvalOptions { photons: Some(p), ..base.clone() }).collect()),
@@ -204,14 +240,21 @@ fn scaling(renderer: &mut Renderer, source: &mut SceneSource, base: &EvalOptions
     ];
     for (what, options) in sweeps {
         for o in options {
+            if let Some(why) = beyond_adapter(renderer, source, &o)? {
+                rows.push(json!({ "sweep": what, "settings": settings_json(&source.frame_desc(0.0, &o)?), "skipped": why }));
+                continue;
+            }
             let run = run_scene(renderer, source, &o, frames, 24.0)?;
-            rows.push(json!({
-                "sweep": what,
-                "settings": settings_json(&run.desc),
-                "stages_ms": run.stages.iter().map(|(k, v)| (k.to_string(), median(v))).collect::<BTreeMap<_, _>>(),
-                "gpu_ms": median(&run.gpu),
-            }));
+            rows.push(scaling_row(what, &run));
         }
+    }
+    // Triangles: 20·detail² of them, from 1280 to 328k (always the pebble, even with --mesh).
+    let pebble = BenchOptions { mesh: None, ..opts.clone() };
+    for detail in [8u32, 16, 32, 64, 128] {
+        let (text, allow) = scene_source("seed", &pebble, detail)?;
+        let (mut scene, _dir) = load_scene("seed", &text, &allow)?;
+        let run = run_scene(renderer, &mut scene, base, frames, 24.0)?;
+        rows.push(scaling_row("triangles", &run));
     }
     Ok(Value::Array(rows))
 }
@@ -227,7 +270,12 @@ fn voxelize_meshes(renderer: &mut Renderer, bunny: Option<&Path>, runs: u32) -> 
     cases.push(("blob-100k", Arc::new(mesh::blob(0.5, 0.15, 1, 71)), 256));
     let mut out = Vec::new();
     for (name, m, resolution) in cases {
-        if let Some(t) = crate::pipeline::voxelize_mesh::benchmark(renderer, m, resolution, runs)? {
+        let desc = crate::pipeline::voxelize_mesh::benchmark_frame(m, resolution)?;
+        if let Err(why) = renderer.check_limits(&desc) {
+            out.push(json!({ "mesh": name, "resolution": resolution, "skipped": format!("{why:#}") }));
+            continue;
+        }
+        if let Some(t) = crate::pipeline::voxelize_mesh::benchmark(renderer, &desc, runs)? {
             out.push(json!({
                 "mesh": name, "triangles": t.triangles, "volume": [t.dims.x, t.dims.y, t.dims.z],
                 "meshes_ms": t.meshes_ms, "composite_ms": t.composite_ms, "voxelize_ms": t.meshes_ms + t.composite_ms,
@@ -251,9 +299,12 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
     let mut quality = Value::Null;
     let mut sweep = Value::Null;
     for name in &opts.scenes {
-        let (source, allow) = scene_source(name, opts)?;
-        let (mut scene, _dir) = load_scene(name, &source, &allow)?;
+        let (mut scene, _dir) = open_scene(name, opts)?;
         let eval = if opts.quick { quick_eval() } else { EvalOptions::default() };
+        if let Some(why) = beyond_adapter(&renderer, &mut scene, &eval)? {
+            scenes.push(json!({ "name": name, "skipped": why }));
+            continue;
+        }
         let run = run_scene(&mut renderer, &mut scene, &eval, frames, 24.0)?;
         if roof.is_none() {
             roof = Some(roofline::measure(&mut renderer, 3)?);
@@ -272,7 +323,7 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
             quality = quality_curve(&mut renderer, &mut scene, &eval, run.desc.photons)?;
         }
         if name == "seed" && opts.scaling {
-            sweep = scaling(&mut renderer, &mut scene, &eval, frames.min(5))?;
+            sweep = scaling(&mut renderer, &mut scene, &eval, frames.min(5), opts)?;
         }
     }
     let voxelize = if opts.quick { Value::Null } else { voxelize_meshes(&mut renderer, opts.mesh.as_deref(), 5)? };

@@ -17,7 +17,7 @@ local shape
 if mesh_file ~= "" then
   shape = r.mesh{ file = mesh_file }
 else
-  shape = r.blob{ radius = 0.07, detail = 16 }
+  shape = r.blob{ radius = 0.07, detail = @DETAIL@ }
 end
 -- The object turns about its own vertical axis; a mesh from a file is centred on it first.
 local object = scene:add(r.node{ name = "object" })

@@ -25,6 +25,13 @@ impl Staging {
     /// Maps the first `len` bytes (after the submission that filled them), copies them out and
     /// unmaps.
     pub fn read(&self, ctx: &GpuContext, len: u64) -> Result<Vec<u8>> {
+        self.read_with(ctx, len, <[u8]>::to_vec)
+    }
+
+    /// Maps the first `len` bytes (after the submission that filled them), hands them to `f` in
+    /// place and unmaps — for large results (the frame) that `f` converts anyway, so they are not
+    /// first copied whole.
+    pub fn read_with<T>(&self, ctx: &GpuContext, len: u64, f: impl FnOnce(&[u8]) -> T) -> Result<T> {
         let len = len.next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT).min(self.size);
         let (tx, rx) = std::sync::mpsc::channel();
         self.buffer.map_async(wgpu::MapMode::Read, ..len, move |r| {
@@ -36,12 +43,12 @@ impl Staging {
         rx.recv()
             .map_err(|_| anyhow!("the GPU readback was dropped"))?
             .map_err(|e| anyhow!("mapping a GPU buffer for reading failed: {e}"))?;
-        let bytes = {
+        let out = {
             let view = self.buffer.get_mapped_range(..len).map_err(|e| anyhow!("{e}"))?;
-            view.to_vec()
+            f(&view)
         };
         self.buffer.unmap();
-        Ok(bytes)
+        Ok(out)
     }
 }
 

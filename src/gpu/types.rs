@@ -426,6 +426,9 @@ pub mod view_flags {
 pub mod march_flags {
     /// Deposit flux along paths into the radiance grid (only needed when something scatters).
     pub const DEPOSIT_RADIANCE: u32 = 1;
+    /// Also deposit the photons' mean direction (only needed when a scattering medium is
+    /// anisotropic, g ≠ 0: an isotropic phase function does not look at it). Half the atomics.
+    pub const DEPOSIT_DIRECTION: u32 = 2;
 }
 
 /// Light kinds (`LightGpu::kind`).

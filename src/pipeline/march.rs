@@ -95,7 +95,10 @@ impl March {
     }
 
     /// The march's uniforms for a frame.
-    pub fn params(grids: &Grids, photons: u32, flux_unit: f32, deposit: bool, receiver_count: u32, headroom: f32) -> MarchParams {
+    /// The march's uniforms. `deposit`: fill the radiance grid; `directional`: with the photons'
+    /// mean direction too (an anisotropic medium needs it).
+    #[allow(clippy::too_many_arguments)]
+    pub fn params(grids: &Grids, photons: u32, flux_unit: f32, deposit: bool, directional: bool, receiver_count: u32, headroom: f32) -> MarchParams {
         let grid = grids.octree_layout.grid;
         let diagonal = (glam::UVec3::from(grid.dims).as_vec3().length() + 1.0) * grid.voxel_size;
         let min_step = 0.5 * grid.voxel_size;
@@ -109,7 +112,11 @@ impl March {
             radiance_scale: radiance_scale(photons, headroom),
             flux_scale: flux_scale(photons, headroom),
             flux_unit,
-            flags: if deposit { march_flags::DEPOSIT_RADIANCE } else { 0 },
+            flags: match (deposit, directional) {
+                (false, _) => 0,
+                (true, false) => march_flags::DEPOSIT_RADIANCE,
+                (true, true) => march_flags::DEPOSIT_RADIANCE | march_flags::DEPOSIT_DIRECTION,
+            },
             eps_refract: EPS_REFRACT,
             receiver_count,
             ..Default::default()

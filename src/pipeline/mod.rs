@@ -215,9 +215,10 @@ impl Renderer {
                 dims.x, dims.y, dims.z, l.max_texture_dimension_3d
             );
         }
-        // The radiance grid's deposits are the largest buffer: 24 bytes per voxel.
-        let per_voxel = if needs_scattering(desc) { 24 } else { 4 };
-        let grid_bytes = desc.volume.voxel_count() * per_voxel;
+        // The largest buffers bound at once: the octree (16 bytes per cell) and, with a
+        // scattering medium, the radiance grid's deposits (24 bytes per voxel).
+        let deposits = if needs_scattering(desc) { desc.volume.voxel_count() * 24 } else { 0 };
+        let grid_bytes = Grids::largest_binding(dims).max(deposits);
         if grid_bytes > binding {
             bail!(
                 "the volume's {}×{}×{} voxels need {} MiB in one buffer, more than the {} MiB the adapter \"{name}\" \
@@ -349,7 +350,7 @@ impl Renderer {
             self.target.as_ref().expect("prepared"),
         );
         let march_params =
-            march::March::params(grids, desc.photons, flux_unit, deposit, desc.receivers.len() as u32, self.settings.fixed_point_headroom);
+            march::March::params(grids, desc.photons, flux_unit, deposit, anisotropic_scattering(desc), desc.receivers.len() as u32, self.settings.fixed_point_headroom);
         self.profiler.begin_frame();
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         let work = self.voxelize.encode(&self.ctx, &mut enc, &mut self.profiler, desc, grids)?; // fields, meshes → index_field, extinction_grid, scattering_grid
@@ -458,11 +459,23 @@ impl Renderer {
     }
 }
 
+/// The scattering coefficient and phase anisotropy g of every medium in the frame: the fog, then
+/// each field and mesh.
+fn scattering_media(desc: &FrameDesc) -> impl Iterator<Item = (glam::Vec3, f32)> + '_ {
+    let fog = desc.fog.iter().map(|f| (f.scattering, f.g));
+    let fields = desc.fields.iter().map(|f| (f.scattering, f.g));
+    fog.chain(fields).chain(desc.meshes.iter().map(|m| (m.glass.scattering, m.glass.g)))
+}
+
 /// Whether anything in the frame scatters light (fog, or a medium with a scattering color).
 pub fn needs_scattering(desc: &FrameDesc) -> bool {
-    desc.fog.is_some_and(|f| f.scattering.max_element() > 0.0)
-        || desc.fields.iter().any(|f| f.scattering.max_element() > 0.0)
-        || desc.meshes.iter().any(|m| m.glass.scattering.max_element() > 0.0)
+    scattering_media(desc).any(|(sigma, _)| sigma.max_element() > 0.0)
+}
+
+/// Whether a scattering medium in the frame has a non-isotropic phase function (g ≠ 0), so the
+/// view pass needs the photons' mean direction per voxel.
+pub fn anisotropic_scattering(desc: &FrameDesc) -> bool {
+    scattering_media(desc).any(|(sigma, g)| sigma.max_element() > 0.0 && g != 0.0)
 }
 
 /// Bind group layout entries, spelled once.

@@ -27,7 +27,9 @@ pub fn layout_for(grid: GridParams) -> OctreeParams {
     let mut count = 0;
     while count < MAX_LEVELS {
         levels[count] = [dims.x, dims.y, dims.z, offset];
-        offset += dims.x * dims.y * dims.z;
+        // Saturating: a grid too large for u32 offsets is far beyond what any adapter binds,
+        // and `Renderer::check_limits` refuses it by its byte size before it is used.
+        offset = offset.saturating_add(dims.x.saturating_mul(dims.y).saturating_mul(dims.z));
         count += 1;
         if dims == UVec3::ONE {
             break;

@@ -18,8 +18,10 @@ use crate::gpu::types::{BvhNode, BvhTriangle, Chart, ReceiverGpu};
 
 /// Texels along the longest side of one chart, at most.
 pub const MAX_CHART_SIDE: f32 = 2048.0;
-/// Texels over all charts, at most (16 bytes each in three buffers).
-pub const MAX_ATLAS_TEXELS: f32 = 8.0 * 1024.0 * 1024.0;
+/// Texels over all charts, at most (16 bytes each in three buffers). 7.5 Mi texels, so that an
+/// atlas — with the percent or so that rounding chart sizes up may add — stays under the
+/// 128 MiB one binding may hold on many adapters (lavapipe, WebGPU's defaults).
+pub const MAX_ATLAS_TEXELS: f32 = 7.5 * 1024.0 * 1024.0;
 
 /// Chart slot of a direction: 2·axis + (0 for +, 1 for −); dominant-axis ties resolve to x,
 /// then y, exactly as `chart_for` in WGSL.
@@ -112,19 +114,18 @@ pub fn layout(receivers: &[Receiver], texel: f32) -> ReceiverLayout {
         }
     }
     let bvh = Bvh::build(triangles);
-    // Grow the texel where one chart would be too long, then everywhere if the atlas is too big.
-    let texel_for = |lo: Vec2, hi: Vec2, base: f32| base.max((hi - lo).max_element() / MAX_CHART_SIDE);
-    let count = |base: f32| -> f32 {
-        extents.iter().flatten().flatten().map(|&(lo, hi)| {
-            let t = texel_for(lo, hi, base);
-            ((hi - lo) / t + 2.0).ceil().element_product()
-        }).sum()
-    };
-    let mut base = texel.max(1e-6);
-    let total = count(base);
-    if total > MAX_ATLAS_TEXELS {
-        base *= (total / MAX_ATLAS_TEXELS).sqrt() * 1.01;
-    }
+    // Grow the texel where one chart would be too long, then every chart's by one factor if the
+    // atlas is too big (growing only the wanted size would not shrink charts already capped).
+    let base = texel.max(1e-6);
+    let capped = |lo: Vec2, hi: Vec2| base.max((hi - lo).max_element() / MAX_CHART_SIDE);
+    let total: f32 = extents
+        .iter()
+        .flatten()
+        .flatten()
+        .map(|&(lo, hi)| ((hi - lo) / capped(lo, hi) + 2.0).ceil().element_product())
+        .sum();
+    let shrink = if total > MAX_ATLAS_TEXELS { (total / MAX_ATLAS_TEXELS).sqrt() * 1.01 } else { 1.0 };
+    let texel_for = |lo: Vec2, hi: Vec2| capped(lo, hi) * shrink;
     let mut charts = Vec::new();
     let mut table = Vec::with_capacity(receivers.len());
     let mut offset = 0u32;
@@ -135,7 +136,7 @@ pub fn layout(receivers: &[Receiver], texel: f32) -> ReceiverLayout {
         let mut slots = [-1i32; 12];
         for (slot, e) in extents[i].iter().enumerate() {
             let Some((lo, hi)) = *e else { continue };
-            let t = texel_for(lo, hi, base);
+            let t = texel_for(lo, hi);
             // One texel of margin on each side: deposits at the edge stay inside.
             let size = ((hi - lo) / t + 2.0).ceil().as_uvec2().max(glam::UVec2::ONE);
             slots[slot] = charts.len() as i32;

@@ -81,6 +81,14 @@ pub struct Grids {
 }
 
 impl Grids {
+    /// Bytes of the largest buffer the grids of a `dims` volume bind at once: the octree's
+    /// (16 bytes per cell over all its levels, about 8/7 of the dual grid's cells).
+    pub fn largest_binding(dims: UVec3) -> u64 {
+        let voxels = dims.x as u64 * dims.y as u64 * dims.z as u64;
+        let octree_layout = super::octree::layout_for(crate::gpu::types::GridParams { dims: dims.into(), ..Default::default() });
+        (super::octree::cell_count(&octree_layout) * 16).max(voxels * 4)
+    }
+
     pub fn new(ctx: &GpuContext, dims: UVec3) -> Result<Self> {
         let device = &ctx.device;
         let voxels = dims.x as u64 * dims.y as u64 * dims.z as u64;
@@ -235,23 +243,28 @@ impl FrameTarget {
     }
 
     /// The image after the submission with [`encode_readback`](Self::encode_readback) finished.
+    /// The planes are converted into layers straight from the mapped staging buffer: the frame is
+    /// the largest readback (80 bytes a pixel), and copying it whole first doubled its cost.
     pub fn read(&self, ctx: &GpuContext, slot: usize) -> Result<Image> {
-        let bytes = self.staging[slot].read(ctx, self.buffer.size())?;
-        let floats: &[f32] = bytemuck::cast_slice(&bytes);
         let n = (self.width * self.height) as usize;
-        let plane = |k: usize| &floats[4 * n * k..4 * n * (k + 1)];
-        let rgb = |k: usize| plane(k).chunks(4).flat_map(|c| [c[0], c[1], c[2]]).collect::<Vec<f32>>();
-        Ok(Image {
-            width: self.width,
-            height: self.height,
-            layers: vec![
+        let layers = self.staging[slot].read_with(ctx, self.buffer.size(), |bytes| {
+            let floats: &[f32] = bytemuck::cast_slice(bytes);
+            let plane = |k: usize| &floats[4 * n * k..4 * n * (k + 1)];
+            // (flat_map's size hint is unknown, so reserve the exact length up front)
+            let rgb = |k: usize| {
+                let mut out = Vec::with_capacity(3 * n);
+                out.extend(plane(k).chunks_exact(4).flat_map(|c| [c[0], c[1], c[2]]));
+                out
+            };
+            vec![
                 Layer::new("beauty", &["R", "G", "B", "A"], plane(0).to_vec()),
-                Layer::new("depth", &["Z"], plane(1).chunks(4).map(|c| c[0]).collect()),
+                Layer::new("depth", &["Z"], plane(1).chunks_exact(4).map(|c| c[0]).collect()),
                 Layer::new("caustic", &["R", "G", "B"], rgb(2)),
                 Layer::new("direct", &["R", "G", "B"], rgb(3)),
                 Layer::new("volume", &["R", "G", "B"], rgb(4)),
-            ],
-        })
+            ]
+        })?;
+        Ok(Image { width: self.width, height: self.height, layers })
     }
 }
 
@@ -309,16 +322,23 @@ impl GrowableBuffer {
     pub fn reserve(&mut self, ctx: &GpuContext, bytes: u64) -> bool {
         let grown = bytes > self.capacity;
         if grown {
-            *self = Self::new(&ctx.device, self.label, bytes.next_power_of_two());
+            *self = Self::new(&ctx.device, self.label, Self::grown_capacity(ctx, bytes));
         }
         grown
+    }
+
+    /// The next power of two above `bytes`, but no more than one binding may hold (when `bytes`
+    /// fits in one): rounding up must not be what makes a buffer unbindable.
+    fn grown_capacity(ctx: &GpuContext, bytes: u64) -> u64 {
+        let binding = ctx.limits.max_storage_buffer_binding_size.min(ctx.limits.max_buffer_size);
+        bytes.next_power_of_two().min(binding.max(bytes))
     }
 
     /// Uploads `bytes`; returns true when the buffer was reallocated (bind groups must be rebuilt).
     pub fn write(&mut self, ctx: &GpuContext, bytes: &[u8]) -> bool {
         let grown = bytes.len() as u64 > self.capacity;
         if grown {
-            *self = Self::new(&ctx.device, self.label, (bytes.len() as u64).next_power_of_two());
+            *self = Self::new(&ctx.device, self.label, Self::grown_capacity(ctx, bytes.len() as u64));
         }
         if !bytes.is_empty() {
             ctx.queue.write_buffer(&self.buffer, 0, bytes);

@@ -31,7 +31,7 @@ use glam::{DMat4, DVec3, IVec3, Mat4, UVec3, Vec3};
 
 use super::layout;
 use super::timing::Profiler;
-use crate::frame::{MeshInstance, VolumeDesc};
+use crate::frame::{FrameDesc, MeshInstance, VolumeDesc};
 use crate::gpu::GpuContext;
 use crate::gpu::readback;
 use crate::gpu::shaders::ShaderLibrary;
@@ -551,6 +551,18 @@ fn upload(ctx: &GpuContext, slot: &mut Slot, layout: &wgpu::BindGroupLayout, mes
     });
 }
 
+/// The frame [`benchmark`] voxelizes: `mesh` alone in glass, in a volume of `resolution` voxels
+/// along its longest side.
+pub fn benchmark_frame(mesh: Arc<MeshData>, resolution: u32) -> Result<FrameDesc> {
+    use crate::scene::{Glass, Material, Node, Scene, Shape, eval, shared};
+    let mut scene = Scene::default();
+    let mut node = Node::new("benchmark");
+    node.shape = Some(shared(Shape::Mesh { mesh, source: "benchmark".into(), boundary: None }));
+    node.material = Some(shared(Material::Glass(Glass::default())));
+    scene.roots.push(shared(node));
+    eval::evaluate(&scene, 0.0, &eval::EvalOptions { resolution: Some(resolution), ..Default::default() })
+}
+
 /// GPU time of the voxelize stage for one mesh, as [`benchmark`] measures it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct VoxelizeTiming {
@@ -564,24 +576,16 @@ pub struct VoxelizeTiming {
     pub composite_ms: f64,
 }
 
-/// Times the voxelize stage on one glass mesh in a volume fitted to it with `resolution`
-/// voxels along its longest side, computing the mesh's solid afresh in each of `runs` runs
-/// (`refrakt bench`). `None` when the adapter has no timestamp queries.
-pub fn benchmark(renderer: &mut super::Renderer, mesh: Arc<MeshData>, resolution: u32, runs: u32) -> Result<Option<VoxelizeTiming>> {
-    use crate::scene::{Glass, Material, Node, Scene, Shape, eval, shared};
-    let triangles = mesh.solid_triangles().len() as u32;
-    let mut scene = Scene::default();
-    let mut node = Node::new("benchmark");
-    node.shape = Some(shared(Shape::Mesh { mesh, source: "benchmark".into(), boundary: None }));
-    node.material = Some(shared(Material::Glass(Glass::default())));
-    scene.roots.push(shared(node));
-    let desc = eval::evaluate(&scene, 0.0, &eval::EvalOptions { resolution: Some(resolution), ..Default::default() })?;
+/// Times the voxelize stage on a [`benchmark_frame`], computing the meshes' solids afresh in
+/// each of `runs` runs (`refrakt bench`). `None` when the adapter has no timestamp queries.
+pub fn benchmark(renderer: &mut super::Renderer, desc: &FrameDesc, runs: u32) -> Result<Option<VoxelizeTiming>> {
+    let triangles = desc.meshes.iter().map(|m| m.mesh.solid_triangles().len() as u32).sum();
     let mut meshes = Vec::new();
     let mut composite = Vec::new();
     // One run first to allocate and compile; it is not counted.
     for run in 0..=runs {
         renderer.forget_mesh_voxels();
-        let passes = renderer.time_volume(&desc)?;
+        let passes = renderer.time_volume(desc)?;
         if passes.is_empty() {
             return Ok(None);
         }

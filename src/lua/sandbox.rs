@@ -37,7 +37,7 @@ pub struct FileAccess {
     pub base: PathBuf,
     /// Folders reads may come from (the base, plus `--allow-read` ones), canonical.
     pub roots: Vec<PathBuf>,
-    /// Every file the script read, in order, without repeats.
+    /// Every file the script read (or looked for and found missing), in order, without repeats.
     pub read: RefCell<Vec<PathBuf>>,
 }
 
@@ -57,6 +57,7 @@ impl FileAccess {
         let access = lua.app_data_ref::<FileAccess>().ok_or_else(|| error_at(lua, "file access is not available here"))?;
         let joined = access.base.join(given);
         let path = joined.canonicalize().map_err(|e| {
+            access.record_missing(&joined);
             error_at(lua, format!("cannot open \"{given}\" (looked for {}): {e}", joined.display()))
         })?;
         if !access.roots.iter().any(|r| path.starts_with(r)) {
@@ -71,6 +72,15 @@ impl FileAccess {
         }
         access.record(&path);
         Ok(path)
+    }
+
+    /// Records a file that was looked for and is missing, when its folder is one reads may
+    /// come from: creating it may fix the scene (`refrakt watch` watches it).
+    fn record_missing(&self, path: &Path) {
+        let (Some(dir), Some(name)) = (path.parent().and_then(|d| d.canonicalize().ok()), path.file_name()) else { return };
+        if self.roots.iter().any(|r| dir.starts_with(r)) {
+            self.record(&dir.join(name));
+        }
     }
 
     pub fn record(&self, path: &Path) {

@@ -51,15 +51,17 @@ fn quick_bench_emits_complete_json() {
     for key in ["size", "volume", "photons", "samples"] {
         assert!(!watch["settings"][key].is_null(), "watch_latency.settings.{key} missing");
     }
-    for edit in ["camera_edit", "object_edit"] {
-        for what in ["first_image_ms", "final_image_ms", "notice_to_final_ms"] {
-            positive(&watch[edit][what]["median"], &format!("{edit}.{what}.median"));
-            positive(&watch[edit][what]["p90"], &format!("{edit}.{what}.p90"));
+    for (mode, edits) in [("progressive", watch), ("without_fast_frame", &watch["without_fast_frame"])] {
+        for edit in ["camera_edit", "object_edit"] {
+            for what in ["first_image_ms", "final_image_ms", "notice_to_final_ms"] {
+                positive(&edits[edit][what]["median"], &format!("{mode} {edit}.{what}.median"));
+                positive(&edits[edit][what]["p90"], &format!("{mode} {edit}.{what}.p90"));
+            }
+            assert!(edits[edit]["photon_traces"].as_u64().is_some(), "{mode} {edit}.photon_traces missing");
         }
-        assert!(watch[edit]["photon_traces"].as_u64().is_some(), "{edit}.photon_traces missing");
+        assert_eq!(edits["camera_edit"]["volume_builds"], 0, "{mode}: a camera move reuses the volume");
+        positive(&edits["object_edit"]["volume_builds"], &format!("{mode}: an object edit builds the volume"));
     }
-    assert_eq!(watch["camera_edit"]["volume_builds"], 0, "a camera move reuses the volume");
-    positive(&watch["object_edit"]["volume_builds"], "an object edit builds the volume");
 
     // The seed and heavy scenes are meshes: mesh voxelization ran and was timed.
     positive(&scenes[0]["stages_ms"]["voxelize.meshes"]["median"], "seed mesh voxelization");

@@ -10,7 +10,8 @@
 //! - an object edit (the glass ball's absorption): the volume is built again.
 //!
 //! Each is timed from just before the rename to the moment the preview file was renamed into
-//! place: the first image (the fast frame, when there is one) and the final one.
+//! place: the first image (the fast frame, when there is one) and the final one; then all again
+//! with `--no-progressive` (the final frame alone, which then comes sooner).
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -80,13 +81,37 @@ impl Timings {
     }
 }
 
-/// Measures `edits` edits of each kind; the JSON of `bench`'s `watch_latency`.
+/// Measures `edits` edits of each kind, as users run `refrakt watch` (a fast frame first) and
+/// with `--no-progressive`; the JSON of `bench`'s `watch_latency`.
 pub fn measure(opts: &BenchOptions, eval: &EvalOptions, edits: u32) -> Result<Value> {
     for line in [CAMERA_LINE, BALL_LINE] {
         if !DEFAULT_SCENE.contains(line) {
             bail!("internal: examples/default.lua no longer contains `{line}`, which the latency benchmark edits");
         }
     }
+    let progressive = session(opts, eval, edits, true)?;
+    let single = session(opts, eval, edits, false)?;
+    Ok(json!({
+        "scene": "examples/default.lua",
+        "settings": progressive.settings,
+        "debounce_ms": watch::DEFAULT_DEBOUNCE.as_secs_f64() * 1e3,
+        "edits": edits,
+        "camera_edit": progressive.camera.json(),
+        "object_edit": progressive.object.json(),
+        "without_fast_frame": { "camera_edit": single.camera.json(), "object_edit": single.object.json() },
+    }))
+}
+
+/// What one watch session measured.
+struct Measured {
+    settings: Value,
+    camera: Timings,
+    object: Timings,
+}
+
+/// Copies the default scene to a temporary folder, watches it on a thread of its own, and times
+/// the edits.
+fn session(opts: &BenchOptions, eval: &EvalOptions, edits: u32, progressive: bool) -> Result<Measured> {
     let dir = tempfile::Builder::new().prefix("refrakt-bench-watch-").tempdir()?;
     let script = dir.path().join("default.lua");
     std::fs::write(&script, DEFAULT_SCENE)?;
@@ -101,13 +126,13 @@ pub fn measure(opts: &BenchOptions, eval: &EvalOptions, edits: u32) -> Result<Va
         adapter: opts.adapter.clone(),
         allow_read: Vec::new(),
         limits: Default::default(),
-        progressive: true,
+        progressive,
         debounce: watch::DEFAULT_DEBOUNCE,
     };
     let stop = Arc::new(AtomicBool::new(false));
     let (sender, heard) = channel();
     let thread = {
-        let (script, opts, stop) = (script.clone(), watch_opts.clone(), stop.clone());
+        let (script, opts, stop) = (script.clone(), watch_opts, stop.clone());
         std::thread::spawn(move || -> Result<()> {
             let renderer = Renderer::new(crate::gpu::GpuContext::new(opts.adapter.as_deref())?)?;
             watch::watch(&script, &opts, renderer, &mut Relay(sender), &stop)
@@ -118,14 +143,7 @@ pub fn measure(opts: &BenchOptions, eval: &EvalOptions, edits: u32) -> Result<Va
     let ended = thread.join().map_err(|_| anyhow!("the watch thread panicked"))?;
     let (camera, object) = measured?;
     ended?;
-    Ok(json!({
-        "scene": "examples/default.lua",
-        "settings": settings,
-        "debounce_ms": watch_opts.debounce.as_secs_f64() * 1e3,
-        "edits": edits,
-        "camera_edit": camera.json(),
-        "object_edit": object.json(),
-    }))
+    Ok(Measured { settings, camera, object })
 }
 
 /// Waits for the first frame, then times `edits` camera moves and `edits` object edits, in turn.

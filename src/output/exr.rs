@@ -25,8 +25,8 @@ pub fn write(image: &super::Image, path: &Path, compression: super::ExrCompressi
             channels.push(AnyChannel::new(Text::from(channel_name(&layer.name, name).as_str()), FlatSamples::F32(samples)));
         }
     }
-    let mut attributes = LayerAttributes::default();
-    attributes.software_name = Some(Text::from(concat!("refrakt ", env!("CARGO_PKG_VERSION"))));
+    let attributes =
+        LayerAttributes { software_name: Some(Text::from(concat!("refrakt ", env!("CARGO_PKG_VERSION")))), ..Default::default() };
     let encoding = match compression {
         super::ExrCompression::Small => Encoding::SMALL_LOSSLESS,
         super::ExrCompression::Fast => Encoding::FAST_LOSSLESS,

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use glam::{Mat4, Quat, UVec3, Vec2, Vec3};
 
 use crate::gpu::types::{self, field_kind};
-use crate::scene::{Diffuse, Environment, Glass, MeshData};
+use crate::scene::{Diffuse, Environment, EnvironmentSource, Glass, MeshData};
 
 /// The camera, resolved to world space.
 #[derive(Clone, Debug, PartialEq)]
@@ -301,10 +301,40 @@ impl FrameDesc {
         out
     }
 
+    /// Makes this frame share the meshes, sampled index fields and environment image of
+    /// `earlier` wherever they are equal in value. A script reloaded after an edit makes all of
+    /// them anew; shared again, the renderer sees them unchanged by identity, as it does between
+    /// frames of one run (unchanged meshes are not voxelized again, nor images uploaded again).
+    pub fn share_unchanged(&mut self, earlier: &FrameDesc) {
+        let meshes: Vec<&Arc<MeshData>> = earlier.meshes.iter().map(|m| &m.mesh).chain(earlier.receivers.iter().map(|r| &r.mesh)).collect();
+        for mesh in self.meshes.iter_mut().map(|m| &mut m.mesh).chain(self.receivers.iter_mut().map(|r| &mut r.mesh)) {
+            share_if_equal(mesh, &meshes);
+        }
+        let samples: Vec<&Arc<IndexSamples>> = earlier.fields.iter().filter_map(|f| match &f.kind {
+            FieldKind::Sampled(s) => Some(s),
+            _ => None,
+        }).collect();
+        for field in &mut self.fields {
+            if let FieldKind::Sampled(s) = &mut field.kind {
+                share_if_equal(s, &samples);
+            }
+        }
+        if let (EnvironmentSource::Image { image, .. }, Some(old)) = (&mut self.environment.source, earlier.environment.image()) {
+            share_if_equal(image, &[old]);
+        }
+    }
+
     /// Whether anything absorbs or scatters (so rays must sample the medium grids).
     pub fn has_media(&self) -> bool {
         self.fields.iter().any(FieldDesc::has_medium)
             || self.meshes.iter().any(|m| m.glass.absorption.max_element() > 0.0 || m.glass.scattering.max_element() > 0.0)
             || self.fog.is_some()
+    }
+}
+
+/// Replaces `value` by the first of `candidates` equal to it, so both are one shared `Arc`.
+fn share_if_equal<T: PartialEq>(value: &mut Arc<T>, candidates: &[&Arc<T>]) {
+    if let Some(same) = candidates.iter().find(|c| Arc::ptr_eq(c, value) || c.as_ref() == value.as_ref()) {
+        *value = Arc::clone(same);
     }
 }

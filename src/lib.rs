@@ -18,3 +18,4 @@ pub mod pipeline;
 pub mod progress;
 pub mod render;
 pub mod scene;
+pub mod watch;

@@ -14,6 +14,7 @@ use refrakt::output::png::{PngOptions, ToneMap};
 use refrakt::progress::ProgressMode;
 use refrakt::render::{self, FrameRange, RenderOptions};
 use refrakt::scene::eval::EvalOptions;
+use refrakt::watch::{self, Moment, WatchOptions};
 
 #[derive(Parser)]
 #[command(name = "refrakt", version, about = "Render glass, water and gradient-index media with their caustics, on the GPU")]
@@ -29,9 +30,11 @@ struct Cli {
 enum Command {
     /// Render a scene (a .lua script or a .gltf/.glb file) to EXR/PNG frames.
     Render(Box<RenderArgs>),
+    /// Render a scene to a preview file, and again on every save of a file it read.
+    Watch(Box<WatchArgs>),
     /// Print the evaluated scene of each frame as one line of JSON (nodes, camera, lights,
     /// materials, volume); no GPU needed. Schema in docs/gltf.md.
-    Dump(Box<SceneArgs>),
+    Dump(Box<DumpArgs>),
     /// Show the GPU adapter refrakt would use, its limits, and why it was chosen.
     Info {
         #[command(flatten)]
@@ -43,7 +46,9 @@ enum Command {
 
 #[derive(Args)]
 struct BenchArgs {
-    /// Scenes to run: built-in ones (seed, heavy, grin) or scene files (examples/default.lua).
+    /// Scenes to run: built-in ones (seed, heavy, grin) or scene files (examples/default.lua);
+    /// `watch` measures `refrakt watch`'s edit-to-image latency on examples/default.lua (up to
+    /// 10 edits of each kind, --frames).
     #[arg(long, value_delimiter = ',', default_value = "seed,heavy,grin")]
     scenes: Vec<String>,
     /// Tiny sizes and three frames (a smoke test for CPU adapters and CI).
@@ -78,20 +83,12 @@ struct GpuArgs {
     adapter: Option<String>,
 }
 
-/// What picks the scene and the frames: shared by `render` and `dump`.
+/// How to evaluate a scene: shared by `render`, `watch` and `dump`.
 #[derive(Args)]
 struct SceneArgs {
-    /// The scene: a .lua script, or a .gltf/.glb file (rendered with its own cameras, lights and materials).
-    scene: PathBuf,
-    /// Frames to render, e.g. 1..48 (inclusive); frame k is the scene at t = k / fps.
-    #[arg(long, value_name = "A..B")]
-    frames: Option<FrameRange>,
     /// Frames per second of the scene clock.
     #[arg(long, default_value_t = 24.0)]
     fps: f64,
-    /// Render a still of the scene at this time, seconds (what frame k of --frames shows at k / fps).
-    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, conflicts_with = "frames", allow_hyphen_values = true)]
-    time: f64,
     /// Image size, overriding the camera's, e.g. 1920x1080.
     #[arg(long, value_name = "WxH", value_parser = parse_size)]
     size: Option<(u32, u32)>,
@@ -124,10 +121,32 @@ struct SceneArgs {
     script_memory: usize,
 }
 
+/// How frames come out: shared by `render` and `watch`.
+#[derive(Args)]
+struct OutputArgs {
+    /// PNG exposure in stops.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    exposure: f32,
+    /// PNG tone mapping.
+    #[arg(long, value_enum, default_value_t = ToneMap::Neutral)]
+    tonemap: ToneMap,
+    /// How to show progress.
+    #[arg(long, value_enum, default_value_t = ProgressMode::Auto)]
+    progress: ProgressMode,
+    #[command(flatten)]
+    gpu: GpuArgs,
+}
+
 #[derive(Args)]
 struct RenderArgs {
-    #[command(flatten)]
-    scene: SceneArgs,
+    /// The scene: a .lua script, or a .gltf/.glb file (rendered with its own cameras, lights and materials).
+    scene: PathBuf,
+    /// Frames to render, e.g. 1..48 (inclusive); frame k is the scene at t = k / fps.
+    #[arg(long, value_name = "A..B")]
+    frames: Option<FrameRange>,
+    /// Render a still of the scene at this time, seconds (what frame k of --frames shows at k / fps).
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, conflicts_with = "frames", allow_hyphen_values = true)]
+    time: f64,
     /// Folder for the frames.
     #[arg(long, short, default_value = "render", value_name = "DIR")]
     out: PathBuf,
@@ -137,53 +156,117 @@ struct RenderArgs {
     /// Output formats, comma separated.
     #[arg(long, value_delimiter = ',', default_value = "exr,png")]
     format: Vec<Format>,
-    /// PNG exposure in stops.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    exposure: f32,
-    /// PNG tone mapping.
-    #[arg(long, value_enum, default_value_t = ToneMap::Neutral)]
-    tonemap: ToneMap,
     /// Skip frames whose files all exist (resume an interrupted render).
     #[arg(long)]
     skip_existing: bool,
-    /// How to show progress.
-    #[arg(long, value_enum, default_value_t = ProgressMode::Auto)]
-    progress: ProgressMode,
     #[command(flatten)]
-    gpu: GpuArgs,
+    scene_args: SceneArgs,
+    #[command(flatten)]
+    output: OutputArgs,
 }
 
-/// The options `render` and `dump` share, checked; render-only ones at their defaults.
-fn scene_options(a: SceneArgs) -> Result<(PathBuf, RenderOptions)> {
-    if !(a.fps.is_finite() && a.fps > 0.0) {
-        anyhow::bail!("--fps must be a positive number, got {}", a.fps);
+#[derive(Args)]
+struct WatchArgs {
+    /// The scene: a .lua script, or a .gltf/.glb file.
+    scene: PathBuf,
+    /// The preview file, .exr or .png, replaced by each new frame [default: render/<name>.preview.exr].
+    #[arg(long, short, value_name = "FILE")]
+    out: Option<PathBuf>,
+    /// Preview frame K (the scene at t = K / fps).
+    #[arg(long, value_name = "K", conflicts_with_all = ["time", "frames"])]
+    frame: Option<i64>,
+    /// Preview the scene at this time, seconds [default: 0].
+    #[arg(long, value_name = "SECONDS", conflicts_with = "frames", allow_hyphen_values = true)]
+    time: Option<f64>,
+    /// Render these frames into the preview, one after another, after each change.
+    #[arg(long, value_name = "A..B")]
+    frames: Option<FrameRange>,
+    /// Keep rendering the --frames range round and round.
+    #[arg(long = "loop", requires = "frames")]
+    looping: bool,
+    /// Render only the full frame after a change (no fast frame first).
+    #[arg(long)]
+    no_progressive: bool,
+    /// Milliseconds a file must stay unchanged before a change to it is taken.
+    #[arg(long, value_name = "MS", default_value_t = refrakt::watch::DEFAULT_DEBOUNCE.as_millis() as u64)]
+    debounce: u64,
+    #[command(flatten)]
+    scene_args: SceneArgs,
+    #[command(flatten)]
+    output: OutputArgs,
+}
+
+#[derive(Args)]
+struct DumpArgs {
+    /// The scene: a .lua script, or a .gltf/.glb file.
+    scene: PathBuf,
+    /// Frames to dump, e.g. 1..48 (inclusive); frame k is the scene at t = k / fps.
+    #[arg(long, value_name = "A..B")]
+    frames: Option<FrameRange>,
+    /// Dump the scene at this time, seconds.
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, conflicts_with = "frames", allow_hyphen_values = true)]
+    time: f64,
+    #[command(flatten)]
+    scene_args: SceneArgs,
+}
+
+impl SceneArgs {
+    fn check(&self) -> Result<()> {
+        if !(self.fps.is_finite() && self.fps > 0.0) {
+            anyhow::bail!("--fps must be a positive number, got {}", self.fps);
+        }
+        if !(self.script_timeout.is_finite() && self.script_timeout > 0.0) {
+            anyhow::bail!("--script-timeout must be a positive number of seconds");
+        }
+        Ok(())
     }
-    if !a.time.is_finite() {
-        anyhow::bail!("--time must be a finite number of seconds, got {}", a.time);
+
+    fn eval(&self) -> EvalOptions {
+        EvalOptions { size: self.size, resolution: self.volume, camera: self.camera.clone(), samples: self.samples, photons: self.photons }
     }
-    if !(a.script_timeout.is_finite() && a.script_timeout > 0.0) {
-        anyhow::bail!("--script-timeout must be a positive number of seconds");
+
+    fn limits(&self) -> refrakt::lua::Limits {
+        refrakt::lua::Limits { time_budget: Duration::from_secs_f64(self.script_timeout), memory_bytes: self.script_memory << 20 }
     }
-    let opts = RenderOptions {
-        frames: a.frames,
-        fps: a.fps,
-        time: a.time,
+
+    fn gltf(&self) -> ImportOptions {
+        ImportOptions { scene: self.gltf_scene.clone(), animation: self.animation.clone() }
+    }
+}
+
+impl OutputArgs {
+    fn png(&self) -> PngOptions {
+        PngOptions { exposure: self.exposure, tonemap: self.tonemap, alpha: false }
+    }
+}
+
+fn check_time(time: f64) -> Result<()> {
+    if !time.is_finite() {
+        anyhow::bail!("--time must be a finite number of seconds, got {time}");
+    }
+    Ok(())
+}
+
+/// `render`'s options, for `render` and (with its own frames) `dump`.
+fn render_options(frames: Option<FrameRange>, time: f64, c: &SceneArgs) -> Result<RenderOptions> {
+    c.check()?;
+    check_time(time)?;
+    Ok(RenderOptions {
+        frames,
+        fps: c.fps,
+        time,
         out: PathBuf::from("render"),
         name: None,
         formats: vec![Format::Exr, Format::Png],
-        eval: EvalOptions { size: a.size, resolution: a.volume, camera: a.camera, samples: a.samples, photons: a.photons },
+        eval: c.eval(),
         png: PngOptions { exposure: 0.0, tonemap: ToneMap::Neutral, alpha: false },
         skip_existing: false,
         progress: ProgressMode::Auto,
         adapter: None,
-        allow_read: a.allow_read,
-        limits: refrakt::lua::Limits {
-            time_budget: Duration::from_secs_f64(a.script_timeout),
-            memory_bytes: a.script_memory << 20,
-        },
-        gltf: ImportOptions { scene: a.gltf_scene, animation: a.animation },
-    };
-    Ok((a.scene, opts))
+        allow_read: c.allow_read.clone(),
+        limits: c.limits(),
+        gltf: c.gltf(),
+    })
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -229,23 +312,49 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Render(a) => {
-            let a = *a;
-            let (scene, base) = scene_options(a.scene)?;
             let opts = RenderOptions {
-                out: a.out,
-                name: a.name,
-                formats: a.format,
-                png: PngOptions { exposure: a.exposure, tonemap: a.tonemap, alpha: false },
+                out: a.out.clone(),
+                name: a.name.clone(),
+                formats: a.format.clone(),
+                png: a.output.png(),
                 skip_existing: a.skip_existing,
-                progress: a.progress,
-                adapter: a.gpu.adapter,
-                ..base
+                progress: a.output.progress,
+                adapter: a.output.gpu.adapter.clone(),
+                ..render_options(a.frames, a.time, &a.scene_args)?
             };
-            render::run(&scene, &opts)
+            render::run(&a.scene, &opts)
         }
         Command::Dump(a) => {
-            let (scene, opts) = scene_options(*a)?;
-            refrakt::dump::run(&scene, &opts, &mut std::io::stdout().lock())
+            let opts = render_options(a.frames, a.time, &a.scene_args)?;
+            refrakt::dump::run(&a.scene, &opts, &mut std::io::stdout().lock())
+        }
+        Command::Watch(a) => {
+            a.scene_args.check()?;
+            let moment = match (a.frames, a.frame, a.time) {
+                (Some(frames), _, _) => Moment::Range { frames, looping: a.looping },
+                (None, Some(k), _) => Moment::Frame(k),
+                (None, None, t) => {
+                    let t = t.unwrap_or(0.0);
+                    check_time(t)?;
+                    Moment::Time(t)
+                }
+            };
+            let c = &a.scene_args;
+            let opts = WatchOptions {
+                out: a.out.clone().unwrap_or_else(|| WatchOptions::default_out(&a.scene)),
+                moment,
+                fps: c.fps,
+                eval: c.eval(),
+                png: a.output.png(),
+                progress: a.output.progress,
+                adapter: a.output.gpu.adapter.clone(),
+                allow_read: c.allow_read.clone(),
+                limits: c.limits(),
+                gltf: c.gltf(),
+                progressive: !a.no_progressive,
+                debounce: Duration::from_millis(a.debounce),
+            };
+            watch::run(&a.scene, &opts)
         }
     }
 }
@@ -274,12 +383,18 @@ fn main() -> ExitCode {
     std::panic::set_hook(Box::new(|info| {
         eprintln!("refrakt: internal error (a bug in refrakt, please report it): {info}");
     }));
+    // The first Ctrl-C / SIGTERM asks the command to stop after the frame in hand; a second one
+    // exits at once, removing the temporary file of a write in progress.
     let _ = ctrlc::set_handler(|| {
         if render::INTERRUPTED.swap(true, Ordering::SeqCst) {
+            refrakt::output::remove_temporaries_in_flight();
             std::process::exit(130);
         }
     });
+    // `watch` ends only when interrupted, and that is its normal end: no error, but 130.
+    let watching = matches!(cli.command, Command::Watch(_));
     match run(cli) {
+        Ok(()) if watching => ExitCode::from(130),
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");

@@ -8,6 +8,9 @@
 //! {"event":"done","frames":48,"seconds":19.6}
 //! {"event":"error","message":"scene.lua:12: …","frame":3}
 //! ```
+//!
+//! `refrakt watch` adds `{"event":"watching","files":[…],"shaders":…}` and writes `frame` events
+//! with `quality` and `stats` (see `watch::FrameEvent`); its errors do not end the process.
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -105,6 +108,22 @@ impl Progress {
             ProgressMode::Lines => eprintln!("rendered {} frame(s) in {seconds:.2} s", self.done),
             ProgressMode::Json => json_line(serde_json::json!({"event": "done", "frames": self.done, "seconds": seconds})),
             _ => {}
+        }
+    }
+
+    /// A frame that the caller describes (`refrakt watch`): `event` as a JSON line, or `line`
+    /// on stderr.
+    pub fn frame_note(&mut self, event: serde_json::Value, line: &str) {
+        self.done += 1;
+        self.note(event, line);
+    }
+
+    /// Any other news: `event` as a JSON line, or `line` on stderr.
+    pub fn note(&mut self, event: serde_json::Value, line: &str) {
+        match self.mode {
+            ProgressMode::Json => json_line(event),
+            ProgressMode::Quiet => {}
+            _ => eprintln!("{line}"),
         }
     }
 

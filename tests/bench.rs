@@ -1,5 +1,6 @@
 //! `refrakt bench --quick` runs on a CPU adapter and emits complete JSON: every field present,
-//! every time positive. The numbers themselves are not asserted (speed is measured, not tested).
+//! every time positive, also for the edit-to-image latency of `refrakt watch`. The numbers
+//! themselves are not asserted (speed is measured, not tested).
 
 use std::process::Command;
 
@@ -13,7 +14,7 @@ fn positive(v: &Value, what: &str) -> f64 {
 
 #[test]
 fn quick_bench_emits_complete_json() {
-    let out = Command::new(env!("CARGO_BIN_EXE_refrakt")).args(["bench", "--quick"]).output().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_refrakt")).args(["bench", "--quick", "--scenes", "seed,heavy,grin,watch"]).output().unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     let report: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(&out.stdout)));
@@ -42,6 +43,26 @@ fn quick_bench_emits_complete_json() {
             assert!(!s["settings"][key].is_null(), "{name}.settings.{key} missing");
         }
     }
+    // Saving edits of the default scene under `refrakt watch`: each kind timed, and a camera
+    // move never built the volume again.
+    let watch = &report["watch_latency"];
+    positive(&watch["edits"], "watch edits");
+    positive(&watch["debounce_ms"], "watch debounce");
+    for key in ["size", "volume", "photons", "samples"] {
+        assert!(!watch["settings"][key].is_null(), "watch_latency.settings.{key} missing");
+    }
+    for (mode, edits) in [("progressive", watch), ("without_fast_frame", &watch["without_fast_frame"])] {
+        for edit in ["camera_edit", "object_edit"] {
+            for what in ["first_image_ms", "final_image_ms", "notice_to_final_ms"] {
+                positive(&edits[edit][what]["median"], &format!("{mode} {edit}.{what}.median"));
+                positive(&edits[edit][what]["p90"], &format!("{mode} {edit}.{what}.p90"));
+            }
+            assert!(edits[edit]["photon_traces"].as_u64().is_some(), "{mode} {edit}.photon_traces missing");
+        }
+        assert_eq!(edits["camera_edit"]["volume_builds"], 0, "{mode}: a camera move reuses the volume");
+        positive(&edits["object_edit"]["volume_builds"], &format!("{mode}: an object edit builds the volume"));
+    }
+
     // The seed and heavy scenes are meshes: mesh voxelization ran and was timed.
     positive(&scenes[0]["stages_ms"]["voxelize.meshes"]["median"], "seed mesh voxelization");
     assert!(scenes[0]["settings"]["triangles"].as_u64().unwrap() > 4000);

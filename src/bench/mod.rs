@@ -5,6 +5,7 @@
 //! Speed is measured here, never asserted in tests: `tests/bench.rs` only checks that the JSON
 //! is complete and every time positive.
 
+pub mod latency;
 pub mod roofline;
 
 use std::collections::BTreeMap;
@@ -27,6 +28,10 @@ pub const SCENES: &[(&str, &str, &str)] = &[
     ("heavy", include_str!("heavy.lua"), "1920×1080, 256³, 1M photons, fog, three refractive objects"),
     ("grin", include_str!("grin.lua"), "Luneburg lens and gradient slab under a sun, no mesh"),
 ];
+
+/// Not a scene of its own: `--scenes watch` measures `refrakt watch`'s edit-to-image latency on
+/// examples/default.lua ([`latency`]).
+pub const WATCH: &str = "watch";
 
 #[derive(Clone, Debug)]
 pub struct BenchOptions {
@@ -75,7 +80,7 @@ const SEED_DETAIL: u32 = 16;
 /// `detail`).
 fn scene_source(name: &str, opts: &BenchOptions, detail: u32) -> Result<(String, Vec<PathBuf>)> {
     let (_, source, _) = SCENES.iter().find(|s| s.0 == name).ok_or_else(|| {
-        anyhow!("no built-in scene \"{name}\" (scenes: {})", SCENES.iter().map(|s| s.0).collect::<Vec<_>>().join(", "))
+        anyhow!("no built-in scene \"{name}\" (scenes: {}, and {WATCH} for the edit-to-image latency)", SCENES.iter().map(|s| s.0).collect::<Vec<_>>().join(", "))
     })?;
     let mut allow = Vec::new();
     let mut mesh = String::new();
@@ -290,6 +295,8 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
     let ctx = crate::gpu::GpuContext::new(opts.adapter.as_deref())?;
     let adapter = ctx.adapter_name();
     let mut renderer = Renderer::new(ctx)?;
+    // Every stage of every frame is timed, also where a frame could reuse the last one's work.
+    renderer.settings.reuse_unchanged = false;
     if !renderer.profiler.enable(&renderer.ctx) {
         bail!("the adapter \"{adapter}\" has no GPU timestamp queries, so stage times cannot be measured");
     }
@@ -298,7 +305,13 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
     let mut roof = None;
     let mut quality = Value::Null;
     let mut sweep = Value::Null;
+    let mut latency = Value::Null;
     for name in &opts.scenes {
+        if name == WATCH {
+            let eval = if opts.quick { quick_eval() } else { EvalOptions::default() };
+            latency = latency::measure(opts, &eval, frames.min(10))?;
+            continue;
+        }
         let (mut scene, _dir) = open_scene(name, opts)?;
         let eval = if opts.quick { quick_eval() } else { EvalOptions::default() };
         if let Some(why) = beyond_adapter(&renderer, &mut scene, &eval)? {
@@ -336,6 +349,7 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
         "seed_quality": quality,
         "seed_scaling": sweep,
         "voxelize": voxelize,
+        "watch_latency": latency,
     }))
 }
 

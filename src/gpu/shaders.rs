@@ -51,9 +51,17 @@ impl Composed {
     }
 }
 
+/// Environment variable naming a `shaders/` folder for `refrakt watch` to read (and watch)
+/// instead of the source tree's: a copy to experiment on, or the tests'.
+pub const SHADER_DIR_ENV: &str = "REFRAKT_SHADERS";
+
 impl ShaderLibrary {
-    /// The source tree's `shaders/` when it exists (a development checkout), else embedded.
+    /// The folder in `$REFRAKT_SHADERS` if set, else the source tree's `shaders/` when it exists
+    /// (a development checkout), else the embedded sources.
     pub fn for_development() -> Self {
+        if let Some(dir) = std::env::var_os(SHADER_DIR_ENV).filter(|d| !d.is_empty()) {
+            return ShaderLibrary::Dir(PathBuf::from(dir));
+        }
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
         if dir.is_dir() { ShaderLibrary::Dir(dir) } else { ShaderLibrary::Embedded }
     }

@@ -28,6 +28,27 @@ pub struct ScriptHost {
     path: PathBuf,
 }
 
+/// A script that failed to load, with the files it had read (or looked for) by then: the
+/// files whose edit may fix it, for `refrakt watch`. Shown, it is just the message.
+#[derive(Debug)]
+pub struct LoadError {
+    pub message: String,
+    pub files_read: Vec<PathBuf>,
+}
+
+impl std::fmt::Display for LoadError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for LoadError {}
+
+/// The files a failed [`ScriptHost::load`] had read, if it got as far as running the script.
+pub fn files_read_before(e: &anyhow::Error) -> &[PathBuf] {
+    e.downcast_ref::<LoadError>().map_or(&[], |l| &l.files_read)
+}
+
 /// The user-facing text of a Lua error: `file:line: message`, without mlua's wrapping or the
 /// traceback.
 pub fn message(e: &mlua::Error) -> String {
@@ -57,14 +78,21 @@ impl ScriptHost {
         access.record(&path.canonicalize().unwrap_or_else(|_| path.to_path_buf()));
         let lua = sandbox::new_state(access, limits).map_err(|e| anyhow!("cannot start Lua: {e}"))?;
         install_require(&lua).map_err(|e| anyhow!("cannot start Lua: {e}"))?;
+        match Self::scene_of(&lua, &shown, source) {
+            Ok((scene, update)) => Ok(Self { lua, scene, update, path: path.to_path_buf() }),
+            Err(e) => Err(LoadError { message: format!("{e:#}"), files_read: files_of(&lua) }.into()),
+        }
+    }
 
-        sandbox::start_budget(&lua);
+    /// Runs the script; returns the scene it built and the `update` it defines.
+    fn scene_of(lua: &Lua, shown: &str, source: String) -> Result<(Shared<Scene>, Option<Function>)> {
+        sandbox::start_budget(lua);
         let returned: Value = lua
             .load(source)
             .set_name(format!("@{shown}"))
             .set_mode(mlua::chunk::ChunkMode::Text)
             .eval()
-            .map_err(|e| script_error(&lua, &e))?;
+            .map_err(|e| script_error(lua, &e))?;
         let scene = match &returned {
             Value::UserData(u) => u.borrow::<Obj<Scene>>().ok().map(|o| o.0.clone()),
             _ => None,
@@ -82,9 +110,9 @@ impl ScriptHost {
             Ok(other) => {
                 return Err(anyhow!("{shown}: `update` must be a function(scene, t), got {}", convert::describe(&other)));
             }
-            Err(e) => return Err(script_error(&lua, &e)),
+            Err(e) => return Err(script_error(lua, &e)),
         };
-        Ok(Self { lua, scene, update, path: path.to_path_buf() })
+        Ok((scene, update))
     }
 
     pub fn scene(&self) -> &Shared<Scene> {
@@ -111,10 +139,15 @@ impl ScriptHost {
         Ok(())
     }
 
-    /// Every file the script read so far (itself, modules, images, meshes).
+    /// Every file the script read so far (itself, modules, images, meshes), and files it looked
+    /// for that were missing.
     pub fn files_read(&self) -> Vec<PathBuf> {
-        self.lua.app_data_ref::<sandbox::FileAccess>().map(|a| a.read.borrow().clone()).unwrap_or_default()
+        files_of(&self.lua)
     }
+}
+
+fn files_of(lua: &Lua) -> Vec<PathBuf> {
+    lua.app_data_ref::<sandbox::FileAccess>().map(|a| a.read.borrow().clone()).unwrap_or_default()
 }
 
 /// A script error as one readable paragraph; out-of-memory gets the last line that ran, and a

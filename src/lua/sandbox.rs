@@ -37,7 +37,7 @@ pub struct FileAccess {
     pub base: PathBuf,
     /// Folders reads may come from (the base, plus `--allow-read` ones), canonical.
     pub roots: Vec<PathBuf>,
-    /// Every file the script read, in order, without repeats.
+    /// Every file the script read (or looked for and found missing), in order, without repeats.
     pub read: RefCell<Vec<PathBuf>>,
 }
 
@@ -59,10 +59,14 @@ impl FileAccess {
     }
 
     /// Resolves `given` relative to `dir` (a glTF file names its buffers relative to itself) to
-    /// a readable file inside an allowed folder, and records it as read.
+    /// a readable file inside an allowed folder, and records it as read — or, when it does not
+    /// exist, as looked for (so `refrakt watch` renders once it appears).
     pub fn resolve_in(&self, dir: &Path, given: &str) -> Result<PathBuf, String> {
         let joined = dir.join(given);
-        let path = joined.canonicalize().map_err(|e| format!("cannot open \"{given}\" (looked for {}): {e}", joined.display()))?;
+        let path = joined.canonicalize().map_err(|e| {
+            self.record_missing(&joined);
+            format!("cannot open \"{given}\" (looked for {}): {e}", joined.display())
+        })?;
         if !self.roots.iter().any(|r| path.starts_with(r)) {
             return Err(format!(
                 "\"{given}\" is outside the scene's folder {}; scenes may read only files below \
@@ -72,6 +76,15 @@ impl FileAccess {
         }
         self.record(&path);
         Ok(path)
+    }
+
+    /// Records a file that was looked for and is missing, when its folder is one reads may
+    /// come from: creating it may fix the scene (`refrakt watch` watches it).
+    fn record_missing(&self, path: &Path) {
+        let (Some(dir), Some(name)) = (path.parent().and_then(|d| d.canonicalize().ok()), path.file_name()) else { return };
+        if self.roots.iter().any(|r| dir.starts_with(r)) {
+            self.record(&dir.join(name));
+        }
     }
 
     pub fn record(&self, path: &Path) {

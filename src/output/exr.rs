@@ -1,4 +1,5 @@
-//! OpenEXR output: one part, 32-bit float channels, ZIP compression. The beauty layer is
+//! OpenEXR output: one part, 32-bit float channels, ZIP compression (RLE for `refrakt watch`'s
+//! preview, see [`super::ExrCompression`]). The beauty layer is
 //! written as plain `R G B A` (what every viewer shows); other layers as `<layer>.<channel>`
 //! (`depth.Z`), the naming compositors (Blender, Nuke) split into layers.
 
@@ -14,7 +15,7 @@ pub fn channel_name(layer: &str, channel: &str) -> String {
     if layer == "beauty" { channel.to_string() } else { format!("{layer}.{channel}") }
 }
 
-pub fn write(image: &super::Image, path: &Path) -> Result<()> {
+pub fn write(image: &super::Image, path: &Path, compression: super::ExrCompression) -> Result<()> {
     let (w, h) = (image.width as usize, image.height as usize);
     let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
     for layer in &image.layers {
@@ -24,9 +25,13 @@ pub fn write(image: &super::Image, path: &Path) -> Result<()> {
             channels.push(AnyChannel::new(Text::from(channel_name(&layer.name, name).as_str()), FlatSamples::F32(samples)));
         }
     }
-    let mut attributes = LayerAttributes::default();
-    attributes.software_name = Some(Text::from(concat!("refrakt ", env!("CARGO_PKG_VERSION"))));
-    let layer = exr::image::Layer::new((w, h), attributes, Encoding::SMALL_LOSSLESS, AnyChannels::sort(channels.into()));
+    let attributes =
+        LayerAttributes { software_name: Some(Text::from(concat!("refrakt ", env!("CARGO_PKG_VERSION")))), ..Default::default() };
+    let encoding = match compression {
+        super::ExrCompression::Small => Encoding::SMALL_LOSSLESS,
+        super::ExrCompression::Fast => Encoding::FAST_LOSSLESS,
+    };
+    let layer = exr::image::Layer::new((w, h), attributes, encoding, AnyChannels::sort(channels.into()));
     exr::image::Image::from_layer(layer).write().to_file(path).context("EXR encoding failed")
 }
 

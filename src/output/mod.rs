@@ -67,6 +67,7 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) ->
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create the output folder {}", dir.display()))?;
     let tmp = temporary_name(path);
+    let _in_flight = InFlight::register(&tmp);
     let result = write(&tmp).and_then(|()| {
         std::fs::rename(&tmp, path).with_context(|| format!("cannot move {} into place", path.display()))
     });
@@ -74,6 +75,33 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) ->
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+/// Temporary files being written now, so that a forced exit can remove them.
+static IN_FLIGHT: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Registers a temporary file for the duration of its write.
+struct InFlight(PathBuf);
+
+impl InFlight {
+    fn register(tmp: &Path) -> Self {
+        IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner()).push(tmp.to_path_buf());
+        Self(tmp.to_path_buf())
+    }
+}
+
+impl Drop for InFlight {
+    fn drop(&mut self) {
+        IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner()).retain(|p| p != &self.0);
+    }
+}
+
+/// Removes the temporary files of writes still in progress: called before the process exits
+/// without finishing them (a second Ctrl-C), so that only whole files are left.
+pub fn remove_temporaries_in_flight() {
+    for tmp in IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner()).drain(..) {
+        let _ = std::fs::remove_file(tmp);
+    }
 }
 
 /// `dir/.name.tmp-PID.ext`: hidden, unique per process, same extension (so encoders that look
@@ -89,10 +117,26 @@ pub fn is_temporary(name: &str) -> bool {
     name.starts_with('.') && name.contains(".tmp-")
 }
 
+/// How EXR files are compressed (both lossless).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ExrCompression {
+    /// ZIP: small files, for frames that are kept.
+    #[default]
+    Small,
+    /// RLE: about a third of ZIP's time for twice its size, for a preview replaced moments later
+    /// (`refrakt watch`, where the write is part of the edit-to-image time).
+    Fast,
+}
+
 /// Writes the image in `format` to `path`, atomically.
 pub fn write(image: &Image, format: Format, path: &Path, png: &png::PngOptions) -> Result<()> {
+    write_with(image, format, path, png, ExrCompression::Small)
+}
+
+/// [`write`] with a choice of EXR compression.
+pub fn write_with(image: &Image, format: Format, path: &Path, png: &png::PngOptions, exr: ExrCompression) -> Result<()> {
     write_atomically(path, |tmp| match format {
-        Format::Exr => exr::write(image, tmp),
+        Format::Exr => exr::write(image, tmp, exr),
         Format::Png => png::write(image, tmp, png),
     })
     .with_context(|| format!("writing {}", path.display()))

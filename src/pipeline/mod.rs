@@ -15,6 +15,7 @@ pub mod photons;
 pub mod probe;
 pub mod receivers;
 pub mod resources;
+pub mod reuse;
 pub mod timing;
 pub mod view;
 pub mod voxelize;
@@ -32,17 +33,26 @@ use lights::LightBuffers;
 use march::PhotonStats;
 use receivers::Receivers;
 use resources::{EnvironmentTexture, FrameTarget, Grids, RadianceGrid};
+use reuse::{PhotonKey, Reuse, StageCache, VolumeKey};
 use timing::Profiler;
 
 /// Statistics a test or `refrakt watch` can read: how much work the frames did.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct Counters {
     pub frames: u64,
-    pub voxelizations: u64,
+    /// Index volumes built (voxelize → gradient → octree ran).
+    pub volume_builds: u64,
+    /// Frames that used the volume already on the GPU (see [`reuse`]).
+    pub volumes_reused: u64,
     pub grid_allocations: u64,
     pub environment_uploads: u64,
     pub receiver_uploads: u64,
-    pub photon_passes: u64,
+    /// Photon passes traced (photons → march → caustics ran).
+    pub photon_traces: u64,
+    /// Frames that used the radiance grid and caustic maps already on the GPU.
+    pub photons_reused: u64,
+    /// Times every stage's pipeline was rebuilt from edited shaders.
+    pub shader_reloads: u64,
     /// Meshes whose solid was computed (they were new, changed or moved).
     pub meshes_voxelized: u64,
     /// Meshes whose solid from an earlier frame was reused.
@@ -60,7 +70,7 @@ impl Counters {
 }
 
 /// Choices about how (not what) to render: the same scene may be rendered with any of these.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct RenderSettings {
     pub caustic_filter: CausticFilter,
     /// The photons' random seed. Fixed, so every frame of an animation uses the same photons.
@@ -72,6 +82,9 @@ pub struct RenderSettings {
     /// How many times the mean photon flux one photon may carry before fixed-point deposits
     /// could saturate (see `march::flux_scale`). Tests lower it to force saturation.
     pub fixed_point_headroom: f32,
+    /// Skip the volume and photon stages when their inputs equal the last frame's (see
+    /// [`reuse`]); off, every frame runs every stage (benchmarks time each stage).
+    pub reuse_unchanged: bool,
 }
 
 impl Default for RenderSettings {
@@ -82,6 +95,7 @@ impl Default for RenderSettings {
             always_deposit: false,
             never_deposit: false,
             fixed_point_headroom: march::MAX_RELATIVE_FLUX,
+            reuse_unchanged: true,
         }
     }
 }
@@ -111,17 +125,20 @@ pub struct Renderer {
     pub counters: Counters,
     stats: Option<PhotonStats>,
     view_steps: u64,
+    /// Keys of the volume and photon results the GPU holds.
+    cache: StageCache,
     /// The readback slot the next submitted frame uses, and which slots hold a frame in flight.
     next_slot: usize,
     pending: [bool; 2],
 }
 
-/// A frame in flight: which readback slot it uses, and the march's uniforms if it traced
-/// photons (to turn its statistics into watts).
+/// A frame in flight: which readback slot it uses, what it took from the cache, and the
+/// march's uniforms if it traced photons (to turn its statistics into watts).
 #[must_use = "a submitted frame must be finished to read it back"]
 pub struct Ticket {
     slot: usize,
     photons: Option<crate::gpu::types::MarchParams>,
+    pub reused: Reuse,
 }
 
 /// Every stage's pipeline, built from one shader library.
@@ -184,17 +201,21 @@ impl Renderer {
             counters: Counters::default(),
             stats: None,
             view_steps: 0,
+            cache: StageCache::default(),
             next_slot: 0,
             pending: [false; 2],
         })
     }
 
     /// Rebuilds every stage's pipeline from the shader library (for live shader edits). On a
-    /// WGSL error the old pipelines stay and the error names the file and line.
+    /// WGSL error the old pipelines stay and the error names the file and line. Results of
+    /// the old shaders are not reused: the next frame runs every stage.
     pub fn reload_shaders(&mut self) -> Result<()> {
         let s = Stages::new(&self.ctx.device, &self.shaders)?;
         (self.voxelize, self.gradient, self.octree, self.photons) = (s.voxelize, s.gradient, s.octree, s.photons);
         (self.march, self.caustics, self.view, self.probe) = (s.march, s.caustics, s.view, s.probe);
+        self.cache.clear();
+        self.counters.shader_reloads += 1;
         Ok(())
     }
 
@@ -295,8 +316,9 @@ impl Renderer {
         // Timings go through the next readback slot (this call waits for nothing in flight).
         self.profiler.resolve(&mut enc, self.next_slot);
         self.ctx.queue.submit([enc.finish()]);
-        self.counters.voxelizations += 1;
+        self.counters.volume_builds += 1;
         self.counters.add_mesh_work(work);
+        self.cache.built_volume(VolumeKey::of(desc, grids.generation));
         Ok(())
     }
 
@@ -351,19 +373,27 @@ impl Renderer {
         );
         let march_params =
             march::March::params(grids, desc.photons, flux_unit, deposit, anisotropic_scattering(desc), desc.receivers.len() as u32, self.settings.fixed_point_headroom);
+        let (volume_key, photon_key) = self.stage_keys(desc);
+        let mut reused = self.reuse_of(&volume_key, &photon_key);
+        reused.photons &= photons;
         self.profiler.begin_frame();
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
-        let work = self.voxelize.encode(&self.ctx, &mut enc, &mut self.profiler, desc, grids)?; // fields, meshes → index_field, extinction_grid, scattering_grid
-        self.gradient.encode(&self.ctx, &mut enc, &mut self.profiler, &desc.volume, grids); // index_field → ior_grid (∇n, n)
-        self.octree.encode(&self.ctx, &mut enc, &mut self.profiler, grids); // index_field, extinction_grid → octree
-        if photons {
+        if !reused.volume {
+            let work = self.voxelize.encode(&self.ctx, &mut enc, &mut self.profiler, desc, grids)?; // fields, meshes → index_field, extinction_grid, scattering_grid
+            self.gradient.encode(&self.ctx, &mut enc, &mut self.profiler, &desc.volume, grids); // index_field → ior_grid (∇n, n)
+            self.octree.encode(&self.ctx, &mut enc, &mut self.profiler, grids); // index_field, extinction_grid → octree
+            self.counters.volume_builds += 1;
+            self.counters.add_mesh_work(work);
+        }
+        let trace = photons && !reused.photons;
+        if trace {
             let (seed, scattering) = (self.settings.photon_seed, needs_scattering(desc));
             self.photons.encode(&self.ctx, &mut enc, &mut self.profiler, grids, &self.lights, desc.photons, seed, scattering); // lights, octree → photons
             self.march.encode(&self.ctx, &mut enc, &mut self.profiler, &march_params, grids, &self.photons, receivers, radiance); // photons, grids, receivers → radiance, caustic atlas
             let filter_unit = flux_unit / march_params.flux_scale;
             self.caustics.encode(&self.ctx, &mut enc, &mut self.profiler, receivers, self.settings.caustic_filter, filter_unit); // caustic atlas → caustic irradiance
             self.march.encode_stats_readback(&mut enc, slot);
-            self.counters.photon_passes += 1;
+            self.counters.photon_traces += 1;
         }
         let inputs = view::ViewInputs {
             grids,
@@ -380,12 +410,42 @@ impl Renderer {
         self.view.encode_steps_readback(&mut enc, slot);
         self.profiler.resolve(&mut enc, slot);
         self.ctx.queue.submit([enc.finish()]);
-        self.counters.voxelizations += 1;
-        self.counters.add_mesh_work(work);
+        self.counters.volumes_reused += reused.volume as u64;
+        self.counters.photons_reused += reused.photons as u64;
         self.counters.frames += 1;
+        self.cache.built_volume(volume_key);
+        if trace {
+            self.cache.traced_photons(photon_key);
+        }
         self.pending[slot] = true;
         self.next_slot = 1 - slot;
-        Ok(Ticket { slot, photons: photons.then_some(march_params) })
+        Ok(Ticket { slot, photons: trace.then_some(march_params), reused })
+    }
+
+    /// The keys of this frame's volume and photon results, as the resources stand now.
+    fn stage_keys(&self, desc: &FrameDesc) -> (VolumeKey, PhotonKey) {
+        let grids = self.grids.as_ref().map_or(0, |g| g.generation);
+        let radiance = self.radiance.as_ref().map_or(0, |r| r.generation);
+        let volume = VolumeKey::of(desc, grids);
+        let photons = PhotonKey::of(volume.clone(), desc, [self.receivers.generation, radiance], &self.settings);
+        (volume, photons)
+    }
+
+    fn reuse_of(&self, volume: &VolumeKey, photons: &PhotonKey) -> Reuse {
+        if !self.settings.reuse_unchanged {
+            return Reuse::default();
+        }
+        self.cache.reuse(volume, photons)
+    }
+
+    /// What a frame of `desc` submitted now would take from the cache (before any resource
+    /// it needs is reallocated: a frame that changes the volume's size reuses nothing anyway).
+    /// `photons` is true also when the frame traces none.
+    pub fn would_reuse(&self, desc: &FrameDesc) -> Reuse {
+        let (volume, photons) = self.stage_keys(desc);
+        let mut reused = self.reuse_of(&volume, &photons);
+        reused.photons |= reused.volume && !self.traces_photons(desc);
+        reused
     }
 
     /// Waits for a submitted frame and reads its image, statistics and timings back.
@@ -395,6 +455,8 @@ impl Renderer {
         let image = self.target.as_ref().expect("a frame was submitted").read(&self.ctx, slot)?;
         self.stats = match &ticket.photons {
             Some(params) => Some(self.march.read_stats(&self.ctx, params, slot)?),
+            // The photons of the frame whose results were reused: its statistics stand.
+            None if ticket.reused.photons => self.stats,
             None => None,
         };
         self.view_steps = self.view.read_steps(&self.ctx, slot)?;

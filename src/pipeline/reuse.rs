@@ -1,0 +1,100 @@
+//! Which stages a frame can skip because the GPU already holds their result.
+//!
+//! The volume stages (voxelize → gradient → octree) read only the volume box, the index fields,
+//! the refractive meshes and the fog. The photon stages (photons → march → caustics) read, in
+//! addition, the lights, the receivers, the photon budget and the render settings; what they
+//! leave behind — the radiance grid and the caustic maps — does not depend on the camera. That
+//! is the relighting idea of Sun et al. 2008: a new view of a lit scene costs only the view pass.
+//!
+//! Each group's inputs are kept as a key (cheap to hold: meshes and sampled fields are shared
+//! `Arc`s) and compared by value with the next frame's, so a scene reloaded from an edited
+//! script that evaluates to the same objects reuses them too. Objects enter a key without their
+//! names and the script lines that made them: those are for messages, and change no voxel. Keys also hold the generations of
+//! the GPU buffers the results live in, so a reallocation can never be mistaken for a hit.
+//! Every stage is deterministic, so a frame that reuses a result is bit-identical to one that
+//! recomputes it (`tests/watch.rs` checks this).
+
+use crate::frame::{FieldDesc, FogDesc, FrameDesc, LightDesc, MeshInstance, Receiver, VolumeDesc};
+
+use super::RenderSettings;
+
+/// Everything the volume stages read.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VolumeKey {
+    grids_generation: u64,
+    volume: VolumeDesc,
+    fields: Vec<FieldDesc>,
+    meshes: Vec<MeshInstance>,
+    fog: Option<FogDesc>,
+}
+
+impl VolumeKey {
+    pub fn of(desc: &FrameDesc, grids_generation: u64) -> Self {
+        Self {
+            grids_generation,
+            volume: desc.volume,
+            fields: desc.fields.iter().map(|f| FieldDesc { name: String::new(), ..f.clone() }).collect(),
+            meshes: desc.meshes.iter().map(|m| MeshInstance { name: String::new(), origin: String::new(), ..m.clone() }).collect(),
+            fog: desc.fog,
+        }
+    }
+}
+
+/// Everything the photon stages read: the volume they travel through and the light sent in.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PhotonKey {
+    volume: VolumeKey,
+    /// Generations of the receivers' buffers and of the radiance grid, where results land.
+    targets_generation: [u64; 2],
+    lights: Vec<LightDesc>,
+    receivers: Vec<Receiver>,
+    photons: u32,
+    settings: RenderSettings,
+}
+
+impl PhotonKey {
+    pub fn of(volume: VolumeKey, desc: &FrameDesc, targets_generation: [u64; 2], settings: &RenderSettings) -> Self {
+        Self {
+            volume,
+            targets_generation,
+            lights: desc.lights.iter().map(|l| LightDesc { name: String::new(), ..l.clone() }).collect(),
+            receivers: desc.receivers.iter().map(|r| Receiver { name: String::new(), ..r.clone() }).collect(),
+            photons: desc.photons,
+            settings: settings.clone(),
+        }
+    }
+}
+
+/// What the GPU holds from earlier frames.
+#[derive(Default)]
+pub struct StageCache {
+    volume: Option<VolumeKey>,
+    photons: Option<PhotonKey>,
+}
+
+/// Which groups of stages a frame takes from the cache.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Reuse {
+    pub volume: bool,
+    pub photons: bool,
+}
+
+impl StageCache {
+    pub fn reuse(&self, volume: &VolumeKey, photons: &PhotonKey) -> Reuse {
+        let volume_hit = self.volume.as_ref() == Some(volume);
+        Reuse { volume: volume_hit, photons: volume_hit && self.photons.as_ref() == Some(photons) }
+    }
+
+    pub fn built_volume(&mut self, key: VolumeKey) {
+        self.volume = Some(key);
+    }
+
+    pub fn traced_photons(&mut self, key: PhotonKey) {
+        self.photons = Some(key);
+    }
+
+    /// Forgets everything (new pipelines may compute differently).
+    pub fn clear(&mut self) {
+        *self = Self::default();
+    }
+}

@@ -101,7 +101,8 @@ class Job:
         elif kind in ("frame", "skip"):
             self.done = int(event.get("done", self.done + 1))
             self.total = int(event.get("total", self.total))
-            self.files += event.get("files", [])
+            # Each file once: `refrakt watch` reports its one preview file with every frame.
+            self.files += [f for f in event.get("files", []) if f not in self.files]
             if self.total:
                 self.percent = 100.0 * self.done / self.total
         elif kind == "done":

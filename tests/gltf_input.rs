@@ -145,6 +145,11 @@ fn other_damage_gets_its_own_message() {
         ("joint.glb", Box::new(|g| { g.json["skins"][0]["joints"] = json!([3]); }), &["skins[0]", "names joint 1", "has 1 joints"]),
         ("volume.glb", Box::new(|g| g.json["materials"][0]["extensions"]["KHR_materials_volume"]["attenuationDistance"] = json!(0.0)), &["materials[0] \"Glass\"", "attenuationDistance"]),
         ("extras.glb", Box::new(|g| g.json["scenes"][0]["extras"]["refrakt"]["samples"] = json!(0)), &["scenes[0].extras.refrakt.samples must be from 1 to 256"]),
+        // Found by the property test below: the gltf crate's image reader unwraps these.
+        ("mime.glb", Box::new(|g| { g.json["images"][0].as_object_mut().unwrap().remove("mimeType"); }), &["images[0] has a bufferView but no mimeType"]),
+        ("channel-node.glb", Box::new(|g| g.json["animations"][0]["channels"][0]["target"]["node"] = json!(999)), &["animations[0].channels[0].target.node: index out of range"]),
+        ("channel-path.glb", Box::new(|g| g.json["animations"][0]["channels"][0]["target"]["path"] = json!("pointer")), &["animations[0].channels[0].target.path is not one of"]),
+        ("no-image-data.glb", Box::new(|g| { g.json["images"][0].as_object_mut().unwrap().remove("bufferView"); }), &["images[0] has neither a uri nor a bufferView"]),
     ];
     for (name, damage, needles) in cases {
         let mut g = sample_scene();
@@ -233,9 +238,22 @@ fn mutate_numbers(text: &str, picks: &[(usize, u32)]) -> String {
     String::from_utf8(bytes).unwrap()
 }
 
+/// Bounded and reproducible for CI: 3 × 256 cases from a fixed seed take about a second. For a
+/// longer search, set PROPTEST_CASES and PROPTEST_RNG_SEED (e.g. `PROPTEST_CASES=20000
+/// PROPTEST_RNG_SEED=$RANDOM cargo test --release --test gltf_input mutated`).
+fn fuzz_config() -> ProptestConfig {
+    let from_env = ProptestConfig::default();
+    let set = |var: &str| std::env::var_os(var).is_some();
+    ProptestConfig {
+        cases: if set("PROPTEST_CASES") { from_env.cases } else { 256 },
+        rng_seed: if set("PROPTEST_RNG_SEED") { from_env.rng_seed } else { proptest::test_runner::RngSeed::Fixed(0x5eed_91f) },
+        failure_persistence: None,
+        ..from_env
+    }
+}
+
 proptest! {
-    // Bounded for CI: 3 × 256 cases take about a second.
-    #![proptest_config(ProptestConfig { cases: 256, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(fuzz_config())]
 
     #[test]
     fn mutated_glb_files_never_panic(ms in proptest::collection::vec(mutation(), 1..6)) {

@@ -110,6 +110,8 @@ pub fn parse(json_text: &[u8], file: &str) -> Result<gltf::Document> {
         bail!("{file}: the glTF is invalid: {}{more}; fix or re-export the file", errors[..errors.len().min(3)].join("; "));
     }
     check_required_extensions(&root, file)?;
+    check_images(&root, file)?;
+    check_channel_targets(&root, file)?;
     check_trees(&root, file)?;
     Ok(gltf::Document::from_json_without_validation(root))
 }
@@ -126,6 +128,48 @@ fn check_positions(root: &json::Root, file: &str) -> Result<()> {
                      (accessor {} of {}); fix or re-export the file",
                     i.value(),
                     root.accessors.len()
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Each image names its data once — a `uri`, or a `bufferView` with its `mimeType` (glTF 2.0
+/// §5.18) — which the crate's validation does not check and its image reader assumes (it
+/// panics otherwise).
+fn check_images(root: &json::Root, file: &str) -> Result<()> {
+    for (i, image) in root.images.iter().enumerate() {
+        let problem = match (&image.uri, &image.buffer_view, &image.mime_type) {
+            (Some(_), Some(_), _) => Some("has both a uri and a bufferView"),
+            (None, None, _) => Some("has neither a uri nor a bufferView"),
+            (None, Some(_), None) => Some("has a bufferView but no mimeType"),
+            _ => None,
+        };
+        if let Some(problem) = problem {
+            bail!("{file}: the glTF is invalid: images[{i}] {problem}; fix or re-export the file");
+        }
+    }
+    Ok(())
+}
+
+/// Each animation channel targets a node that exists and a property glTF animates — which the
+/// crate's validation of animations skips and its channel reader assumes (it panics otherwise).
+fn check_channel_targets(root: &json::Root, file: &str) -> Result<()> {
+    for (a, animation) in root.animations.iter().enumerate() {
+        for (c, channel) in animation.channels.iter().enumerate() {
+            let at = format!("animations[{a}].channels[{c}].target");
+            if channel.target.node.value() >= root.nodes.len() {
+                bail!(
+                    "{file}: the glTF is invalid: {at}.node: index out of range (node {} of {}); fix or re-export the file",
+                    channel.target.node.value(),
+                    root.nodes.len()
+                );
+            }
+            if !matches!(channel.target.path, json::validation::Checked::Valid(_)) {
+                bail!(
+                    "{file}: the glTF is invalid: {at}.path is not one of translation, rotation, scale, weights \
+                     (animation pointers are not supported); fix or re-export the file"
                 );
             }
         }

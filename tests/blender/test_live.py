@@ -82,3 +82,33 @@ def test_live_operator_needs_the_user_interface(fake_refrakt, saved_blend):
     saved_blend()
     with pytest.raises(RuntimeError, match="Live mode needs Blender's user interface"):
         bpy.ops.refrakt.live()
+
+
+def test_live_with_the_real_refrakt_watch(addon, real_refrakt, saved_blend):
+    """The real `refrakt watch` behind live mode: the first preview arrives as an EXR, and a
+    moved object re-exports and brings a new preview whose pixels differ."""
+    scene = scenes.round_trip_scene()
+    scene.render.resolution_x, scene.render.resolution_y = 48, 27
+    scene.refrakt.volume_resolution, scene.refrakt.photons, scene.refrakt.samples = 24, 2000, 1
+    scene.refrakt.live_debounce = 0.2
+    saved_blend()
+    live = submodule("live")
+    session = live.start(bpy.context, real_refrakt)
+    try:
+        tick_until(session, lambda: session.previews >= 1, timeout=120)
+        image = bpy.data.images["refrakt preview"]
+        assert tuple(image.size) == (48, 27)
+        before = list(image.pixels)
+        previews = session.previews
+        bpy.data.objects["Ball"].location.x += 0.4
+        bpy.context.view_layer.update()
+        assert session.tick(bpy.context)
+        time.sleep(scene.refrakt.live_debounce)
+        tick_until(session, lambda: session.exports == 2, timeout=30)
+        # (The fast frame comes first: it shows the moved ball as well as the full one does.)
+        tick_until(session, lambda: session.previews > previews, timeout=120)
+        image.reload()
+        assert list(image.pixels) != before, "the preview did not change after the ball moved"
+        assert session.error == ""
+    finally:
+        live.stop(bpy.context)

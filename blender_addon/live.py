@@ -41,6 +41,7 @@ class LiveSession:
         self.watch = None
         self.exports = 0
         self.previews = 0
+        self.quality = None
         self.error = ""
         self.warnings = []
 
@@ -71,6 +72,8 @@ class LiveSession:
             if event.get("event") == "frame":
                 self.error = ""
                 self.previews += 1
+                # refrakt shows a fast frame first after a change, then the full one.
+                self.quality = event.get("quality", "final")
                 self._show_preview(context)
             elif event.get("event") == "error":
                 self.error = str(event.get("message", ""))  # refrakt keeps the last good frame
@@ -166,4 +169,5 @@ def stop(context):
 def status(session_):
     if session_.error:
         return f"refrakt: {session_.error}"
-    return f"Live: {session_.exports} export(s), {session_.previews} preview(s)"
+    refining = " (refining…)" if session_.quality == "preview" else ""
+    return f"Live: {session_.exports} export(s), {session_.previews} preview(s){refining}"

@@ -85,8 +85,8 @@ def test_live_operator_needs_the_user_interface(fake_refrakt, saved_blend):
 
 
 def test_live_with_the_real_refrakt_watch(addon, real_refrakt, saved_blend):
-    """The real `refrakt watch` behind live mode: the first preview arrives as an EXR, and a
-    moved object re-exports and brings a new preview whose pixels differ."""
+    """The real `refrakt watch` behind live mode: the first preview arrives (a fast frame, then
+    the full one), and a moved object re-exports and brings a new full frame that differs."""
     scene = scenes.round_trip_scene()
     scene.render.resolution_x, scene.render.resolution_y = 48, 27
     scene.refrakt.volume_resolution, scene.refrakt.photons, scene.refrakt.samples = 24, 2000, 1
@@ -95,20 +95,21 @@ def test_live_with_the_real_refrakt_watch(addon, real_refrakt, saved_blend):
     live = submodule("live")
     session = live.start(bpy.context, real_refrakt)
     try:
-        tick_until(session, lambda: session.previews >= 1, timeout=120)
+        tick_until(session, lambda: session.quality == "final", timeout=120)
         image = bpy.data.images["refrakt preview"]
-        assert tuple(image.size) == (48, 27)
-        before = list(image.pixels)
+        assert bpy.path.abspath(image.filepath) == session.paths.preview
+        with open(session.paths.preview, "rb") as f:
+            before = f.read()
+        assert before[:4] == b"\x76\x2f\x31\x01", "the preview is an OpenEXR file"
         previews = session.previews
-        bpy.data.objects["Ball"].location.x += 0.4
+        bpy.data.objects["Ball"].location.x += 0.4  # (the Cube is animated: its keys would win)
         bpy.context.view_layer.update()
         assert session.tick(bpy.context)
         time.sleep(scene.refrakt.live_debounce)
         tick_until(session, lambda: session.exports == 2, timeout=30)
-        # (The fast frame comes first: it shows the moved ball as well as the full one does.)
-        tick_until(session, lambda: session.previews > previews, timeout=120)
-        image.reload()
-        assert list(image.pixels) != before, "the preview did not change after the ball moved"
-        assert session.error == ""
+        tick_until(session, lambda: session.previews > previews and session.quality == "final", timeout=120)
+        with open(session.paths.preview, "rb") as f:
+            assert f.read() != before, "the preview did not change after the ball moved"
+        assert session.error == "" and "preview(s)" in live.status(session)
     finally:
         live.stop(bpy.context)

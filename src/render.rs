@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use anyhow::{Result, anyhow, bail};
@@ -190,13 +191,19 @@ pub fn write_frame(image: &Image, paths: &[(Format, PathBuf)], png: &PngOptions)
 }
 
 pub fn run(scene_path: &Path, opts: &RenderOptions) -> Result<()> {
-    let mut progress = Progress::new(opts.progress);
+    let progress = Arc::new(Mutex::new(Progress::new(opts.progress)));
     let mut current = None;
-    let result = render_all(scene_path, opts, &mut progress, &mut current);
+    let result = render_all(scene_path, opts, &progress, &mut current);
     if let Err(e) = &result {
-        progress.error(&format!("{e:#}"), current);
+        lock(&progress).error(&format!("{e:#}"), current);
     }
     result
+}
+
+/// The progress report, shared by the render loop and the frame writer. (A panic while it was
+/// held cannot leave it inconsistent in a way that matters: keep reporting.)
+fn lock(progress: &Mutex<Progress>) -> std::sync::MutexGuard<'_, Progress> {
+    progress.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 /// A frame on its way out: rendered (or in flight on the GPU), to be written to `paths`.
@@ -208,23 +215,26 @@ struct Outgoing {
 }
 
 /// Writes frames on a thread of its own, so EXR/PNG encoding overlaps the next frame's GPU
-/// work; reports each written frame (or the first error) back in order.
+/// work, and reports each frame as soon as its files are in place (so progress follows the
+/// frames, not the loop that submits them); the first error comes back to the render loop.
 struct FrameWriter {
     jobs: Option<std::sync::mpsc::Sender<(Image, Outgoing)>>,
-    done: std::sync::mpsc::Receiver<Result<(i64, Vec<PathBuf>, f64)>>,
+    done: std::sync::mpsc::Receiver<Result<()>>,
     thread: Option<std::thread::JoinHandle<()>>,
     queued: usize,
 }
 
 impl FrameWriter {
-    fn new() -> Self {
+    fn new(progress: Arc<Mutex<Progress>>) -> Self {
         let (jobs, inbox) = std::sync::mpsc::channel::<(Image, Outgoing)>();
         let (outbox, done) = std::sync::mpsc::channel();
         let thread = std::thread::spawn(move || {
             for (image, out) in inbox {
-                let result = write_frame(&image, &out.paths, &out.png).map(|()| {
-                    (out.frame, out.paths.into_iter().map(|(_, p)| p).collect(), out.started.elapsed().as_secs_f64())
-                });
+                let result = write_frame(&image, &out.paths, &out.png);
+                if result.is_ok() {
+                    let files: Vec<PathBuf> = out.paths.into_iter().map(|(_, p)| p).collect();
+                    lock(&progress).frame(out.frame, out.started.elapsed().as_secs_f64(), &files);
+                }
                 let failed = result.is_err();
                 if outbox.send(result).is_err() || failed {
                     break;
@@ -241,14 +251,13 @@ impl FrameWriter {
         Ok(())
     }
 
-    /// Reports frames written so far (all of them when `wait`); the first error stops the render.
-    fn report(&mut self, progress: &mut Progress, wait: bool) -> Result<()> {
+    /// The first error among the frames written so far (waiting for all of them when `wait`).
+    fn check(&mut self, wait: bool) -> Result<()> {
         while self.queued > 0 {
             let next = if wait { self.done.recv().ok() } else { self.done.try_recv().ok() };
             let Some(result) = next else { break };
             self.queued -= 1;
-            let (frame, files, seconds) = result?;
-            progress.frame(frame, seconds, &files);
+            result?;
         }
         Ok(())
     }
@@ -268,7 +277,7 @@ impl Drop for FrameWriter {
 /// Frames are pipelined: while the GPU renders frame k, the CPU runs `update` and evaluates the
 /// scene for frame k+1 and submits it; frame k is then read back and handed to the writer
 /// thread. Frames are still written in order, and an error leaves every earlier frame whole.
-fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &mut Progress, current: &mut Option<i64>) -> Result<()> {
+fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &Arc<Mutex<Progress>>, current: &mut Option<i64>) -> Result<()> {
     let started = Instant::now();
     let mut source = SceneSource::load_with(scene_path, &opts.allow_read, &opts.limits, &opts.gltf)?;
     let ctx = crate::gpu::GpuContext::new(opts.adapter.as_deref())?;
@@ -279,9 +288,9 @@ fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &mut Progress, 
         .clone()
         .unwrap_or_else(|| scene_path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or("frame".into()));
     let (first, last) = opts.frames.map_or((0, 0), |r| (r.first, r.last));
-    progress.start(first, last);
+    lock(progress).start(first, last);
     let mut warned = std::collections::HashSet::new();
-    let mut writer = FrameWriter::new();
+    let mut writer = FrameWriter::new(progress.clone());
     let mut in_flight: Option<(crate::pipeline::Ticket, Outgoing)> = None;
     let result = (|| -> Result<()> {
         for k in first..=last {
@@ -291,7 +300,7 @@ fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &mut Progress, 
             let numbered = opts.frames.map(|_| k);
             let paths = frame_paths(opts, &name, numbered);
             if opts.skip_existing && paths.iter().all(|(_, p)| p.exists()) {
-                progress.skip(k);
+                lock(progress).skip(k);
                 continue;
             }
             *current = numbered;
@@ -318,16 +327,16 @@ fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &mut Progress, 
             if let Some((previous, out)) = in_flight.replace((ticket, outgoing)) {
                 writer.send(renderer.finish(previous)?, out)?;
             }
-            writer.report(progress, false)?;
+            writer.check(false)?;
         }
         Ok(())
     })();
     // Whatever happened, frames already rendered are written whole before returning.
     let drained = in_flight.take().map_or(Ok(()), |(ticket, out)| renderer.finish(ticket).and_then(|image| writer.send(image, out)));
-    let reported = writer.report(progress, true);
+    let written = writer.check(true);
     result?;
     drained?;
-    reported?;
-    progress.finish(started.elapsed().as_secs_f64());
+    written?;
+    lock(progress).finish(started.elapsed().as_secs_f64());
     Ok(())
 }

@@ -95,3 +95,28 @@ fn time_and_frames_do_not_mix() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("cannot be used with"), "{err}");
 }
+
+/// Progress follows the frames: a frame's JSON event is printed as soon as its file is written,
+/// not at the render loop's next pause (the Blender add-on's progress bar reads these). The
+/// third frame's `update` spins for 1.5 s and then prints (to stderr, merged here with stdout):
+/// frame 1, long written by then, must have been reported before that line.
+#[test]
+fn each_frame_is_reported_when_its_file_is_written() {
+    let slow = ANIMATED.replace(
+        "FAIL_AT",
+        "if t > 0.1 then local t0 = os.clock() while os.clock() - t0 < 1.5 do end print(\"update 3 done\") end",
+    );
+    let (dir, scene) = write_script("scene.lua", &slow);
+    let out = dir.path().join("out");
+    let command = format!(
+        "exec \"$0\" render \"$1\" --out \"$2\" --progress json --frames 1..3 --format exr 2>&1"
+    );
+    let run = Command::new("sh").arg("-c").arg(command).arg(env!("CARGO_BIN_EXE_refrakt")).arg(&scene).arg(&out).output().unwrap();
+    let text = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{text}");
+    let position = |needle: &str| text.find(needle).unwrap_or_else(|| panic!("no {needle:?} in:\n{text}"));
+    assert!(
+        position("\"frame\":1,") < position("update 3 done"),
+        "frame 1 was reported only after the third frame's update:\n{text}"
+    );
+}

@@ -123,7 +123,15 @@ struct SceneRun {
     desc: FrameDesc,
 }
 
+/// Frames whose wall time (with the image read back, as `refrakt render` does) is measured.
+const WALL_FRAMES: u32 = 10;
+
 /// Renders `frames` frames of a scene (after two unmeasured ones) and collects the timings.
+///
+/// GPU times come from frames submitted back to back, two in flight, without reading the image
+/// back (only statistics and timestamps), as an interactive viewer would keep the GPU busy: a
+/// GPU left idle between frames lowers its clocks, and the stage times would measure that.
+/// Wall times come from separate frames rendered one at a time with the image read back.
 fn run_scene(renderer: &mut Renderer, source: &mut SceneSource, eval: &EvalOptions, frames: u32, fps: f64) -> Result<SceneRun> {
     let mut run = SceneRun {
         stages: BTreeMap::new(),
@@ -133,25 +141,42 @@ fn run_scene(renderer: &mut Renderer, source: &mut SceneSource, eval: &EvalOptio
         view_steps: Vec::new(),
         desc: source.frame_desc(0.0, eval)?,
     };
+    // The first two frames compile pipelines and grow buffers: not measured.
+    let mut in_flight: Option<(crate::pipeline::Ticket, u32)> = None;
     for k in 0..frames + 2 {
+        let desc = source.frame_desc(k as f64 / fps, eval)?;
+        let ticket = renderer.submit(&desc)?;
+        if let Some((previous, j)) = in_flight.replace((ticket, k)) {
+            renderer.finish_without_image(previous)?;
+            record_gpu(&mut run, renderer, j);
+        }
+        run.desc = desc;
+    }
+    if let Some((last, j)) = in_flight.take() {
+        renderer.finish_without_image(last)?;
+        record_gpu(&mut run, renderer, j);
+    }
+    for k in 0..frames.min(WALL_FRAMES) {
         let desc = source.frame_desc(k as f64 / fps, eval)?;
         let t0 = Instant::now();
         renderer.frame(&desc)?;
-        let wall = t0.elapsed().as_secs_f64() * 1e3;
-        if k < 2 {
-            continue; // pipelines compile and buffers grow in the first frames
-        }
-        let timings = renderer.profiler.last.clone();
-        run.gpu.push(timings.iter().map(|t| t.1).sum());
-        for (label, ms) in &timings {
-            run.stages.entry(label).or_default().push(*ms);
-        }
-        run.wall.push(wall);
-        run.photon_steps.push(renderer.photon_stats().map_or(0.0, |s| s.steps as f64));
-        run.view_steps.push(renderer.view_steps() as f64);
-        run.desc = desc;
+        run.wall.push(t0.elapsed().as_secs_f64() * 1e3);
     }
     Ok(run)
+}
+
+/// Takes the timings and step counts of frame `k`, just finished (from the third frame on).
+fn record_gpu(run: &mut SceneRun, renderer: &Renderer, k: u32) {
+    if k < 2 {
+        return;
+    }
+    let timings = &renderer.profiler.last;
+    run.gpu.push(timings.iter().map(|t| t.1).sum());
+    for (label, ms) in timings {
+        run.stages.entry(label).or_default().push(*ms);
+    }
+    run.photon_steps.push(renderer.photon_stats().map_or(0.0, |s| s.steps as f64));
+    run.view_steps.push(renderer.view_steps() as f64);
 }
 
 /// Why the adapter cannot render a scene at these settings (its limits), if it cannot: such a

@@ -9,7 +9,7 @@ use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 
 use refrakt::gltf::ImportOptions;
-use refrakt::output::Format;
+use refrakt::output::{Format, Layers};
 use refrakt::output::png::{PngOptions, ToneMap};
 use refrakt::progress::ProgressMode;
 use refrakt::render::{self, FrameRange, RenderOptions};
@@ -187,6 +187,13 @@ struct WatchArgs {
     /// Render only the full frame after a change (no fast frame first).
     #[arg(long)]
     no_progressive: bool,
+    /// Show a fast frame first only when the last full frame took longer than this, ms (0: always).
+    #[arg(long, value_name = "MS", default_value_t = refrakt::watch::DEFAULT_FAST_FRAME_OVER.as_millis() as u64)]
+    fast_frame_over: u64,
+    /// Layers of an EXR preview: the beauty pass alone (quickest to read back and write), or all
+    /// of them (depth, caustic, direct, volume too).
+    #[arg(long, value_enum, default_value_t = Layers::Beauty)]
+    layers: Layers,
     /// Milliseconds a file must stay unchanged before a change to it is taken.
     #[arg(long, value_name = "MS", default_value_t = refrakt::watch::DEFAULT_DEBOUNCE.as_millis() as u64)]
     debounce: u64,
@@ -351,7 +358,9 @@ fn run(cli: Cli) -> Result<()> {
                 allow_read: c.allow_read.clone(),
                 limits: c.limits(),
                 gltf: c.gltf(),
+                layers: a.layers,
                 progressive: !a.no_progressive,
+                fast_frame_over: Duration::from_millis(a.fast_frame_over),
                 debounce: Duration::from_millis(a.debounce),
             };
             watch::run(&a.scene, &opts)

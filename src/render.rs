@@ -13,7 +13,7 @@ use crate::frame::FrameDesc;
 use crate::gltf::{ImportOptions, Player};
 use crate::lua::sandbox::FileAccess;
 use crate::lua::{Limits, ScriptHost};
-use crate::output::{self, Format, Image, png::PngOptions};
+use crate::output::{self, Format, Image, Layers, png::PngOptions};
 use crate::pipeline::Renderer;
 use crate::progress::{Progress, ProgressMode};
 use crate::scene::Scene;
@@ -283,6 +283,8 @@ fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &Arc<Mutex<Prog
     let ctx = crate::gpu::GpuContext::new(opts.adapter.as_deref())?;
     tracing::info!("adapter: {}", ctx.adapter_name());
     let mut renderer = Renderer::new(ctx)?;
+    // PNG frames show the beauty pass: read the other layers back only for EXR.
+    renderer.layers = if opts.formats.contains(&Format::Exr) { Layers::All } else { Layers::Beauty };
     let name = opts
         .name
         .clone()

@@ -368,8 +368,9 @@ return scene
     };
     let dir = folder_with(&[("scene.lua", &lit("0"))]);
     let (scene, out) = (dir.path().join("scene.lua"), dir.path().join("preview.exr"));
-    // Progressive, as users run it: the fast frame of a camera move keeps the full volume.
-    let mut w = Watch::start(&scene, &out, &[]);
+    // Progressive, with the fast frame always shown: the fast frame of a camera move keeps the
+    // full volume.
+    let mut w = Watch::start(&scene, &out, &["--fast-frame-over", "0"]);
     let before = w.final_frame();
     let first_image = std::fs::read(&out).unwrap();
     save_by_rename(&scene, &lit("0.5"));
@@ -573,3 +574,42 @@ fn only_what_changed_is_redone() {
     assert_eq!(counts(&r).0, 4);
 }
 
+
+/// The fast frame comes first only while full frames are slow: after the first frame (always
+/// preceded by a fast one), a full frame that took less than `--fast-frame-over` comes alone.
+#[test]
+fn a_fast_frame_comes_first_only_while_full_frames_are_slow() {
+    let two_samples = |env: &str| ball(env).replace("samples = 1", "samples = 2");
+    let dir = folder_with(&[("scene.lua", &two_samples("0.2, 0.3, 0.4"))]);
+    let (scene, out) = (dir.path().join("scene.lua"), dir.path().join("preview.exr"));
+    // Every full frame counts as quick: an hour.
+    let mut w = Watch::start(&scene, &out, &["--fast-frame-over", "3600000"]);
+    assert_eq!(w.frame()["quality"], "preview", "the first frame has no full frame to go by");
+    assert_eq!(w.frame()["quality"], "final");
+    save_by_rename(&scene, &two_samples("0.9, 0.3, 0.4"));
+    assert_eq!(w.frame()["quality"], "final", "a quick full frame comes without a fast one: {}", w.history());
+    // And with every full frame counting as slow (0 ms), each edit gets its fast frame.
+    drop(w);
+    let mut w = Watch::start(&scene, &out, &["--fast-frame-over", "0"]);
+    w.final_frame();
+    save_by_rename(&scene, &two_samples("0.2, 0.9, 0.4"));
+    assert_eq!(w.frame()["quality"], "preview", "{}", w.history());
+    assert_eq!(w.frame()["quality"], "final");
+}
+
+/// An EXR preview holds the beauty pass (quickest to read back and write), or every layer with
+/// `--layers all`.
+#[test]
+fn the_preview_holds_the_layers_asked_for() {
+    let dir = folder_with(&[("scene.lua", &ball("0.2, 0.3, 0.4"))]);
+    let scene = dir.path().join("scene.lua");
+    let layers = |extra: &[&str], name: &str| {
+        let out = dir.path().join(name);
+        let mut w = Watch::start(&scene, &out, extra);
+        w.final_frame();
+        let image = refrakt::output::exr::read(&out).unwrap();
+        image.layers.iter().map(|l| l.name.clone()).collect::<Vec<_>>()
+    };
+    assert_eq!(layers(&[], "beauty.exr"), ["beauty"]);
+    assert_eq!(layers(&["--layers", "all"], "all.exr"), ["beauty", "caustic", "depth", "direct", "volume"]);
+}

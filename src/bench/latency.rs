@@ -127,7 +127,9 @@ fn session(opts: &BenchOptions, eval: &EvalOptions, edits: u32, progressive: boo
         allow_read: Vec::new(),
         limits: Default::default(),
         gltf: Default::default(),
+        layers: Default::default(),
         progressive,
+        fast_frame_over: Duration::ZERO,
         debounce: watch::DEFAULT_DEBOUNCE,
     };
     let stop = Arc::new(AtomicBool::new(false));

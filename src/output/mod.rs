@@ -46,6 +46,15 @@ impl Image {
     }
 }
 
+/// Which layers a frame brings back from the GPU: all of them (for EXR frames), or the beauty
+/// pass alone (what a PNG, or a preview, shows: a fifth of the readback and of the file).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Layers {
+    #[default]
+    All,
+    Beauty,
+}
+
 /// Output formats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Format {

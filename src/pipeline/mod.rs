@@ -27,7 +27,7 @@ use glam::UVec3;
 use crate::frame::FrameDesc;
 use crate::gpu::GpuContext;
 use crate::gpu::shaders::ShaderLibrary;
-use crate::output::Image;
+use crate::output::{Image, Layers};
 use caustics::CausticFilter;
 use lights::LightBuffers;
 use march::PhotonStats;
@@ -121,6 +121,9 @@ pub struct Renderer {
     radiance: Option<RadianceGrid>,
     target: Option<FrameTarget>,
     pub settings: RenderSettings,
+    /// Which layers frames bring back (`Layers::Beauty` when only a PNG or a preview is made).
+    /// Not a [`RenderSettings`]: it changes what is read, not what is rendered.
+    pub layers: Layers,
     pub profiler: Profiler,
     pub counters: Counters,
     stats: Option<PhotonStats>,
@@ -138,6 +141,8 @@ pub struct Renderer {
 pub struct Ticket {
     slot: usize,
     photons: Option<crate::gpu::types::MarchParams>,
+    /// The layers its readback brings back.
+    layers: Layers,
     pub reused: Reuse,
 }
 
@@ -197,6 +202,7 @@ impl Renderer {
             radiance: None,
             target: None,
             settings: RenderSettings::default(),
+            layers: Layers::All,
             profiler,
             counters: Counters::default(),
             stats: None,
@@ -406,7 +412,7 @@ impl Renderer {
             scattering: deposit,
         };
         self.view.encode(&self.ctx, &mut enc, &mut self.profiler, desc, &inputs); // grids, octree, receivers, lights, radiance, environment → frame
-        target.encode_readback(&mut enc, slot);
+        target.encode_readback(&mut enc, slot, self.layers);
         self.view.encode_steps_readback(&mut enc, slot);
         self.profiler.resolve(&mut enc, slot);
         self.ctx.queue.submit([enc.finish()]);
@@ -419,7 +425,7 @@ impl Renderer {
         }
         self.pending[slot] = true;
         self.next_slot = 1 - slot;
-        Ok(Ticket { slot, photons: trace.then_some(march_params), reused })
+        Ok(Ticket { slot, photons: trace.then_some(march_params), layers: self.layers, reused })
     }
 
     /// The keys of this frame's volume and photon results, as the resources stand now.
@@ -450,7 +456,7 @@ impl Renderer {
 
     /// Waits for a submitted frame and reads its image, statistics and timings back.
     pub fn finish(&mut self, ticket: Ticket) -> Result<Image> {
-        let image = self.target.as_ref().expect("a frame was submitted").read(&self.ctx, ticket.slot)?;
+        let image = self.target.as_ref().expect("a frame was submitted").read(&self.ctx, ticket.slot, ticket.layers)?;
         self.finish_without_image(ticket)?;
         Ok(image)
     }

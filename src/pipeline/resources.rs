@@ -10,7 +10,7 @@ use glam::UVec3;
 
 use crate::gpu::GpuContext;
 use crate::gpu::readback::Staging;
-use crate::output::{Image, Layer};
+use crate::output::{Image, Layer, Layers};
 use crate::scene::{EnvImage, Environment};
 
 static GENERATION: AtomicU64 = AtomicU64::new(1);
@@ -238,16 +238,24 @@ impl FrameTarget {
         })
     }
 
-    pub fn encode_readback(&self, enc: &mut wgpu::CommandEncoder, slot: usize) {
-        enc.copy_buffer_to_buffer(&self.buffer, 0, &self.staging[slot].buffer, 0, self.buffer.size());
+    /// Bytes of the planes that bring `layers` back: the beauty plane comes first.
+    fn readback_bytes(&self, layers: Layers) -> u64 {
+        match layers {
+            Layers::All => self.buffer.size(),
+            Layers::Beauty => self.buffer.size() / FRAME_PLANES,
+        }
+    }
+
+    pub fn encode_readback(&self, enc: &mut wgpu::CommandEncoder, slot: usize, layers: Layers) {
+        enc.copy_buffer_to_buffer(&self.buffer, 0, &self.staging[slot].buffer, 0, self.readback_bytes(layers));
     }
 
     /// The image after the submission with [`encode_readback`](Self::encode_readback) finished.
     /// The planes are converted into layers straight from the mapped staging buffer: the frame is
     /// the largest readback (80 bytes a pixel), and copying it whole first doubled its cost.
-    pub fn read(&self, ctx: &GpuContext, slot: usize) -> Result<Image> {
+    pub fn read(&self, ctx: &GpuContext, slot: usize, layers: Layers) -> Result<Image> {
         let n = (self.width * self.height) as usize;
-        let layers = self.staging[slot].read_with(ctx, self.buffer.size(), |bytes| {
+        let layers = self.staging[slot].read_with(ctx, self.readback_bytes(layers), |bytes| {
             let floats: &[f32] = bytemuck::cast_slice(bytes);
             let plane = |k: usize| &floats[4 * n * k..4 * n * (k + 1)];
             // (flat_map's size hint is unknown, so reserve the exact length up front)
@@ -256,13 +264,16 @@ impl FrameTarget {
                 out.extend(plane(k).chunks_exact(4).flat_map(|c| [c[0], c[1], c[2]]));
                 out
             };
-            vec![
-                Layer::new("beauty", &["R", "G", "B", "A"], plane(0).to_vec()),
-                Layer::new("depth", &["Z"], plane(1).chunks_exact(4).map(|c| c[0]).collect()),
-                Layer::new("caustic", &["R", "G", "B"], rgb(2)),
-                Layer::new("direct", &["R", "G", "B"], rgb(3)),
-                Layer::new("volume", &["R", "G", "B"], rgb(4)),
-            ]
+            let mut out = vec![Layer::new("beauty", &["R", "G", "B", "A"], plane(0).to_vec())];
+            if layers == Layers::All {
+                out.extend([
+                    Layer::new("depth", &["Z"], plane(1).chunks_exact(4).map(|c| c[0]).collect()),
+                    Layer::new("caustic", &["R", "G", "B"], rgb(2)),
+                    Layer::new("direct", &["R", "G", "B"], rgb(3)),
+                    Layer::new("volume", &["R", "G", "B"], rgb(4)),
+                ]);
+            }
+            out
         })?;
         Ok(Image { width: self.width, height: self.height, layers })
     }

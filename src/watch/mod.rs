@@ -29,7 +29,7 @@ use crate::frame::FrameDesc;
 use crate::gltf::ImportOptions;
 use crate::gpu::shaders::ShaderLibrary;
 use crate::lua::Limits;
-use crate::output::{self, ExrCompression, Format, png::PngOptions};
+use crate::output::{self, ExrCompression, Format, Layers, png::PngOptions};
 use crate::pipeline::reuse::Reuse;
 use crate::pipeline::{Counters, Renderer};
 use crate::progress::{Progress, ProgressMode};
@@ -63,15 +63,26 @@ pub struct WatchOptions {
     pub limits: Limits,
     /// Which scene and animation of a glTF file.
     pub gltf: ImportOptions,
-    /// After a change, show a fast frame before the full one.
+    /// The layers an EXR preview holds (a PNG preview shows the beauty pass).
+    pub layers: Layers,
+    /// After a change, show a fast frame before the full one…
     pub progressive: bool,
+    /// …when the last full frame took longer than this (the first one always has a fast frame).
+    pub fast_frame_over: Duration,
     /// How long a file must stay quiet before its change is taken.
     pub debounce: Duration,
 }
 
+/// The default for [`WatchOptions::fast_frame_over`]: a full frame quicker than this is shown
+/// about as soon as a fast one would be, so the fast frame would only delay it.
+pub const DEFAULT_FAST_FRAME_OVER: Duration = Duration::from_millis(100);
+
 /// The default debounce: longer than the gaps within one save (an editor's write-then-rename,
-/// an exporter's stream of writes: well under a millisecond), short enough not to be felt.
-pub const DEFAULT_DEBOUNCE: Duration = Duration::from_millis(25);
+/// an exporter's stream of writes: well under a millisecond), short enough not to be felt — it
+/// is part of every edit's latency. A tool that writes a file in pieces over longer than this
+/// may show an error for the half-written file first; the next frame, once it is whole, replaces
+/// it (`--debounce` waits longer).
+pub const DEFAULT_DEBOUNCE: Duration = Duration::from_millis(10);
 
 impl WatchOptions {
     /// `render/<name>.preview.exr`, where the scene's frames would go.
@@ -287,6 +298,8 @@ struct Session<'a> {
     warned: HashSet<String>,
     /// When the change being rendered was noticed (or a range's frame began).
     noticed: Instant,
+    /// How long the last full frame took, from submission to the preview in place.
+    last_full: Option<Duration>,
 }
 
 /// Where a frame stands in what is being shown.
@@ -298,11 +311,14 @@ struct Shown {
 }
 
 impl<'a> Session<'a> {
-    fn new(path: &'a Path, opts: &'a WatchOptions, renderer: Renderer, report: &'a mut dyn Report, stop: &'a AtomicBool) -> Result<Self> {
+    fn new(path: &'a Path, opts: &'a WatchOptions, mut renderer: Renderer, report: &'a mut dyn Report, stop: &'a AtomicBool) -> Result<Self> {
+        let format = opts.format()?;
+        // A PNG preview shows the beauty pass alone, whatever --layers says.
+        renderer.layers = if format == Format::Png { Layers::Beauty } else { opts.layers };
         Ok(Self {
             path,
             opts,
-            format: opts.format()?,
+            format,
             files: SceneFiles::new(opts.debounce, renderer.shaders().dir())?,
             renderer,
             report,
@@ -313,6 +329,7 @@ impl<'a> Session<'a> {
             last: None,
             warned: HashSet::new(),
             noticed: Instant::now(),
+            last_full: None,
         })
     }
 
@@ -382,8 +399,10 @@ impl<'a> Session<'a> {
     fn try_render(&mut self, shown: Shown) -> Result<()> {
         let source = self.candidate.as_mut().or(self.current.as_mut()).ok_or_else(|| anyhow!("no scene is loaded"))?;
         let full = frame_at(source, shown.at, &self.opts.eval, self.last.as_ref())?;
-        // A range shows its frames at the full settings.
-        let progressive = self.opts.progressive && shown.total == 1;
+        // A range shows its frames at the full settings; a still shows a fast frame first only
+        // when full frames take long enough for it to be seen sooner.
+        let slow = self.last_full.is_none_or(|d| d > self.opts.fast_frame_over);
+        let progressive = self.opts.progressive && shown.total == 1 && slow;
         let fast_eval = progressive.then(|| fast_options(&self.opts.eval, &full, self.renderer.would_reuse(&full))).flatten();
         if let Some(eval) = fast_eval {
             let fast = frame_at(source, shown.at, &eval, self.last.as_ref())?;
@@ -402,6 +421,7 @@ impl<'a> Session<'a> {
                 tracing::warn!("{w}");
             }
         }
+        let started = Instant::now();
         let ticket = self.renderer.submit(&desc)?;
         let reused = ticket.reused;
         let image = self.renderer.finish(ticket)?;
@@ -410,6 +430,9 @@ impl<'a> Session<'a> {
         }
         let png = PngOptions { alpha: !desc.environment.visible, ..self.opts.png };
         output::write_with(&image, self.format, &self.opts.out, &png, ExrCompression::Fast)?;
+        if quality == Quality::Final {
+            self.last_full = Some(started.elapsed());
+        }
         self.rewatch(); // files the frame read (an `update` may load meshes) before it is seen
         self.report.frame(&FrameEvent {
             frame: shown.at.frame,

@@ -203,6 +203,7 @@ fn march_photon(photon: Photon) -> u32 {
     // is not, and the next cast waits until a step could actually reach a receiver.
     var cast_valid = true;
     var n_steps = 0u;
+    var path = 0.0;
     for (; n_steps < params.max_steps; n_steps++) {
         let x0 = s.x;
         var jump = octree_step(x0, d, params.min_step, params.max_step);
@@ -233,6 +234,10 @@ fn march_photon(photon: Photon) -> u32 {
             s.v = d * s.g.w;
         }
         let length = distance(x0, s.x);
+        path += length;
+        if path > params.max_path {
+            return n_steps + 1u; // trapped by total internal reflection: absorbed (march.rs)
+        }
         let sigma_t = sample_grid(extinction_grid, grid_sampler, grid, 0.5 * (x0 + s.x)).rgb;
         let after = flux * exp(-sigma_t * length);
         if (params.flags & MARCH_FLAG_DEPOSIT_RADIANCE) != 0u {

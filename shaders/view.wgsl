@@ -290,6 +290,7 @@ fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
         var s = ray_start(ior_grid, grid_sampler, grid, origin + d * max(span.x, 0.0), d);
         // Whether `hit` is the receiver ahead along the current direction (see march.wgsl).
         var cast_valid = true;
+        var path = 0.0;
         for (var i = 0u; i < params.max_steps; i++) {
             out.steps++;
             let x0 = s.x;
@@ -314,6 +315,7 @@ fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
                 s.v = d * s.g.w;
             }
             let len = distance(x0, s.x);
+            path += len;
             let mid = 0.5 * (x0 + s.x);
             var extinction = vec3<f32>(0.0);
             if has(VIEW_FLAG_MEDIA) {
@@ -341,7 +343,9 @@ fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
                 return out;
             }
             // (Checked after the step: the entry point itself may round to just outside.)
-            if !in_grid(grid, s.x) {
+            // A path longer than max_path is trapped by total internal reflection: it leaves
+            // along the direction it has (see march.rs, `max_path`).
+            if !in_grid(grid, s.x) || path > params.max_path {
                 break;
             }
         }

@@ -44,7 +44,7 @@ struct ViewParams {
     light_count: u32,
     max_step: f32,
     eps_refract: f32,
-    _pad0: u32,
+    max_path: f32,
     _pad1: u32,
     ambient: vec3<f32>,
     _pad2: u32,
@@ -240,7 +240,7 @@ struct MarchParams {
     flags: u32,
     eps_refract: f32,
     receiver_count: u32,
-    _pad0: u32,
+    max_path: f32,
     _pad1: u32,
 }
 

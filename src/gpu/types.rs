@@ -88,7 +88,8 @@ gpu_struct! {
         pub max_step: f32,
         /// n − 1 above which a medium counts as refractive (it blocks shadow rays).
         pub eps_refract: f32,
-        pub _pad0: u32,
+        /// Longest path a camera ray follows through the volume, metres (`march::max_path`).
+        pub max_path: f32,
         pub _pad1: u32,
         /// Mean environment radiance: the receivers' ambient light.
         pub ambient: [f32; 3],
@@ -380,7 +381,8 @@ gpu_struct! {
         pub flags: u32,
         pub eps_refract: f32,
         pub receiver_count: u32,
-        pub _pad0: u32,
+        /// Longest path a photon follows, metres: see `march::max_path`.
+        pub max_path: f32,
         pub _pad1: u32,
     }
 }

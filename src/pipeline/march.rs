@@ -50,6 +50,19 @@ pub fn radiance_scale(photons: u32, headroom: f32) -> f32 {
     flux_scale(photons, headroom) / (2.0 * 3f32.sqrt())
 }
 
+/// The longest path a photon or camera ray follows through a volume of this `diagonal`, metres.
+///
+/// A path through smooth media is at most a few box diagonals long, however much it bends; one
+/// that goes on is light trapped by total internal reflection (a lumpy or faceted glass can hold
+/// it bouncing inside). Left to the step budget, those few paths kept whole GPU warps busy for
+/// thousands of steps — most of the frame, measured on the H200 (`refrakt bench`: a 5k-triangle
+/// pebble's march went from 6.3 to 0.6 ms when they were cut early). A trapped photon is
+/// absorbed (in reality it leaks out somewhere after many bounces or is absorbed by the glass);
+/// a trapped camera ray leaves along the direction it has.
+pub fn max_path(diagonal: f32) -> f32 {
+    3.0 * diagonal
+}
+
 pub struct March {
     main: wgpu::ComputePipeline,
     resolve: wgpu::ComputePipeline,
@@ -107,6 +120,7 @@ impl March {
             photon_count: photons,
             // Curved paths (and paths trapped by total internal reflection) get a few diagonals.
             max_steps: ((8.0 * diagonal / min_step) as u32).max(64),
+            max_path: max_path(diagonal),
             min_step,
             max_step: 64.0 * grid.voxel_size,
             radiance_scale: radiance_scale(photons, headroom),

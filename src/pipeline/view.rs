@@ -74,6 +74,7 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
         width: desc.camera.width,
         height: desc.camera.height,
         max_steps,
+        max_path: super::march::max_path(diagonal),
         flags,
         step: v.step,
         medium_eps: MEDIUM_EPS,

@@ -367,11 +367,34 @@ fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
     return out;
 }
 
+// The ray-equation steps of this workgroup's pixels, (low, high) words: one global add per
+// workgroup rather than one per pixel, all on the same word (see march.wgsl's statistics).
+var<workgroup> workgroup_steps: array<atomic<u32>, 2>;
+
 @compute @workgroup_size(8, 8, 1)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= params.width || id.y >= params.height {
-        return;
+fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
+    if id.x < params.width && id.y < params.height {
+        let steps = shade_pixel(id.xy);
+        let old = atomicAdd(&workgroup_steps[0], steps);
+        if old + steps < old {
+            atomicAdd(&workgroup_steps[1], 1u);
+        }
     }
+    workgroupBarrier();
+    if lane == 0u {
+        let low = atomicLoad(&workgroup_steps[0]);
+        let old = atomicAdd(&view_steps[0], low);
+        let carry = select(0u, 1u, old + low < old);
+        let high = atomicLoad(&workgroup_steps[1]) + carry;
+        if high != 0u {
+            atomicAdd(&view_steps[1], high);
+        }
+    }
+}
+
+// Traces pixel `p`'s camera rays and writes its five planes; returns the steps they took.
+fn shade_pixel(p: vec2<u32>) -> u32 {
+    let id = vec3<u32>(p, 0u);
     var sum = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
     var coverage = 0.0;
     for (var k = 0u; k < params.samples; k++) {
@@ -392,8 +415,5 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     frame[2u * plane + pixel] = vec4<f32>(sum.caustic * inv, 0.0);
     frame[3u * plane + pixel] = vec4<f32>(sum.direct * inv, 0.0);
     frame[4u * plane + pixel] = vec4<f32>(sum.volume * inv, 0.0);
-    let old = atomicAdd(&view_steps[0], sum.steps);
-    if old + sum.steps < old {
-        atomicAdd(&view_steps[1], 1u);
-    }
+    return sum.steps;
 }

@@ -352,8 +352,10 @@ impl<'a> Session<'a> {
 
     /// Loads the scene from disk as the candidate; on an error the current scene stays.
     fn load(&mut self) -> bool {
+        let started = Instant::now();
         match SceneSource::load_with(self.path, &self.opts.allow_read, &self.opts.limits, &self.opts.gltf) {
             Ok(source) => {
+                tracing::debug!("scene loaded in {:.1} ms", 1e3 * started.elapsed().as_secs_f64());
                 self.candidate = Some(source);
                 true
             }
@@ -428,8 +430,15 @@ impl<'a> Session<'a> {
         if self.stop.load(Ordering::SeqCst) {
             return Ok(()); // stopping: the preview stays as it was
         }
+        let rendered = started.elapsed();
         let png = PngOptions { alpha: !desc.environment.visible, ..self.opts.png };
         output::write_with(&image, self.format, &self.opts.out, &png, ExrCompression::Fast)?;
+        tracing::debug!(
+            "{quality:?} frame: rendered and read back in {:.1} ms, written in {:.1} ms ({:.1} ms since the change was noticed)",
+            1e3 * rendered.as_secs_f64(),
+            1e3 * (started.elapsed() - rendered).as_secs_f64(),
+            1e3 * self.noticed.elapsed().as_secs_f64()
+        );
         if quality == Quality::Final {
             self.last_full = Some(started.elapsed());
         }

@@ -1,6 +1,6 @@
-//! OpenEXR output: one part, 32-bit float channels, ZIP compression (RLE for `refrakt watch`'s
-//! preview, see [`super::ExrCompression`]). The beauty layer is
-//! written as plain `R G B A` (what every viewer shows); other layers as `<layer>.<channel>`
+//! OpenEXR output: one part, 32-bit float channels, ZIP compression (half floats, uncompressed,
+//! for `refrakt watch`'s preview: see [`super::ExrCompression`]). The beauty layer is written as
+//! plain `R G B A` (what every viewer shows); other layers as `<layer>.<channel>`
 //! (`depth.Z`), the naming compositors (Blender, Nuke) split into layers.
 
 use std::path::Path;
@@ -21,18 +21,22 @@ pub fn write(image: &super::Image, path: &Path, compression: super::ExrCompressi
     for layer in &image.layers {
         let n = layer.channels.len();
         for (c, name) in layer.channels.iter().enumerate() {
-            let samples: Vec<f32> = layer.data.iter().skip(c).step_by(n).copied().collect();
-            channels.push(AnyChannel::new(Text::from(channel_name(&layer.name, name).as_str()), FlatSamples::F32(samples)));
+            let values = layer.data.iter().skip(c).step_by(n).copied();
+            let samples = match compression {
+                super::ExrCompression::Fast if layer.name != "depth" => FlatSamples::F16(values.map(half::f16::from_f32).collect()),
+                _ => FlatSamples::F32(values.collect()),
+            };
+            channels.push(AnyChannel::new(Text::from(channel_name(&layer.name, name).as_str()), samples));
         }
     }
     let attributes =
         LayerAttributes { software_name: Some(Text::from(concat!("refrakt ", env!("CARGO_PKG_VERSION")))), ..Default::default() };
-    let encoding = match compression {
-        super::ExrCompression::Small => Encoding::SMALL_LOSSLESS,
-        super::ExrCompression::Fast => Encoding::FAST_LOSSLESS,
+    let layer = |encoding| exr::image::Layer::new((w, h), attributes, encoding, AnyChannels::sort(channels.into()));
+    let written = match compression {
+        super::ExrCompression::Small => exr::image::Image::from_layer(layer(Encoding::SMALL_LOSSLESS)).write().to_file(path),
+        super::ExrCompression::Fast => exr::image::Image::from_layer(layer(Encoding::UNCOMPRESSED)).write().non_parallel().to_file(path),
     };
-    let layer = exr::image::Layer::new((w, h), attributes, encoding, AnyChannels::sort(channels.into()));
-    exr::image::Image::from_layer(layer).write().to_file(path).context("EXR encoding failed")
+    written.context("EXR encoding failed")
 }
 
 /// Reads an EXR written by [`write`] back into an [`Image`] (tests, the Blender round trip).

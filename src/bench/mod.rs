@@ -301,7 +301,7 @@ fn voxelize_meshes(renderer: &mut Renderer, bunny: Option<&Path>, runs: u32) -> 
     let mut out = Vec::new();
     for (name, m, resolution) in cases {
         let desc = crate::pipeline::voxelize_mesh::benchmark_frame(m, resolution)?;
-        if let Err(why) = renderer.check_limits(&desc) {
+        if let Err(why) = renderer.check_grid_limits(&desc) {
             out.push(json!({ "mesh": name, "resolution": resolution, "skipped": format!("{why:#}") }));
             continue;
         }

@@ -585,7 +585,7 @@ pub fn benchmark(renderer: &mut super::Renderer, desc: &FrameDesc, runs: u32) ->
     // One run first to allocate and compile; it is not counted.
     for run in 0..=runs {
         renderer.forget_mesh_voxels();
-        let passes = renderer.time_volume(desc)?;
+        let passes = renderer.time_voxelize(desc)?;
         if passes.is_empty() {
             return Ok(None);
         }

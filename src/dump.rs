@@ -14,7 +14,7 @@ use serde_json::{Value, json};
 
 use crate::frame::{FrameDesc, LightDesc};
 use crate::lua::objects::decimal;
-use crate::render::{RenderOptions, SceneSource, frame_time};
+use crate::render::{RenderOptions, frame_time};
 use crate::scene::eval::placed_nodes;
 use crate::scene::{EnvironmentSource, LightKind, Material, Scene};
 
@@ -159,14 +159,14 @@ fn shorten(v: &mut Value) {
 
 /// Loads the scene and writes one line of JSON per frame (or one for a still) to `out`.
 pub fn run(scene_path: &Path, opts: &RenderOptions, out: &mut impl Write) -> Result<()> {
-    let mut source = SceneSource::load_with(scene_path, &opts.allow_read, &opts.limits, &opts.gltf)?;
+    let mut source = opts.scene.load(scene_path)?;
     let frames: Vec<Option<i64>> = match opts.frames {
         Some(r) => (r.first..=r.last).map(Some).collect(),
         None => vec![None],
     };
     for frame in frames {
         let t = frame_time(frame, opts);
-        let desc = source.frame_desc(t, &opts.eval).map_err(|e| match frame {
+        let desc = source.frame_desc(t, &opts.scene.eval).map_err(|e| match frame {
             Some(k) => anyhow!("frame {k} (t = {t:.4} s): {e:#}"),
             None => e,
         })?;

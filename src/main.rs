@@ -12,7 +12,7 @@ use refrakt::gltf::ImportOptions;
 use refrakt::output::{Format, Layers};
 use refrakt::output::png::{PngOptions, ToneMap};
 use refrakt::progress::ProgressMode;
-use refrakt::render::{self, FrameRange, RenderOptions};
+use refrakt::render::{self, FrameRange, RenderOptions, SceneOptions};
 use refrakt::scene::eval::EvalOptions;
 use refrakt::watch::{self, Moment, WatchOptions};
 
@@ -228,16 +228,16 @@ impl SceneArgs {
         Ok(())
     }
 
-    fn eval(&self) -> EvalOptions {
-        EvalOptions { size: self.size, resolution: self.volume, camera: self.camera.clone(), samples: self.samples, photons: self.photons }
-    }
-
-    fn limits(&self) -> refrakt::lua::Limits {
-        refrakt::lua::Limits { time_budget: Duration::from_secs_f64(self.script_timeout), memory_bytes: self.script_memory << 20 }
-    }
-
-    fn gltf(&self) -> ImportOptions {
-        ImportOptions { scene: self.gltf_scene.clone(), animation: self.animation.clone() }
+    /// The checked options.
+    fn options(&self) -> Result<SceneOptions> {
+        self.check()?;
+        Ok(SceneOptions {
+            fps: self.fps,
+            eval: EvalOptions { size: self.size, resolution: self.volume, camera: self.camera.clone(), samples: self.samples, photons: self.photons },
+            allow_read: self.allow_read.clone(),
+            limits: refrakt::lua::Limits { time_budget: Duration::from_secs_f64(self.script_timeout), memory_bytes: self.script_memory << 20 },
+            gltf: ImportOptions { scene: self.gltf_scene.clone(), animation: self.animation.clone() },
+        })
     }
 }
 
@@ -256,23 +256,18 @@ fn check_time(time: f64) -> Result<()> {
 
 /// `render`'s options, for `render` and (with its own frames) `dump`.
 fn render_options(frames: Option<FrameRange>, time: f64, c: &SceneArgs) -> Result<RenderOptions> {
-    c.check()?;
     check_time(time)?;
     Ok(RenderOptions {
         frames,
-        fps: c.fps,
         time,
         out: PathBuf::from("render"),
         name: None,
         formats: vec![Format::Exr, Format::Png],
-        eval: c.eval(),
         png: PngOptions { exposure: 0.0, tonemap: ToneMap::Neutral, alpha: false },
         skip_existing: false,
         progress: ProgressMode::Auto,
         adapter: None,
-        allow_read: c.allow_read.clone(),
-        limits: c.limits(),
-        gltf: c.gltf(),
+        scene: c.options()?,
     })
 }
 
@@ -336,7 +331,7 @@ fn run(cli: Cli) -> Result<()> {
             refrakt::dump::run(&a.scene, &opts, &mut std::io::stdout().lock())
         }
         Command::Watch(a) => {
-            a.scene_args.check()?;
+            let scene = a.scene_args.options()?;
             let moment = match (a.frames, a.frame, a.time) {
                 (Some(frames), _, _) => Moment::Range { frames, looping: a.looping },
                 (None, Some(k), _) => Moment::Frame(k),
@@ -346,18 +341,13 @@ fn run(cli: Cli) -> Result<()> {
                     Moment::Time(t)
                 }
             };
-            let c = &a.scene_args;
             let opts = WatchOptions {
                 out: a.out.clone().unwrap_or_else(|| WatchOptions::default_out(&a.scene)),
                 moment,
-                fps: c.fps,
-                eval: c.eval(),
                 png: a.output.png(),
                 progress: a.output.progress,
                 adapter: a.output.gpu.adapter.clone(),
-                allow_read: c.allow_read.clone(),
-                limits: c.limits(),
-                gltf: c.gltf(),
+                scene,
                 layers: a.layers,
                 progressive: !a.no_progressive,
                 fast_frame_over: Duration::from_millis(a.fast_frame_over),

@@ -44,25 +44,40 @@ impl std::str::FromStr for FrameRange {
     }
 }
 
+/// How to load and evaluate a scene: what `render`, `watch` and `dump` share.
+#[derive(Clone, Debug)]
+pub struct SceneOptions {
+    /// Frames per second of the scene clock: frame k is the scene at t = k / fps.
+    pub fps: f64,
+    pub eval: EvalOptions,
+    /// Folders the scene may read besides its own.
+    pub allow_read: Vec<PathBuf>,
+    pub limits: Limits,
+    /// `--scene` / `--animation` for a glTF scene.
+    pub gltf: ImportOptions,
+}
+
+impl SceneOptions {
+    /// Loads the scene at `path` with these options.
+    pub fn load(&self, path: &Path) -> Result<SceneSource> {
+        SceneSource::load_with(path, &self.allow_read, &self.limits, &self.gltf)
+    }
+}
+
 /// Everything `refrakt render` was asked to do.
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
     pub frames: Option<FrameRange>,
-    pub fps: f64,
     /// Scene time of a still (`--time`), seconds; frames of a range are at k / fps.
     pub time: f64,
     pub out: PathBuf,
     pub name: Option<String>,
     pub formats: Vec<Format>,
-    pub eval: EvalOptions,
     pub png: PngOptions,
     pub skip_existing: bool,
     pub progress: ProgressMode,
     pub adapter: Option<String>,
-    pub allow_read: Vec<PathBuf>,
-    pub limits: Limits,
-    /// `--scene` / `--animation` for a glTF scene.
-    pub gltf: ImportOptions,
+    pub scene: SceneOptions,
 }
 
 /// A scene that can be evaluated at any time.
@@ -165,7 +180,7 @@ impl SceneSource {
 
 /// The scene time of frame `k` (k / fps), or of the still (`--time`).
 pub fn frame_time(frame: Option<i64>, opts: &RenderOptions) -> f64 {
-    frame.map_or(opts.time, |k| k as f64 / opts.fps)
+    frame.map_or(opts.time, |k| k as f64 / opts.scene.fps)
 }
 
 /// The files frame `k` goes to: `<name>.<ext>` for a still, `<name>.<k:04>.<ext>` in a range.
@@ -279,7 +294,7 @@ impl Drop for FrameWriter {
 /// thread. Frames are still written in order, and an error leaves every earlier frame whole.
 fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &Arc<Mutex<Progress>>, current: &mut Option<i64>) -> Result<()> {
     let started = Instant::now();
-    let mut source = SceneSource::load_with(scene_path, &opts.allow_read, &opts.limits, &opts.gltf)?;
+    let mut source = opts.scene.load(scene_path)?;
     let ctx = crate::gpu::GpuContext::new(opts.adapter.as_deref())?;
     tracing::info!("adapter: {}", ctx.adapter_name());
     let mut renderer = Renderer::new(ctx)?;
@@ -308,7 +323,7 @@ fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &Arc<Mutex<Prog
             *current = numbered;
             let t0 = Instant::now();
             let t = frame_time(numbered, opts);
-            let desc = source.frame_desc(t, &opts.eval).map_err(|e| match numbered {
+            let desc = source.frame_desc(t, &opts.scene.eval).map_err(|e| match numbered {
                 Some(k) if k > first => anyhow!(
                     "frame {k} (t = {t:.4} s): {e:#} (frames {first} to {} are written; fix the scene and re-run with \
                      --skip-existing to go on from frame {k})",

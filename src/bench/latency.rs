@@ -24,7 +24,8 @@ use serde_json::{Value, json};
 
 use super::{BenchOptions, Spread, settings_json};
 use crate::pipeline::{Counters, Renderer};
-use crate::render::SceneSource;
+use crate::output::Layers;
+use crate::render::{SceneOptions, SceneSource};
 use crate::scene::eval::EvalOptions;
 use crate::watch::{self, FrameEvent, Moment, Quality, Report, WatchOptions};
 
@@ -119,15 +120,12 @@ fn session(opts: &BenchOptions, eval: &EvalOptions, edits: u32, progressive: boo
     let watch_opts = WatchOptions {
         out: dir.path().join("default.preview.exr"),
         moment: Moment::Frame(0),
-        fps: 24.0,
-        eval: eval.clone(),
         png: Default::default(),
         progress: crate::progress::ProgressMode::Quiet,
         adapter: opts.adapter.clone(),
-        allow_read: Vec::new(),
-        limits: Default::default(),
-        gltf: Default::default(),
-        layers: Default::default(),
+        scene: SceneOptions { fps: 24.0, eval: eval.clone(), allow_read: Vec::new(), limits: Default::default(), gltf: Default::default() },
+        // What `refrakt watch` writes by default: the beauty pass.
+        layers: Layers::Beauty,
         progressive,
         fast_frame_over: Duration::ZERO,
         debounce: watch::DEFAULT_DEBOUNCE,

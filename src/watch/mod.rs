@@ -26,14 +26,12 @@ use serde::Serialize;
 use serde_json::json;
 
 use crate::frame::FrameDesc;
-use crate::gltf::ImportOptions;
 use crate::gpu::shaders::ShaderLibrary;
-use crate::lua::Limits;
 use crate::output::{self, ExrCompression, Format, Layers, png::PngOptions};
 use crate::pipeline::reuse::Reuse;
 use crate::pipeline::{Counters, Renderer};
 use crate::progress::{Progress, ProgressMode};
-use crate::render::{FrameRange, INTERRUPTED, SceneSource};
+use crate::render::{FrameRange, INTERRUPTED, SceneOptions, SceneSource};
 use crate::scene::eval::EvalOptions;
 use files::{Change, SceneFiles};
 
@@ -54,15 +52,10 @@ pub struct WatchOptions {
     /// The preview file (`.exr` or `.png`), rewritten by every frame.
     pub out: PathBuf,
     pub moment: Moment,
-    pub fps: f64,
-    pub eval: EvalOptions,
     pub png: PngOptions,
     pub progress: ProgressMode,
     pub adapter: Option<String>,
-    pub allow_read: Vec<PathBuf>,
-    pub limits: Limits,
-    /// Which scene and animation of a glTF file.
-    pub gltf: ImportOptions,
+    pub scene: SceneOptions,
     /// The layers an EXR preview holds (a PNG preview shows the beauty pass).
     pub layers: Layers,
     /// After a change, show a fast frame before the full one…
@@ -233,7 +226,7 @@ pub fn run(scene: &Path, opts: &WatchOptions) -> Result<()> {
         let ctx = crate::gpu::GpuContext::new(opts.adapter.as_deref())?;
         tracing::info!("adapter: {}", ctx.adapter_name());
         let renderer = Renderer::with_shaders(ctx, ShaderLibrary::for_development())?;
-        let points = opts.moment.points(opts.fps);
+        let points = opts.moment.points(opts.scene.fps);
         progress.start(points[0].frame.unwrap_or(0), points[points.len() - 1].frame.unwrap_or(0));
         watch(scene, opts, renderer, &mut progress, &INTERRUPTED)
     })();
@@ -249,7 +242,7 @@ pub fn run(scene: &Path, opts: &WatchOptions) -> Result<()> {
 /// set. Errors in the scene are reported and survived; only failing to watch at all returns one.
 pub fn watch(scene: &Path, opts: &WatchOptions, renderer: Renderer, report: &mut dyn Report, stop: &AtomicBool) -> Result<()> {
     let mut session = Session::new(scene, opts, renderer, report, stop)?;
-    let points = opts.moment.points(opts.fps);
+    let points = opts.moment.points(opts.scene.fps);
     let mut next = session.load().then_some(0);
     session.rewatch();
     loop {
@@ -353,7 +346,7 @@ impl<'a> Session<'a> {
     /// Loads the scene from disk as the candidate; on an error the current scene stays.
     fn load(&mut self) -> bool {
         let started = Instant::now();
-        match SceneSource::load_with(self.path, &self.opts.allow_read, &self.opts.limits, &self.opts.gltf) {
+        match self.opts.scene.load(self.path) {
             Ok(source) => {
                 tracing::debug!("scene loaded in {:.1} ms", 1e3 * started.elapsed().as_secs_f64());
                 self.candidate = Some(source);
@@ -400,12 +393,12 @@ impl<'a> Session<'a> {
     /// change arrived in between.
     fn try_render(&mut self, shown: Shown) -> Result<()> {
         let source = self.candidate.as_mut().or(self.current.as_mut()).ok_or_else(|| anyhow!("no scene is loaded"))?;
-        let full = frame_at(source, shown.at, &self.opts.eval, self.last.as_ref())?;
+        let full = frame_at(source, shown.at, &self.opts.scene.eval, self.last.as_ref())?;
         // A range shows its frames at the full settings; a still shows a fast frame first only
         // when full frames take long enough for it to be seen sooner.
         let slow = self.last_full.is_none_or(|d| d > self.opts.fast_frame_over);
         let progressive = self.opts.progressive && shown.total == 1 && slow;
-        let fast_eval = progressive.then(|| fast_options(&self.opts.eval, &full, self.renderer.would_reuse(&full))).flatten();
+        let fast_eval = progressive.then(|| fast_options(&self.opts.scene.eval, &full, self.renderer.would_reuse(&full))).flatten();
         if let Some(eval) = fast_eval {
             let fast = frame_at(source, shown.at, &eval, self.last.as_ref())?;
             self.show(fast, shown, Quality::Preview)?;

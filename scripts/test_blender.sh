@@ -7,7 +7,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-BPY_VERSION=4.5.15      # Blender 4.5 LTS; needs CPython 3.11
+# Blender 4.5 LTS (needs CPython 3.11); BPY_VERSION=4.2.0 or 5.0.0 tests another Blender.
+BPY_VERSION="${BPY_VERSION:-4.5.15}"
 PYTEST_VERSION=9.2.0
 CACHE="${XDG_CACHE_HOME:-$HOME/.cache}/refrakt"
 WHEELS="$CACHE/wheels"

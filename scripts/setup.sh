@@ -15,9 +15,15 @@ if ! command -v cargo >/dev/null 2>&1; then
   fi
 fi
 
+# (grep reads all of ldconfig's output: with `grep -q` and pipefail, ldconfig's SIGPIPE would
+# count as no driver; and one ICD folder with a JSON file is enough.)
 have_vulkan_driver() {
-  ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1' || return 1
-  ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json /usr/local/share/vulkan/icd.d/*.json >/dev/null 2>&1
+  ldconfig -p 2>/dev/null | grep 'libvulkan\.so\.1' >/dev/null || return 1
+  local dir
+  for dir in /usr/share/vulkan/icd.d /etc/vulkan/icd.d /usr/local/share/vulkan/icd.d; do
+    compgen -G "$dir/*.json" >/dev/null && return 0
+  done
+  return 1
 }
 
 if ! have_vulkan_driver; then

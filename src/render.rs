@@ -98,7 +98,10 @@ impl GltfScene {
     pub fn load(path: &Path, allow_read: &[PathBuf], opts: &ImportOptions) -> Result<Self> {
         let base = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
         let access = FileAccess::new(base, allow_read).map_err(|e| anyhow!("cannot open the scene's folder {}: {e}", base.display()))?;
-        let import = crate::gltf::import(path, &path.display().to_string(), &access, opts)?;
+        // A failed import still says what it read or looked for (a missing .bin, a texture), so
+        // `refrakt watch` renders once that file is fixed, as for a script.
+        let import = crate::gltf::import(path, &path.display().to_string(), &access, opts)
+            .map_err(|e| crate::lua::LoadError { message: format!("{e:#}"), files_read: access.read.borrow().clone() })?;
         for w in &import.warnings {
             tracing::warn!("{w}");
         }

@@ -613,3 +613,22 @@ fn the_preview_holds_the_layers_asked_for() {
     assert_eq!(layers(&[], "beauty.exr"), ["beauty"]);
     assert_eq!(layers(&["--layers", "all"], "all.exr"), ["beauty", "caustic", "depth", "direct", "volume"]);
 }
+
+/// A glTF scene whose buffer file is missing is reported, and renders once the file appears:
+/// the buffers and images a failed import looked for are watched like a script's assets.
+#[test]
+fn a_gltf_scene_renders_once_its_missing_buffer_appears() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, out) = (dir.path().join("scene.gltf"), dir.path().join("preview.exr"));
+    let sample = common::gltf_builder::sample_scene();
+    sample.write_external(&scene, "scene.bin");
+    let bin = std::fs::read(dir.path().join("scene.bin")).unwrap();
+    std::fs::remove_file(dir.path().join("scene.bin")).unwrap();
+    let mut w = Watch::start(&scene, &out, &["--no-progressive", "--size", "32x24", "--volume", "20", "--samples", "1"]);
+    let message = w.error()["message"].as_str().unwrap().to_string();
+    assert!(message.contains("scene.bin"), "{message}");
+    assert!(!out.exists());
+    std::fs::write(dir.path().join("scene.bin"), bin).unwrap();
+    w.frame();
+    assert!(out.exists());
+}

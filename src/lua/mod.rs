@@ -28,8 +28,9 @@ pub struct ScriptHost {
     path: PathBuf,
 }
 
-/// A script that failed to load, with the files it had read (or looked for) by then: the
-/// files whose edit may fix it, for `refrakt watch`. Shown, it is just the message.
+/// A scene (a script, or a glTF file) that failed to load, with the files it had read (or
+/// looked for) by then: the files whose edit may fix it, for `refrakt watch`. Shown, it is
+/// just the message.
 #[derive(Debug)]
 pub struct LoadError {
     pub message: String,
@@ -44,7 +45,7 @@ impl std::fmt::Display for LoadError {
 
 impl std::error::Error for LoadError {}
 
-/// The files a failed [`ScriptHost::load`] had read, if it got as far as running the script.
+/// The files a failed scene load had read, if it got as far as reading any.
 pub fn files_read_before(e: &anyhow::Error) -> &[PathBuf] {
     e.downcast_ref::<LoadError>().map_or(&[], |l| &l.files_read)
 }

@@ -110,6 +110,11 @@ pub struct IndexSamples {
     pub voxel_size: f32,
 }
 
+// Equality of the data, and (as `Eq`) equal to itself: `Arc<IndexSamples>`'s == then checks the pointer
+// first, so the stage-reuse keys and `FrameDesc::share_unchanged` compare shared data for free.
+// (Its floats are checked finite before they reach the GPU.)
+impl Eq for IndexSamples {}
+
 impl IndexSamples {
     /// n at the voxel containing world point `x`, or `None` outside the block.
     pub fn at(&self, x: Vec3) -> Option<f32> {

@@ -456,7 +456,9 @@ impl Renderer {
         self.counters.volumes_reused += reused.volume as u64;
         self.counters.photons_reused += reused.photons as u64;
         self.counters.frames += 1;
-        self.cache.built_volume(volume_key);
+        if !reused.volume {
+            self.cache.built_volume(volume_key);
+        }
         if trace {
             self.cache.traced_photons(photon_key);
         }
@@ -470,7 +472,7 @@ impl Renderer {
         let grids = self.grids.as_ref().map_or(0, |g| g.generation);
         let radiance = self.radiance.as_ref().map_or(0, |r| r.generation);
         let volume = VolumeKey::of(desc, grids);
-        let photons = PhotonKey::of(volume.clone(), desc, [self.receivers.generation, radiance], &self.settings);
+        let photons = PhotonKey::of(desc, [self.receivers.generation, radiance], &self.settings);
         (volume, photons)
     }
 

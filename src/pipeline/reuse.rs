@@ -40,10 +40,10 @@ impl VolumeKey {
     }
 }
 
-/// Everything the photon stages read: the volume they travel through and the light sent in.
+/// Everything the photon stages read besides the volume they travel through (the cache ties
+/// photons to the volume they were traced in): the light sent in and where it lands.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PhotonKey {
-    volume: VolumeKey,
     /// Generations of the receivers' buffers and of the radiance grid, where results land.
     targets_generation: [u64; 2],
     lights: Vec<LightDesc>,
@@ -53,9 +53,8 @@ pub struct PhotonKey {
 }
 
 impl PhotonKey {
-    pub fn of(volume: VolumeKey, desc: &FrameDesc, targets_generation: [u64; 2], settings: &RenderSettings) -> Self {
+    pub fn of(desc: &FrameDesc, targets_generation: [u64; 2], settings: &RenderSettings) -> Self {
         Self {
-            volume,
             targets_generation,
             lights: desc.lights.iter().map(|l| LightDesc { name: String::new(), ..l.clone() }).collect(),
             receivers: desc.receivers.iter().map(|r| Receiver { name: String::new(), ..r.clone() }).collect(),
@@ -69,7 +68,10 @@ impl PhotonKey {
 #[derive(Default)]
 pub struct StageCache {
     volume: Option<VolumeKey>,
-    photons: Option<PhotonKey>,
+    /// Counts the volumes built, so photons know which one they were traced through without
+    /// comparing its inputs a second time.
+    volume_serial: u64,
+    photons: Option<(u64, PhotonKey)>,
 }
 
 /// Which groups of stages a frame takes from the cache.
@@ -82,15 +84,19 @@ pub struct Reuse {
 impl StageCache {
     pub fn reuse(&self, volume: &VolumeKey, photons: &PhotonKey) -> Reuse {
         let volume_hit = self.volume.as_ref() == Some(volume);
-        Reuse { volume: volume_hit, photons: volume_hit && self.photons.as_ref() == Some(photons) }
+        let photons_hit = matches!(&self.photons, Some((serial, key)) if *serial == self.volume_serial && key == photons);
+        Reuse { volume: volume_hit, photons: volume_hit && photons_hit }
     }
 
+    /// A new volume is on the GPU (photons traced through the old one no longer apply).
     pub fn built_volume(&mut self, key: VolumeKey) {
         self.volume = Some(key);
+        self.volume_serial += 1;
     }
 
+    /// Photons were traced through the current volume.
     pub fn traced_photons(&mut self, key: PhotonKey) {
-        self.photons = Some(key);
+        self.photons = Some((self.volume_serial, key));
     }
 
     /// Forgets everything (new pipelines may compute differently).

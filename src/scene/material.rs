@@ -36,6 +36,11 @@ pub struct Texture2d {
     pub texels: Vec<[f32; 4]>,
 }
 
+// Equality of the data, and (as `Eq`) equal to itself: `Arc<Texture2d>`'s == then checks the pointer
+// first, so the stage-reuse keys and `FrameDesc::share_unchanged` compare shared data for free.
+// (Its floats are checked finite before they reach the GPU.)
+impl Eq for Texture2d {}
+
 impl Texture2d {
     /// Bilinear lookup with repeat addressing (glTF's default sampler) — the CPU twin of
     /// `albedo_at` in `shaders/view.wgsl`.

@@ -12,6 +12,11 @@ pub struct MeshData {
     pub uvs: Option<Vec<Vec2>>,
 }
 
+// Equality of the data, and (as `Eq`) equal to itself: `Arc<MeshData>`'s == then checks the pointer
+// first, so the stage-reuse keys and `FrameDesc::share_unchanged` compare shared data for free.
+// (Its floats are checked finite before they reach the GPU.)
+impl Eq for MeshData {}
+
 impl MeshData {
     /// Local bounding box (min, max); `None` for a mesh without vertices.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {

@@ -144,6 +144,7 @@ fn other_damage_gets_its_own_message() {
         }), &["keyframe times must increase"]),
         ("joint.glb", Box::new(|g| { g.json["skins"][0]["joints"] = json!([3]); }), &["skins[0]", "names joint 1", "has 1 joints"]),
         ("volume.glb", Box::new(|g| g.json["materials"][0]["extensions"]["KHR_materials_volume"]["attenuationDistance"] = json!(0.0)), &["materials[0] \"Glass\"", "attenuationDistance"]),
+        ("attenuation.glb", Box::new(|g| g.json["materials"][0]["extensions"]["KHR_materials_volume"]["attenuationColor"] = json!([0.0, 0.5, 0.5])), &["materials[0] \"Glass\"", "attenuationColor", "(0, 1]"]),
         ("extras.glb", Box::new(|g| g.json["scenes"][0]["extras"]["refrakt"]["samples"] = json!(0)), &["scenes[0].extras.refrakt.samples must be from 1 to 256"]),
         // Found by the property test below: the gltf crate's image reader unwraps these.
         ("mime.glb", Box::new(|g| { g.json["images"][0].as_object_mut().unwrap().remove("mimeType"); }), &["images[0] has a bufferView but no mimeType"]),

@@ -144,6 +144,8 @@ fn helper_errors_name_the_line_and_argument() {
     assert_error("r.srgb(\"#ggg\")", &["scene.lua:3:", "not a hex color"]);
     assert_error("r.srgb{255, 128, 0}", &["scene.lua:3:", "divide by 255"]);
     assert_error("r.slerp(r.euler{0, 0, 0}, \"up\", 0.5)", &["scene.lua:3:", "refrakt.slerp.b must be Euler angles"]);
+    assert_error("r.glass{ color = {1.5, 0.5, 0.5} }", &["scene.lua:3:", "glass.color must have components in (0, 1]"]);
+    assert_error("r.glass{ color = {0, 0.5, 0.5}, distance = 0.1 }", &["scene.lua:3:", "glass.color must have components in (0, 1]"]);
 }
 
 #[test]

@@ -118,13 +118,8 @@ fn attenuation(m: &gltf::Material, file: &str, what: &str) -> Result<Vec3> {
     if d.is_nan() || d <= 0.0 {
         bail!("{file}: {what}: KHR_materials_volume attenuationDistance is {d}; it must be > 0 (metres)");
     }
-    if !(c.min_element() > 0.0 && c.max_element() <= 1.0) {
-        bail!("{file}: {what}: KHR_materials_volume attenuationColor {c} must have components in (0, 1]");
-    }
-    if d.is_infinite() {
-        return Ok(Vec3::ZERO);
-    }
-    Ok(-Vec3::new(c.x.ln(), c.y.ln(), c.z.ln()) / d)
+    Glass::absorption_from(c, d)
+        .ok_or_else(|| anyhow!("{file}: {what}: KHR_materials_volume attenuationColor {c} must have components in (0, 1]"))
 }
 
 /// Largest texture side refrakt decodes (larger claims in an image header are refused before

@@ -521,11 +521,7 @@ pub fn new_glass(lua: &Lua, table: Option<Table>) -> mlua::Result<Obj<Material>>
             let key = match &k { Value::String(s) => s.to_str().ok().map(|x| x.to_string()), _ => None };
             match key.as_deref() {
                 Some("color") => {
-                    let c = cv::color(lua, FieldName { what: "glass", field: "color" }, &v)?;
-                    if c.min_element() <= 0.0 || c.max_element() > 1.0 {
-                        return Err(error_at(lua, "glass.color must have components in (0, 1] (the transmitted fraction)"));
-                    }
-                    color = Some(c);
+                    color = Some(cv::color(lua, FieldName { what: "glass", field: "color" }, &v)?);
                 }
                 Some("distance") => distance = cv::positive(lua, FieldName { what: "glass", field: "distance" }, &v)?,
                 _ => rest.raw_set(k, v)?,
@@ -537,7 +533,8 @@ pub fn new_glass(lua: &Lua, table: Option<Table>) -> mlua::Result<Obj<Material>>
         if g.absorption != Vec3::ZERO {
             return Err(error_at(lua, "give glass either absorption or color + distance, not both"));
         }
-        g.absorption = -Vec3::new(c.x.ln(), c.y.ln(), c.z.ln()) / distance;
+        g.absorption = Glass::absorption_from(c, distance)
+            .ok_or_else(|| error_at(lua, "glass.color must have components in (0, 1] (the transmitted fraction)"))?;
     }
     Ok(obj)
 }

@@ -17,6 +17,15 @@ pub struct Glass {
     pub g: f32,
 }
 
+impl Glass {
+    /// The absorption coefficient (per metre, per channel) of a medium that turns white light
+    /// `color` after `distance` metres: Beer–Lambert, σ = −ln(color) / distance (glTF's
+    /// attenuation color and distance). `None` unless each component is in (0, 1].
+    pub fn absorption_from(color: Vec3, distance: f32) -> Option<Vec3> {
+        (color.min_element() > 0.0 && color.max_element() <= 1.0).then(|| -Vec3::new(color.x.ln(), color.y.ln(), color.z.ln()) / distance)
+    }
+}
+
 impl Default for Glass {
     fn default() -> Self {
         Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0 }

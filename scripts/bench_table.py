@@ -27,7 +27,7 @@ def adapter(report):
 def scene_rows(report):
     rows = []
     for s in report["scenes"]:
-        if s.get("latency") is not None or "stages_ms" not in s:
+        if "stages_ms" not in s:
             if "skipped" in s:
                 rows.append(f"| {s['name']} | {adapter(report)} | skipped: {s['skipped']} |" + " |" * (len(STAGES) + 5))
             continue
@@ -100,11 +100,25 @@ def voxelize_table(report):
     return out
 
 
+def latency_table(report):
+    w = report.get("watch_latency")
+    if not w:
+        return []
+    out = [f"`refrakt watch` on {adapter(report)}, save to preview in place (median / p90 ms; "
+           f"{w['edits']} edits each, {w['debounce_ms']:.0f} ms debounce):", "",
+           "| edit | fast frame first | then the full frame | full frame alone |", "| --- | --- | --- | --- |"]
+    spread = lambda t: f"{t['median']:.1f} / {t['p90']:.1f}"
+    for kind in ("camera_edit", "object_edit"):
+        e, alone = w[kind], w["without_fast_frame"][kind]
+        out.append(f"| {kind.replace('_', ' ')} | {spread(e['first_image_ms'])} | {spread(e['final_image_ms'])} | {spread(alone['final_image_ms'])} |")
+    return out
+
+
 def main(paths):
     reports = [json.load(open(p)) for p in paths]
     lines = scenes_table(reports)
     for r in reports:
-        for table in (voxelize_table(r), scaling_table(r), quality_table(r)):
+        for table in (voxelize_table(r), scaling_table(r), quality_table(r), latency_table(r)):
             if table:
                 lines += [""] + table
     print("\n".join(lines))

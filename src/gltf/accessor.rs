@@ -24,10 +24,6 @@ impl Floats {
     pub fn is_empty(&self) -> bool {
         self.values.is_empty()
     }
-
-    pub fn element(&self, i: usize) -> &[f32] {
-        &self.values[i * self.components..(i + 1) * self.components]
-    }
 }
 
 /// Reads accessors of one document.
@@ -253,11 +249,6 @@ impl<'a> Accessors<'a> {
             }
         }
         Ok(out)
-    }
-
-    /// The number of elements accessor `index` declares.
-    pub fn count(&self, index: usize) -> u64 {
-        self.root.accessors.get(index).map_or(0, |a| a.count.0)
     }
 }
 

@@ -108,8 +108,7 @@ impl March {
         Ok(Self { main, resolve, bgl, params, stats, stats_staging, bound: None })
     }
 
-    /// The march's uniforms for a frame.
-    /// The march's uniforms. `deposit`: fill the radiance grid; `directional`: with the photons'
+    /// The march's uniforms for a frame. `deposit`: fill the radiance grid; `directional`: with the photons'
     /// mean direction too (an anisotropic medium needs it).
     #[allow(clippy::too_many_arguments)]
     pub fn params(grids: &Grids, photons: u32, flux_unit: f32, deposit: bool, directional: bool, receiver_count: u32, headroom: f32) -> MarchParams {
@@ -119,7 +118,8 @@ impl March {
         MarchParams {
             grid,
             photon_count: photons,
-            // Curved paths (and paths trapped by total internal reflection) get a few diagonals.
+            // A safety net: paths end by length first (`max_path`), but a path of many short
+            // bending steps is bounded here.
             max_steps: ((8.0 * diagonal / min_step) as u32).max(64),
             max_path: max_path(diagonal),
             min_step,

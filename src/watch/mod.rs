@@ -248,8 +248,8 @@ pub fn watch(scene: &Path, opts: &WatchOptions, renderer: Renderer, report: &mut
     loop {
         if let Some(i) = next {
             let shown = Shown { at: points[i], done: i as u64 + 1, total: points.len() as u64 };
+            // (Rendering, or failing to, updates the watched files itself.)
             let rendered = session.render(shown);
-            session.rewatch();
             next = match i + 1 {
                 _ if !rendered => None,
                 n if n < points.len() => Some(n),

@@ -54,64 +54,66 @@ def scenes_table(reports):
     return out
 
 
+def table(title, columns, rows):
+    """A titled Markdown table: `rows` are lists of cells, one per column."""
+    lines = [title, "", "| " + " | ".join(columns) + " |", "|" + " --- |" * len(columns)]
+    return lines + ["| " + " | ".join(row) + " |" for row in rows]
+
+
 def scaling_table(report):
     rows = report.get("seed_scaling") or []
     if not rows:
         return []
-    out = [f"Seed scaling on {adapter(report)} (one setting changed at a time; median GPU ms):", "",
-           "| sweep | value | photons | march | view | voxelize.meshes | octree | caustics | GPU total |",
-           "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    cells = []
     for r in rows:
         st = r["settings"]
         value = {"photons": f"{st['photons']:,}", "volume": "×".join(map(str, st["volume"])),
                  "image": f"{st['size'][0]}×{st['size'][1]}", "triangles": f"{st['triangles']:,}"}[r["sweep"]]
         if "skipped" in r:
-            out.append(f"| {r['sweep']} | {value} | skipped: {r['skipped']} | | | | | | |")
+            cells.append([r["sweep"], value, f"skipped: {r['skipped']}"] + [""] * 6)
             continue
         g = r["stages_ms"].get
-        out.append(f"| {r['sweep']} | {value} | {st['photons']:,} | {ms(g('march'))} | {ms(g('view'))} | {ms(g('voxelize.meshes'))} "
-                   f"| {ms(g('octree'))} | {ms(g('caustics'))} | {ms(r['gpu_ms'])} |")
-    return out
+        cells.append([r["sweep"], value, f"{st['photons']:,}", ms(g("march")), ms(g("view")), ms(g("voxelize.meshes")),
+                      ms(g("octree")), ms(g("caustics")), ms(r["gpu_ms"])])
+    return table(f"Seed scaling on {adapter(report)} (one setting changed at a time; median GPU ms):",
+                 ["sweep", "value", "photons", "march", "view", "voxelize.meshes", "octree", "caustics", "GPU total"], cells)
 
 
 def quality_table(report):
     q = report.get("seed_quality")
     if not q:
         return []
-    out = [f"Caustic noise against photon count on {adapter(report)} (RMSE of the caustic layer to a "
-           f"{q['reference_photons']:,}-photon reference, W/m²):", "",
-           "| photons | photon stages ms | caustic RMSE |", "| --- | --- | --- |"]
-    out += [f"| {p['photons']:,} | {p['photon_stages_ms']:.2f} | {p['caustic_rmse']:.4f} |" for p in q["points"]]
-    return out
+    return table(f"Caustic noise against photon count on {adapter(report)} (RMSE of the caustic layer to a "
+                 f"{q['reference_photons']:,}-photon reference, W/m²):",
+                 ["photons", "photon stages ms", "caustic RMSE"],
+                 [[f"{p['photons']:,}", f"{p['photon_stages_ms']:.2f}", f"{p['caustic_rmse']:.4f}"] for p in q["points"]])
 
 
 def voxelize_table(report):
     v = report.get("voxelize") or []
     if not v:
         return []
-    out = [f"Voxelize stage alone on {adapter(report)} (median of 5, solids computed afresh):", "",
-           "| mesh | triangles | volume | mesh solid ms | composite ms | voxelize ms |", "| --- | --- | --- | --- | --- | --- |"]
+    cells = []
     for m in v:
         if "skipped" in m:
-            out.append(f"| {m['mesh']} | | {m['resolution']}³ | skipped: {m['skipped']} | | |")
+            cells.append([m["mesh"], "", f"{m['resolution']}³", f"skipped: {m['skipped']}", "", ""])
         else:
-            out.append(f"| {m['mesh']} | {m['triangles']:,} | {'×'.join(map(str, m['volume']))} | {m['meshes_ms']:.2f} "
-                       f"| {m['composite_ms']:.2f} | **{m['voxelize_ms']:.2f}** |")
-    return out
+            cells.append([m["mesh"], f"{m['triangles']:,}", "×".join(map(str, m["volume"])), f"{m['meshes_ms']:.2f}",
+                          f"{m['composite_ms']:.2f}", f"**{m['voxelize_ms']:.2f}**"])
+    return table(f"Voxelize stage alone on {adapter(report)} (median of 5, solids computed afresh):",
+                 ["mesh", "triangles", "volume", "mesh solid ms", "composite ms", "voxelize ms"], cells)
 
 
 def latency_table(report):
     w = report.get("watch_latency")
     if not w:
         return []
-    out = [f"`refrakt watch` on {adapter(report)}, save to preview in place (median / p90 ms; "
-           f"{w['edits']} edits each, {w['debounce_ms']:.0f} ms debounce):", "",
-           "| edit | fast frame first | then the full frame | full frame alone |", "| --- | --- | --- | --- |"]
     spread = lambda t: f"{t['median']:.1f} / {t['p90']:.1f}"
-    for kind in ("camera_edit", "object_edit"):
-        e, alone = w[kind], w["without_fast_frame"][kind]
-        out.append(f"| {kind.replace('_', ' ')} | {spread(e['first_image_ms'])} | {spread(e['final_image_ms'])} | {spread(alone['final_image_ms'])} |")
-    return out
+    cells = [[kind.replace("_", " "), spread(w[kind]["first_image_ms"]), spread(w[kind]["final_image_ms"]),
+              spread(w["without_fast_frame"][kind]["final_image_ms"])] for kind in ("camera_edit", "object_edit")]
+    return table(f"`refrakt watch` on {adapter(report)}, save to preview in place (median / p90 ms; "
+                 f"{w['edits']} edits each, {w['debounce_ms']:.0f} ms debounce):",
+                 ["edit", "fast frame first", "then the full frame", "full frame alone"], cells)
 
 
 def main(paths):

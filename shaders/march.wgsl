@@ -5,10 +5,14 @@
 // - Beer–Lambert: the flux of each channel decays by exp(−σ_t·ds).
 // - Each segment deposits flux × length into the radiance grid over the voxels it crosses (exact
 //   3D DDA), as fixed-point u32 atomics — the fluence that scattering media show as light shafts.
-// - A photon that reaches an opaque receiver after being refracted (it passed where n − 1 >
-//   eps_refract) deposits its flux into that receiver's caustic map; one that was not is
-//   dropped there, because the direct light (with its shadow rays through the glass) already
-//   accounts for it.
+// - At a sharp interface (shared/interface.wgsl) the photon reflects with probability R, the
+//   Fresnel reflectance, and refracts (tinted) otherwise: each branch's expected flux is exact,
+//   so caustics from reflection (the bright patch beside a glass block) appear as well. Inside,
+//   the interface's own absorption attenuates it over the exact path.
+// - A photon that reaches an opaque receiver after meeting glass (an interface, or a smooth
+//   medium where n − 1 > eps_refract) deposits its flux into that receiver's caustic map; one
+//   that did not is dropped there, because the direct light — whose shadow rays stop at the
+//   same glass — already accounts for it.
 //
 // Fixed point: deposits are (photon flux / flux_unit) · scale, flux_unit the mean photon flux.
 // The scales are chosen on the CPU (src/pipeline/march.rs) so that even every photon landing on
@@ -22,6 +26,8 @@
 #import shared/ray.wgsl
 #import shared/octree.wgsl
 #import shared/bvh.wgsl
+#import shared/interface.wgsl
+#import shared/hash.wgsl
 #import shared/dda.wgsl
 #import shared/receivers.wgsl
 
@@ -44,6 +50,8 @@
 @group(0) @binding(13) var<storage, read_write> stats: array<atomic<u32>>;
 @group(0) @binding(14) var fluence_grid: texture_storage_3d<rgba16float, write>;
 @group(0) @binding(15) var direction_grid: texture_storage_3d<rgba16float, write>;
+@group(0) @binding(16) var<storage, read> interfaces: array<Interface>;
+@group(0) @binding(17) var<storage, read> triangle_normals: array<vec4<f32>>;
 
 // Statistics, each an rgb triple of 64-bit fixed-point flux sums (flux_scale units).
 const STAT_EMITTED: u32 = 0u;
@@ -147,8 +155,8 @@ fn deposit_segment(a: vec3<f32>, b: vec3<f32>, flux: vec3<f32>) {
 }
 
 // A refracted photon lands on a receiver: its flux goes to the texel under the hit point.
-fn deposit_caustic(hit: BvhHit, p: vec3<f32>, d: vec3<f32>, flux: vec3<f32>) {
-    let n = bvh_triangle_normal(hit.triangle);
+fn deposit_caustic(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, flux: vec3<f32>) {
+    let n = hit.normal;
     let back = dot(n, d) > 0.0;
     let facing = select(n, -n, back);
     let chart_index = chart_for(bvh_triangles[hit.triangle].receiver, facing, back);
@@ -168,8 +176,8 @@ fn deposit_caustic(hit: BvhHit, p: vec3<f32>, d: vec3<f32>, flux: vec3<f32>) {
 }
 
 // Where a straight photon ends: on a receiver (deposit if refracted) or escaping.
-fn land(hit: BvhHit, p: vec3<f32>, d: vec3<f32>, flux: vec3<f32>, refracted: bool) {
-    if hit.triangle == 0xffffffffu {
+fn land(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, flux: vec3<f32>, refracted: bool) {
+    if !is_receiver_hit(hit) {
         stat_flux(STAT_ESCAPED, flux);
         return;
     }
@@ -181,27 +189,33 @@ fn land(hit: BvhHit, p: vec3<f32>, d: vec3<f32>, flux: vec3<f32>, refracted: boo
 }
 
 const NO_HIT: f32 = 3.4e38;
+// Interface events (reflections and refractions) a photon may have before it counts as trapped.
+const MAX_EVENTS: u32 = 64u;
 
-// One photon from its light to where it ends; returns the steps it took.
-fn march_photon(photon: Photon) -> u32 {
+// Extinction over a segment: the grid's media at its midpoint and the interface medium the
+// photon is inside.
+fn segment_extinction(a: vec3<f32>, b: vec3<f32>, media: Media) -> vec3<f32> {
+    return sample_grid(extinction_grid, grid_sampler, params.grid, 0.5 * (a + b)).rgb + media_absorption(media);
+}
+
+// One photon (the index-th of the frame) from its light to where it ends; returns the steps it
+// took.
+fn march_photon(photon: Photon, index: u32) -> u32 {
     var flux = photon.flux;
     stat_flux(STAT_EMITTED, flux);
     let grid = params.grid;
     var d = photon.dir;
-    // The receiver ahead along the current straight line, `cast_from` + `hit.t`·d.
-    var cast_from = photon.origin;
-    var hit = bvh_closest_hit(cast_from, d, 0.0, NO_HIT);
+    var ahead_of = look_from(photon.origin, d);
     let span = ray_box(photon.origin, d, grid.origin, grid_box_max(grid));
-    if span.x > span.y || span.y <= 0.0 || hit.t < span.x {
-        land(hit, cast_from + d * hit.t, d, flux, false);
+    if span.x > span.y || span.y <= 0.0 || ahead_of.hit.t < span.x {
+        land(ahead_of.hit, photon.origin + d * ahead_of.hit.t, d, flux, false);
         return 0u;
     }
     var s = ray_start(ior_grid, grid_sampler, grid, photon.origin + d * max(span.x, 0.0), d);
     var refracted = false;
+    var media = no_media();
+    var events = 0u;
     let box_max = grid_box_max(grid);
-    // Whether `hit` is the receiver ahead along the current direction. After the path bends it
-    // is not, and the next cast waits until a step could actually reach a receiver.
-    var cast_valid = true;
     var n_steps = 0u;
     var path = 0.0;
     for (; n_steps < params.max_steps; n_steps++) {
@@ -209,22 +223,39 @@ fn march_photon(photon: Photon) -> u32 {
         var jump = octree_step(x0, d, params.min_step, params.max_step);
         let bends = jump <= params.min_step;
         jump = min(jump, ray_box(x0, d, grid.origin, box_max).y + 1e-4 * grid.voxel_size);
-        if !cast_valid && bvh_may_hit(x0, d, jump) {
-            cast_from = x0;
-            hit = bvh_closest_hit(cast_from, d, 0.0, NO_HIT);
-            cast_valid = true;
-        }
-        let ahead = select(NO_HIT, hit.t - dot(x0 - cast_from, d), cast_valid);
+        let ahead = surface_within(&ahead_of, x0, d, jump);
         if ahead <= jump {
-            // The receiver comes first: finish the segment on it.
+            // A surface comes first: finish the segment on it.
             let p = x0 + d * ahead;
-            let sigma_t = sample_grid(extinction_grid, grid_sampler, grid, 0.5 * (x0 + p)).rgb;
-            let after = flux * exp(-sigma_t * ahead);
+            let after = flux * exp(-segment_extinction(x0, p, media) * ahead);
             if (params.flags & MARCH_FLAG_DEPOSIT_RADIANCE) != 0u {
                 deposit_segment(x0, p, 0.5 * (flux + after));
             }
-            land(hit, p, d, after, refracted);
-            return n_steps + 1u;
+            path += ahead;
+            let hit = ahead_of.hit;
+            if hit.interface_id == NO_INTERFACE {
+                land(hit, p, d, after, refracted);
+                return n_steps + 1u;
+            }
+            // An interface: reflect with probability R, else refract (tinted) into the media
+            // beyond. Either way the photon is now a caustic photon.
+            flux = after;
+            events++;
+            let c = cross_interface(d, hit, media);
+            if random01(params.seed, index, 16u + events) < c.reflectance {
+                d = c.reflected;
+            } else {
+                d = c.transmitted;
+                flux *= c.tint;
+                media = c.beyond;
+            }
+            refracted = true;
+            s = ray_start(ior_grid, grid_sampler, grid, leave_surface(p, c.facing, d, 1e-3 * grid.voxel_size), d);
+            ahead_of.valid = false;
+            if events >= MAX_EVENTS || path > params.max_path {
+                return n_steps + 1u; // trapped by total internal reflection: absorbed (march.rs)
+            }
+            continue;
         }
         if bends {
             march_step(ior_grid, grid_sampler, grid, &s, params.min_step);
@@ -238,8 +269,7 @@ fn march_photon(photon: Photon) -> u32 {
         if path > params.max_path {
             return n_steps + 1u; // trapped by total internal reflection: absorbed (march.rs)
         }
-        let sigma_t = sample_grid(extinction_grid, grid_sampler, grid, 0.5 * (x0 + s.x)).rgb;
-        let after = flux * exp(-sigma_t * length);
+        let after = flux * exp(-segment_extinction(x0, s.x, media) * length);
         if (params.flags & MARCH_FLAG_DEPOSIT_RADIANCE) != 0u {
             deposit_segment(x0, s.x, 0.5 * (flux + after));
         }
@@ -247,9 +277,9 @@ fn march_photon(photon: Photon) -> u32 {
         refracted = refracted || s.g.w - 1.0 > params.eps_refract;
         let d_new = normalize(s.v);
         if dot(d_new, d) < 1.0 - 1e-9 {
-            // The path bent: the receiver ahead must be looked for again along the new direction.
+            // The path bent: the surface ahead must be looked for again along the new direction.
             d = d_new;
-            cast_valid = false;
+            ahead_of.valid = false;
         }
         if max(flux.r, max(flux.g, flux.b)) < 1e-6 * params.flux_unit {
             return n_steps + 1u;
@@ -260,12 +290,8 @@ fn march_photon(photon: Photon) -> u32 {
             break;
         }
     }
-    if !cast_valid {
-        cast_from = s.x;
-        hit = bvh_closest_hit(cast_from, d, 0.0, NO_HIT);
-    }
-    let ahead = hit.t - dot(s.x - cast_from, d);
-    land(hit, s.x + d * ahead, d, flux, refracted);
+    let hit = surface_after(&ahead_of, s.x, d);
+    land(hit, s.x + d * hit.t, d, flux, refracted);
     return n_steps;
 }
 
@@ -280,7 +306,7 @@ fn main(
     if i < params.photon_count {
         let photon = photons[i];
         if photon.flags != 0u {
-            stat_add(STAT_STEPS, march_photon(photon));
+            stat_add(STAT_STEPS, march_photon(photon, i));
         }
     }
     workgroupBarrier();

@@ -11,6 +11,10 @@
 // comes from central differences that reach one voxel further: the leaf takes its bounds over
 // the 4×4×4 block around the cell, so that in a flat cell ∇n is zero too (to within ε/h) and a
 // straight step through it is exactly what the ray equation would do.
+//
+// Sharp glass (extinction's w, see voxelize.wgsl) is not in n: rays meet it as surfaces. A cell
+// whose block it touches gets its n bounds raised by the glass's n − 1, both alike, so the cell
+// stays as flat as the grid is while `n_max − 1` tells the photon raster that glass is there.
 
 #import shared/types.wgsl
 
@@ -32,16 +36,18 @@ fn leaf(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     var v = vec4<f32>(1e30, -1e30, 1e30, -1e30);
+    var sharp = 0.0;
     let last = vec3<i32>(octree_params.grid.dims) - 1;
     for (var k = 0u; k < 64u; k++) {
         let offset = vec3<i32>(i32(k & 3u), i32((k >> 2u) & 3u), i32(k >> 4u)) - 1;
         let p = vec3<u32>(clamp(vec3<i32>(id) + offset, vec3<i32>(0), last));
         let n = index_field[voxel_index(p)];
-        let sigma = textureLoad(extinction_grid, p, 0).rgb;
+        let sigma = textureLoad(extinction_grid, p, 0);
         let s = max(sigma.r, max(sigma.g, sigma.b));
         v = vec4<f32>(min(v.x, n), max(v.y, n), min(v.z, s), max(v.w, s));
+        sharp = max(sharp, sigma.w);
     }
-    octree[id.x + dims0.x * (id.y + dims0.y * id.z)] = v;
+    octree[id.x + dims0.x * (id.y + dims0.y * id.z)] = v + vec4<f32>(sharp, sharp, 0.0, 0.0);
 }
 
 @compute @workgroup_size(4, 4, 4)

@@ -11,6 +11,8 @@
 #import shared/grid.wgsl
 #import shared/ray.wgsl
 #import shared/octree.wgsl
+#import shared/bvh.wgsl
+#import shared/interface.wgsl
 #import shared/dda.wgsl
 
 @group(0) @binding(0) var<uniform> params: ProbeParams;
@@ -21,12 +23,46 @@
 @group(0) @binding(5) var<uniform> octree_params: OctreeParams;
 @group(0) @binding(6) var<storage, read> octree: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read_write> steps_out: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(9) var<storage, read> bvh_triangles: array<BvhTriangle>;
+@group(0) @binding(10) var<storage, read> interfaces: array<Interface>;
+@group(0) @binding(11) var<storage, read> triangle_normals: array<vec4<f32>>;
 
 fn record(slot: u32, s: RayState, steps: u32) {
     records[slot] = ProbeRecord(s.x, s.g.w, s.v, steps);
 }
 
-fn advance(s: ptr<function, RayState>) {
+// The arc length the next step will take from s.
+fn step_length(s: RayState) -> f32 {
+    if params.integrator != INTEGRATOR_EULER && params.max_step > 0.0 {
+        return octree_step(s.x, normalize(s.v), params.step, params.max_step);
+    }
+    return params.step;
+}
+
+// Crosses the interface `hit` found within the next step: the transmitted branch (the
+// reflected one under total internal reflection), from just past the surface.
+fn cross_surface(s: ptr<function, RayState>, media: ptr<function, Media>, hit: SurfaceHit) {
+    let d = normalize((*s).v);
+    let p = (*s).x + d * hit.t;
+    let c = cross_interface(d, hit, *media);
+    var w = c.reflected;
+    if c.reflectance < 1.0 {
+        w = c.transmitted;
+        *media = c.beyond;
+    }
+    // (v = n·dir with the grid's n: a sharp object's own n is not in the grid, and straight
+    // travel inside it needs none.)
+    *s = ray_start(ior_grid, grid_sampler, params.grid, leave_surface(p, c.facing, w, 1e-3 * params.grid.voxel_size), w);
+}
+
+fn advance(s: ptr<function, RayState>, media: ptr<function, Media>) {
+    let len = step_length(*s);
+    let hit = surface_hit((*s).x, normalize((*s).v), 0.0, len);
+    if hit.interface_id != NO_INTERFACE {
+        cross_surface(s, media, hit);
+        return;
+    }
     if params.integrator == INTEGRATOR_EULER {
         march_step_euler(ior_grid, grid_sampler, params.grid, s, params.step);
     } else if params.max_step > 0.0 {
@@ -49,9 +85,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     var s = ray_start(ior_grid, grid_sampler, grid, ray.origin + ray.dir * max(span.x, 0.0), ray.dir);
     record(base, s, 0u);
     var steps = 0u;
+    var media = no_media();
     if span.x <= span.y && span.y > 0.0 {
         for (; steps < params.max_steps; steps++) {
-            advance(&s);
+            advance(&s, &media);
             let k = (steps + 1u) / params.record_every;
             if (steps + 1u) % params.record_every == 0u && k < params.records_per_ray - 1u {
                 record(base + k, s, steps + 1u);

@@ -5,6 +5,13 @@
 // lights (shadow rays, blocked by refractive media), by the caustic maps, and by the mean
 // environment — or in the environment along the direction they leave in.
 //
+// At a sharp interface (shared/interface.wgsl) a ray splits by the Fresnel equations: the
+// transmitted part goes on, the reflected part (weight R) waits on a small stack of branches
+// and is traced after, each to its own end, so glass shows the environment, the receivers and
+// the sun's disc mirrored in it. Branches end after MAX_EVENTS interface events or when their
+// weight falls below MIN_WEIGHT (a reflection of a reflection inside glass is 0.16% of the
+// light); the deterministic split keeps frames free of noise.
+//
 // Writes five planes of vec4 per pixel into `frame`:
 //   [0] beauty: linear rgb, alpha = coverage by refractive media or receivers
 //   [1] depth of the first medium or surface along the camera axis (x)
@@ -20,6 +27,7 @@
 #import shared/ray.wgsl
 #import shared/octree.wgsl
 #import shared/bvh.wgsl
+#import shared/interface.wgsl
 #import shared/receivers.wgsl
 #import shared/lights.wgsl
 #import shared/environment.wgsl
@@ -48,11 +56,18 @@
 // color textures' texels, 8-bit sRGB RGBA (src/pipeline/receivers.rs).
 @group(0) @binding(19) var<storage, read> triangle_uvs: array<vec4<f32>>;
 @group(0) @binding(20) var<storage, read> albedo_texels: array<u32>;
+@group(0) @binding(21) var<storage, read> interfaces: array<Interface>;
+@group(0) @binding(22) var<storage, read> triangle_normals: array<vec4<f32>>;
 
 const FAR_DEPTH: f32 = 1e10;
 const NO_HIT: f32 = 3.4e38;
 const INV_PI: f32 = 0.318309886;
 const FRAME_PLANES: u32 = 5u;
+// Interface events along one camera sample's branches, and the weight below which a branch is
+// not traced (its light would change the pixel by less than 8-bit precision resolves).
+const MAX_EVENTS: u32 = 8u;
+const MIN_WEIGHT: f32 = 2e-3;
+const BRANCH_STACK: u32 = 4u;
 
 // Sub-pixel offset of sample k: the R2 low-discrepancy sequence (Roberts 2018), centred so a
 // single sample sits on the pixel centre. Also drives soft-shadow samples.
@@ -123,9 +138,10 @@ fn shadow_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
     return tr;
 }
 
-// Visibility of a light from p along w up to dist: opaque receivers, then media.
+// Visibility of a light from p along w up to dist: opaque receivers and glass surfaces (light
+// through glass arrives as caustic photons), then media.
 fn visibility(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
-    if bvh_any_hit(p, w, 1e-4, dist) {
+    if bvh_any_hit(p, w, 1e-4, dist) || analytic_any_hit(p, w, 1e-4, dist) {
         return vec3<f32>(0.0);
     }
     return shadow_transmittance(p, w, dist);
@@ -204,7 +220,7 @@ fn albedo_texel(r: ReceiverGpu, x: i32, y: i32) -> vec3<f32> {
 
 // The receiver's albedo at a hit: its color times its base color texture, looked up at the
 // hit's interpolated texture coordinates, bilinear with repeat — the twin of Texture2d::sample.
-fn albedo_at(hit: BvhHit, receiver: u32) -> vec3<f32> {
+fn albedo_at(hit: SurfaceHit, receiver: u32) -> vec3<f32> {
     let r = receivers[receiver];
     if r.texture_width == 0u {
         return r.albedo;
@@ -222,8 +238,8 @@ fn albedo_at(hit: BvhHit, receiver: u32) -> vec3<f32> {
 }
 
 // Radiance leaving a receiver toward the camera at the hit, split into caustic and direct.
-fn shade_receiver(hit: BvhHit, p: vec3<f32>, d: vec3<f32>, k: u32) -> Shading {
-    let n = bvh_triangle_normal(hit.triangle);
+fn shade_receiver(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, k: u32) -> Shading {
+    let n = hit.normal;
     let back = dot(n, d) > 0.0;
     let facing = select(n, -n, back);
     let receiver = bvh_triangles[hit.triangle].receiver;
@@ -261,86 +277,137 @@ fn first_depth(s: ptr<function, ViewSample>, p: vec3<f32>) {
     }
 }
 
-// Ends a view ray on a receiver: its shading, attenuated by the transmittance so far.
-fn end_on_receiver(out: ptr<function, ViewSample>, hit: BvhHit, p: vec3<f32>, d: vec3<f32>, transmittance: vec3<f32>, k: u32) {
-    first_depth(out, p);
-    let sh = shade_receiver(hit, p, d, k);
-    (*out).caustic = transmittance * sh.caustic;
-    (*out).direct = transmittance * sh.direct;
-    (*out).radiance = (*out).caustic + (*out).direct + (*out).volume;
-}
-
 fn is_medium(g: vec4<f32>, extinction: vec3<f32>) -> bool {
     return abs(g.w - 1.0) > params.medium_eps || any(extinction > vec3<f32>(0.0));
 }
 
-fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
+// One straight-or-curved piece of a camera sample's path: where it starts, where it goes, what
+// fraction of the light it carries to the camera, the media it is in, the events so far.
+struct Branch {
+    x: vec3<f32>,
+    d: vec3<f32>,
+    weight: vec3<f32>,
+    media: Media,
+    events: u32,
+}
+
+// Radiance of the lights seen along d by a path that met glass: the sun's disc (a uniform disc
+// of its angular radius; E / its solid angle 2π(1 − cos α)). Point and spot lights are points
+// and show no highlight.
+fn lights_seen(d: vec3<f32>) -> vec3<f32> {
+    var l = vec3<f32>(0.0);
+    for (var i = 0u; i < params.light_count; i++) {
+        let light = lights[i];
+        if light.kind == LIGHT_SUN && light.half_angle > 0.0 {
+            let cos_a = cos(light.half_angle);
+            if dot(d, -light.direction) >= cos_a {
+                l += light.radiant / (2.0 * PI * (1.0 - cos_a));
+            }
+        }
+    }
+    return l;
+}
+
+// Ends a branch in the environment (and the lights' discs, once it met glass).
+fn end_in_environment(out: ptr<function, ViewSample>, b: Branch) {
+    if (*out).covered || params.env.visible != 0u {
+        (*out).radiance += b.weight * env_radiance(env_map, env_sampler, params.env, b.d);
+    }
+    if b.events > 0u {
+        (*out).radiance += b.weight * lights_seen(b.d);
+    }
+}
+
+// Ends a branch on a receiver: its shading, weighted.
+fn end_on_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, b: Branch, k: u32) {
+    first_depth(out, p);
+    let sh = shade_receiver(hit, p, b.d, k);
+    (*out).caustic += b.weight * sh.caustic;
+    (*out).direct += b.weight * sh.direct;
+    (*out).radiance += b.weight * (sh.caustic + sh.direct);
+}
+
+// Traces one branch to its end. At an interface it goes on along the transmitted direction and
+// pushes the reflected one (or, under total internal reflection, goes on reflected).
+fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function, array<Branch, BRANCH_STACK>>, top: ptr<function, u32>, k: u32) {
     let grid = params.grid;
-    let origin = params.camera.position;
-    var out = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
-    var d = dir0;
-    var transmittance = vec3<f32>(1.0);
-    // The receiver ahead along the current straight line, cast_from + hit.t·d.
-    var cast_from = origin;
-    var hit = bvh_closest_hit(origin, d, 0.0, NO_HIT);
-    var x = origin;
-    let span = ray_box(origin, d, grid.origin, grid_box_max(grid));
-    if span.x <= span.y && span.y > 0.0 && hit.t > max(span.x, 0.0) {
-        let box_max = grid_box_max(grid);
-        var s = ray_start(ior_grid, grid_sampler, grid, origin + d * max(span.x, 0.0), d);
-        // Whether `hit` is the receiver ahead along the current direction (see march.wgsl).
-        var cast_valid = true;
+    var b = b0;
+    var ahead_of = look_from(b.x, b.d);
+    let box_max = grid_box_max(grid);
+    let span = ray_box(b.x, b.d, grid.origin, box_max);
+    if span.x <= span.y && span.y > 0.0 && ahead_of.hit.t > max(span.x, 0.0) {
+        var s = ray_start(ior_grid, grid_sampler, grid, b.x + b.d * max(span.x, 0.0), b.d);
         var path = 0.0;
         for (var i = 0u; i < params.max_steps; i++) {
-            out.steps++;
+            (*out).steps++;
             let x0 = s.x;
-            var jump = octree_step(x0, d, params.step, params.max_step);
+            var jump = octree_step(x0, b.d, params.step, params.max_step);
             let bends = jump <= params.step;
-            jump = min(jump, ray_box(x0, d, grid.origin, box_max).y + 1e-4 * grid.voxel_size);
-            if !cast_valid && bvh_may_hit(x0, d, jump) {
-                cast_from = x0;
-                hit = bvh_closest_hit(cast_from, d, 0.0, NO_HIT);
-                cast_valid = true;
-            }
-            let ahead = select(NO_HIT, hit.t - dot(x0 - cast_from, d), cast_valid);
-            var end_on_hit = false;
-            if ahead <= jump {
-                s.x = x0 + d * ahead;
-                end_on_hit = true;
+            jump = min(jump, ray_box(x0, b.d, grid.origin, box_max).y + 1e-4 * grid.voxel_size);
+            let ahead = surface_within(&ahead_of, x0, b.d, jump);
+            let on_surface = ahead <= jump;
+            if on_surface {
+                s.x = x0 + b.d * ahead;
             } else if bends {
                 march_step(ior_grid, grid_sampler, grid, &s, params.step);
             } else {
-                s.x = x0 + d * jump;
+                s.x = x0 + b.d * jump;
                 s.g = sample_ior(ior_grid, grid_sampler, grid, s.x);
-                s.v = d * s.g.w;
+                s.v = b.d * s.g.w;
             }
             let len = distance(x0, s.x);
             path += len;
             let mid = 0.5 * (x0 + s.x);
-            var extinction = vec3<f32>(0.0);
+            var extinction = media_absorption(b.media);
             if has(VIEW_FLAG_MEDIA) {
                 // Beer–Lambert over the step, with the in-scattered light of its midpoint.
-                extinction = sample_grid(extinction_grid, grid_sampler, grid, mid).rgb;
+                extinction += sample_grid(extinction_grid, grid_sampler, grid, mid).rgb;
                 if has(VIEW_FLAG_SCATTERING) {
-                    out.volume += transmittance * exp(-0.5 * extinction * len) * in_scattering(mid, d) * len;
+                    (*out).volume += b.weight * exp(-0.5 * extinction * len) * in_scattering(mid, b.d) * len;
                 }
-                transmittance *= exp(-extinction * len);
             }
+            b.weight *= exp(-extinction * len);
             if is_medium(s.g, extinction) {
-                first_depth(&out, x0);
+                first_depth(out, x0);
             }
-            if end_on_hit {
-                end_on_receiver(&out, hit, s.x, d, transmittance, k);
-                return out;
+            if on_surface {
+                let hit = ahead_of.hit;
+                if hit.interface_id == NO_INTERFACE {
+                    end_on_receiver(out, hit, s.x, b, k);
+                    return;
+                }
+                first_depth(out, s.x);
+                let c = cross_interface(b.d, hit, b.media);
+                b.events++;
+                var next = b.d;
+                if c.reflectance < 1.0 {
+                    var reflected = Branch(s.x, c.reflected, b.weight * c.reflectance, b.media, b.events);
+                    if max(reflected.weight.r, max(reflected.weight.g, reflected.weight.b)) > MIN_WEIGHT && *top < BRANCH_STACK {
+                        reflected.x = leave_surface(s.x, c.facing, c.reflected, 1e-3 * grid.voxel_size);
+                        (*stack)[*top] = reflected;
+                        *top += 1u;
+                    }
+                    b.weight *= (1.0 - c.reflectance) * c.tint;
+                    b.media = c.beyond;
+                    next = c.transmitted;
+                } else {
+                    next = c.reflected;
+                }
+                if b.events >= MAX_EVENTS || max(b.weight.r, max(b.weight.g, b.weight.b)) < MIN_WEIGHT {
+                    return;
+                }
+                b.d = next;
+                s = ray_start(ior_grid, grid_sampler, grid, leave_surface(s.x, c.facing, next, 1e-3 * grid.voxel_size), next);
+                ahead_of.valid = false;
+                continue;
             }
             let d_new = normalize(s.v);
-            if dot(d_new, d) < 1.0 - 1e-9 {
-                d = d_new;
-                cast_valid = false;
+            if dot(d_new, b.d) < 1.0 - 1e-9 {
+                b.d = d_new;
+                ahead_of.valid = false;
             }
-            if all(transmittance < vec3<f32>(1e-4)) {
-                out.radiance = out.volume;
-                return out;
+            if all(b.weight < vec3<f32>(1e-4)) {
+                return;
             }
             // (Checked after the step: the entry point itself may round to just outside.)
             // A path longer than max_path is trapped by total internal reflection: it leaves
@@ -349,21 +416,26 @@ fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
                 break;
             }
         }
-        x = s.x;
-        if !cast_valid {
-            cast_from = x;
-            hit = bvh_closest_hit(cast_from, d, 0.0, NO_HIT);
-        }
+        b.x = s.x;
     }
-    if hit.t < NO_HIT {
-        let ahead = hit.t - dot(x - cast_from, d);
-        end_on_receiver(&out, hit, x + d * ahead, d, transmittance, k);
-        return out;
+    let hit = surface_after(&ahead_of, b.x, b.d);
+    if is_receiver_hit(hit) {
+        end_on_receiver(out, hit, b.x + b.d * hit.t, b, k);
+        return;
     }
-    out.radiance = out.volume;
-    if out.covered || params.env.visible != 0u {
-        out.radiance += transmittance * env_radiance(env_map, env_sampler, params.env, d);
+    end_in_environment(out, b);
+}
+
+fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
+    var out = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
+    var stack: array<Branch, BRANCH_STACK>;
+    var top = 0u;
+    trace_branch(&out, Branch(params.camera.position, dir0, vec3<f32>(1.0), no_media(), 0u), &stack, &top, k);
+    while top > 0u {
+        top--;
+        trace_branch(&out, stack[top], &stack, &top, k);
     }
+    out.radiance += out.volume;
     return out;
 }
 

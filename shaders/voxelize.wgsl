@@ -10,6 +10,12 @@
 // in the limit of a thin boundary. A field's α comes from its analytic signed distance; a
 // mesh's from the signed distance voxelize_mesh.wgsl left in the atlas.
 //
+// Sharp interfaces (constant-index glass spheres, boxes and closed meshes, `sharp` = 1) put no n
+// into the grid: rays refract at their exact surfaces (shared/interface.wgsl) and take their
+// absorption from the interface itself. They add only their scattering (with a hard edge) and
+// mark the voxels they touch in the extinction grid's w — the excess n − 1 of the glass there —
+// so the octree can tell photons where glass is (octree.wgsl).
+//
 // The CPU twin is src/cpu/field.rs (fields) and src/cpu/mesh.rs (meshes).
 
 #import shared/types.wgsl
@@ -86,6 +92,35 @@ fn field_sample(f: Field, x: vec3<f32>) -> vec2<f32> {
     }
 }
 
+// What one object contributes at a voxel: coverage α, its index there, and whether it is sharp.
+struct Contribution {
+    alpha: f32,
+    n: f32,
+    sharp: bool,
+}
+
+// The grids so far at a voxel, and the object composited over them.
+struct Voxel {
+    n: f32,
+    absorption: vec3<f32>,
+    scattering: vec4<f32>,
+    sharp_excess: f32,
+}
+
+fn composite(v: ptr<function, Voxel>, c: Contribution, absorption: vec3<f32>, scattering: vec4<f32>) {
+    if c.sharp {
+        let inside = select(0.0, 1.0, c.alpha >= 0.5);
+        (*v).scattering = mix((*v).scattering, scattering, inside);
+        if c.alpha > 0.0 {
+            (*v).sharp_excess = max((*v).sharp_excess, abs(c.n - 1.0));
+        }
+        return;
+    }
+    (*v).n = mix((*v).n, c.n, c.alpha);
+    (*v).absorption = mix((*v).absorption, absorption, c.alpha);
+    (*v).scattering = mix((*v).scattering, scattering, c.alpha);
+}
+
 @compute @workgroup_size(4, 4, 4)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let grid = params.grid;
@@ -93,15 +128,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let x = grid.origin + (vec3<f32>(id) + 0.5) * grid.voxel_size;
-    var n = 1.0;
-    var absorption = params.fog_absorption.rgb;
-    var scattering = params.fog_scattering;
+    var v = Voxel(1.0, params.fog_absorption.rgb, params.fog_scattering, 0.0);
     for (var i = 0u; i < params.field_count; i++) {
         let f = fields[i];
         let s = field_sample(f, x);
-        n = mix(n, s.y, s.x);
-        absorption = mix(absorption, f.absorption.rgb, s.x);
-        scattering = mix(scattering, f.scattering, s.x);
+        composite(&v, Contribution(s.x, s.y, f.sharp != 0u), f.absorption.rgb, f.scattering);
     }
     for (var i = 0u; i < params.mesh_count; i++) {
         let m = meshes[i];
@@ -113,14 +144,12 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         // Signed distance in voxels, negative inside.
         let d = atlas[m.atlas_offset + w.x + m.window_dims.x * (w.y + m.window_dims.y * w.z)];
         let alpha = coverage(d * grid.voxel_size, m.boundary);
-        n = mix(n, m.ior, alpha);
-        absorption = mix(absorption, m.absorption, alpha);
-        scattering = mix(scattering, m.scattering, alpha);
+        composite(&v, Contribution(alpha, m.ior, m.sharp != 0u), m.absorption, m.scattering);
     }
     let idx = id.x + grid.dims.x * (id.y + grid.dims.y * id.z);
-    index_field[idx] = n;
-    // Extinction σ_t = absorption + scattering; the scattering grid keeps σ_s and g for the
-    // in-scattering term.
-    textureStore(extinction_grid, id, vec4<f32>(absorption + scattering.rgb, 0.0));
-    textureStore(scattering_grid, id, scattering);
+    index_field[idx] = v.n;
+    // Extinction σ_t = absorption + scattering (w: the sharp glass mark); the scattering grid
+    // keeps σ_s and g for the in-scattering term.
+    textureStore(extinction_grid, id, vec4<f32>(v.absorption + v.scattering.rgb, v.sharp_excess));
+    textureStore(scattering_grid, id, v.scattering);
 }

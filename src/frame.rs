@@ -149,6 +149,11 @@ pub struct FieldDesc {
     pub g: f32,
     /// World-space bounding box, including half the boundary.
     pub bounds: (Vec3, Vec3),
+    /// A sharp interface (a glass sphere or box): rays refract at its exact surface, and the
+    /// grid holds only its medium (see `gpu::types::Interface`).
+    pub sharp: bool,
+    /// Transmission tint per crossing of a sharp surface (`Glass::tint`).
+    pub tint: Vec3,
 }
 
 impl FieldDesc {
@@ -177,7 +182,7 @@ impl FieldDesc {
             sample_first: first.into(),
             sample_offset,
             sample_dims: dims.into(),
-            _pad0: 0,
+            sharp: self.sharp as u32,
         }
     }
 
@@ -200,6 +205,9 @@ pub struct MeshInstance {
     pub boundary: f32,
     /// World-space bounding box.
     pub bounds: (Vec3, Vec3),
+    /// A sharp interface (a closed glass mesh): rays refract at its triangles, and the grid
+    /// holds only its medium.
+    pub sharp: bool,
 }
 
 /// An opaque diffuse surface placed in the world (planes, boxes and spheres arrive here as

@@ -9,8 +9,9 @@ use refrakt::cpu;
 use refrakt::gpu::readback;
 use refrakt::gpu::types::ProbeRay;
 
-/// Many overlapping spheres and boxes of random index and absorption: a "random" grid with
-/// flat interiors, flat air and every kind of boundary.
+/// Many overlapping spheres and boxes of random index and absorption, smoothed (an explicit
+/// `boundary` keeps them in the grid rather than sharp): a "random" grid with flat interiors,
+/// flat air and every kind of boundary.
 fn random_scene(seed: u64) -> String {
     let mut rng = Rng(seed);
     let mut s = String::from("local r = require(\"refrakt\")\nlocal scene = r.scene{ volume = { resolution = 48 } }\n");
@@ -19,9 +20,9 @@ fn random_scene(seed: u64) -> String {
         let ior = rng.range(1.05, 1.8);
         let k = rng.range(0.0, 2.0);
         if rng.next_f32() < 0.5 {
-            s += &format!("scene:add(r.node{{ translation = {{{x}, {y}, {z}}}, shape = r.sphere{{ radius = {} }}, material = r.glass{{ ior = {ior}, absorption = {{{k}, 0, 0}} }} }})\n", rng.range(0.1, 0.4));
+            s += &format!("scene:add(r.node{{ translation = {{{x}, {y}, {z}}}, shape = r.sphere{{ radius = {}, boundary = 3 }}, material = r.glass{{ ior = {ior}, absorption = {{{k}, 0, 0}} }} }})\n", rng.range(0.1, 0.4));
         } else {
-            s += &format!("scene:add(r.node{{ translation = {{{x}, {y}, {z}}}, rotation = {{{}, {}, 0}}, shape = r.box{{ size = {{{}, {}, {}}} }}, material = r.glass{{ ior = {ior} }} }})\n", rng.range(0.0, 90.0), rng.range(0.0, 90.0), rng.range(0.1, 0.6), rng.range(0.1, 0.6), rng.range(0.1, 0.6));
+            s += &format!("scene:add(r.node{{ translation = {{{x}, {y}, {z}}}, rotation = {{{}, {}, 0}}, shape = r.box{{ size = {{{}, {}, {}}}, boundary = 3 }}, material = r.glass{{ ior = {ior} }} }})\n", rng.range(0.0, 90.0), rng.range(0.0, 90.0), rng.range(0.1, 0.6), rng.range(0.1, 0.6), rng.range(0.1, 0.6));
         }
     }
     s + "return scene\n"
@@ -38,6 +39,7 @@ struct Volume {
     renderer: refrakt::pipeline::Renderer,
     n: Vec<f32>,
     sigma: Vec<f32>,
+    sharp: Vec<f32>,
     octree: Vec<[f32; 4]>,
 }
 
@@ -50,8 +52,9 @@ fn build(source: &str) -> Volume {
     let ext = readback::read_texture_3d(&renderer.ctx, &grids.extinction_grid.texture, 8).unwrap();
     let halves: &[half::f16] = bytemuck::cast_slice(&ext);
     let sigma = halves.chunks(4).map(|c| c[0].to_f32().max(c[1].to_f32()).max(c[2].to_f32())).collect();
+    let sharp = halves.chunks(4).map(|c| c[3].to_f32()).collect();
     let octree = bytemuck::cast_slice::<u8, [f32; 4]>(&readback::read_buffer(&renderer.ctx, &grids.octree).unwrap()).to_vec();
-    Volume { desc, renderer, n, sigma, octree }
+    Volume { desc, renderer, n, sigma, sharp, octree }
 }
 
 #[test]
@@ -59,7 +62,7 @@ fn gpu_octree_equals_cpu_twin() {
     for source in [random_scene(1), random_scene(2), LENS.to_string()] {
         let v = build(&source);
         let params = v.renderer.grids().unwrap().octree_layout;
-        let cpu = cpu::octree::build(&params, &v.n, &v.sigma);
+        let cpu = cpu::octree::build(&params, &v.n, &v.sigma, &v.sharp);
         assert_eq!(cpu.len(), v.octree.len());
         // Both take min/max of the same stored values: no rounding anywhere.
         assert_eq!(cpu, v.octree, "octree cells differ");

@@ -48,21 +48,6 @@ fn dda_matches_cpu_twin_and_conserves_length() {
     }
 }
 
-/// The filtered caustic irradiance (W/m², rgb + photon count) of one chart of receiver `index`.
-fn chart(r: &refrakt::pipeline::Renderer, index: usize, slot: usize) -> (refrakt::gpu::types::Chart, Vec<[f32; 4]>) {
-    let rec = r.receivers().unwrap();
-    let table = rec.layout.receivers[index];
-    let slots = [table.charts_a, table.charts_b, table.charts_c].concat();
-    let c = rec.layout.charts[slots[slot] as usize];
-    let all: Vec<[f32; 4]> = bytemuck::cast_slice(&refrakt::gpu::readback::read_buffer(&r.ctx, &rec.caustic_irradiance.buffer).unwrap()).to_vec();
-    (c, all[c.offset as usize..(c.offset + c.width * c.height) as usize].to_vec())
-}
-
-/// World position (in the chart's two axes) of texel (i, j)'s centre.
-fn texel_centre(c: &refrakt::gpu::types::Chart, i: u32, j: u32) -> glam::Vec2 {
-    glam::Vec2::from(c.origin) + (glam::Vec2::new(i as f32, j as f32) + 0.5) * c.texel
-}
-
 /// A Luneburg lens (radius 0.5) under a sun shining straight down, with a floor `screen` metres
 /// below its far pole.
 fn lens_under_sun(resolution: u32, photons: u32, screen: f32) -> String {

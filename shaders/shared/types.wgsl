@@ -63,7 +63,7 @@ struct Field {
     sample_first: vec3<u32>,
     sample_offset: u32,
     sample_dims: vec3<u32>,
-    _pad0: u32,
+    sharp: u32,
 }
 
 struct VoxelizeParams {
@@ -100,6 +100,10 @@ struct MeshVolume {
     absorption: vec3<f32>,
     boundary: f32,
     scattering: vec4<f32>,
+    sharp: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 struct ProbeParams {
@@ -142,6 +146,16 @@ struct BvhTriangle {
     _pad0: u32,
     e2: vec3<f32>,
     _pad1: u32,
+}
+
+struct Interface {
+    world_to_local: mat4x4<f32>,
+    half_size: vec3<f32>,
+    kind: u32,
+    tint: vec3<f32>,
+    ior: f32,
+    absorption: vec3<f32>,
+    _pad0: u32,
 }
 
 struct ReceiverGpu {
@@ -241,7 +255,7 @@ struct MarchParams {
     eps_refract: f32,
     receiver_count: u32,
     max_path: f32,
-    _pad1: u32,
+    seed: u32,
 }
 
 struct CausticParams {
@@ -254,6 +268,12 @@ struct CausticParams {
     _pad1: u32,
     _pad2: u32,
 }
+
+const INTERFACE_NONE: u32 = 0u;
+const INTERFACE_SPHERE: u32 = 1u;
+const INTERFACE_BOX: u32 = 2u;
+const INTERFACE_MESH: u32 = 3u;
+const INTERFACE_BIT: u32 = 0x80000000u;
 
 const FIELD_SPHERE: u32 = 0u;
 const FIELD_BOX: u32 = 1u;

@@ -3,6 +3,7 @@
 
 pub mod dda;
 pub mod field;
+pub mod interface;
 pub mod mesh;
 pub mod octree;
 pub mod ray;

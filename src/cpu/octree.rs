@@ -5,9 +5,9 @@ use glam::{UVec3, Vec3};
 
 use crate::gpu::types::OctreeParams;
 
-/// The pyramid for voxel values `n` and `sigma` (largest extinction channel), laid out as
-/// `params.levels` says.
-pub fn build(params: &OctreeParams, n: &[f32], sigma: &[f32]) -> Vec<[f32; 4]> {
+/// The pyramid for voxel values `n`, `sigma` (largest extinction channel) and `sharp` (the
+/// sharp glass mark, extinction's w), laid out as `params.levels` says.
+pub fn build(params: &OctreeParams, n: &[f32], sigma: &[f32], sharp: &[f32]) -> Vec<[f32; 4]> {
     let d = UVec3::from(params.grid.dims);
     let voxel = |p: UVec3| (p.x + d.x * (p.y + d.y * p.z)) as usize;
     let level = |l: usize| UVec3::new(params.levels[l][0], params.levels[l][1], params.levels[l][2]);
@@ -20,14 +20,16 @@ pub fn build(params: &OctreeParams, n: &[f32], sigma: &[f32]) -> Vec<[f32; 4]> {
         for y in 0..d0.y {
             for x in 0..d0.x {
                 let mut v = empty;
+                let mut mark = 0.0f32;
                 // The 4×4×4 block whose values reach the cell through ∇n's central differences.
                 for k in 0..64i32 {
                     let offset = glam::IVec3::new(k & 3, (k >> 2) & 3, k >> 4) - 1;
                     let p = (UVec3::new(x, y, z).as_ivec3() + offset).clamp(glam::IVec3::ZERO, last).as_uvec3();
                     let (nv, s) = (n[voxel(p)], sigma[voxel(p)]);
                     v = merge(v, [nv, nv, s, s]);
+                    mark = mark.max(sharp[voxel(p)]);
                 }
-                out[(x + d0.x * (y + d0.y * z)) as usize] = v;
+                out[(x + d0.x * (y + d0.y * z)) as usize] = [v[0] + mark, v[1] + mark, v[2], v[3]];
             }
         }
     }

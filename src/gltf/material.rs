@@ -78,7 +78,13 @@ impl<'a> Materials<'a> {
         if !(1.0..=4.0).contains(&ior) {
             bail!("{file}: {what}: KHR_materials_ior ior is {ior}; refrakt renders indices from 1 to 4");
         }
-        let mut glass = Glass { ior, absorption: attenuation(m, file, what)?, ..Glass::default() };
+        // KHR_materials_transmission: the base colour tints what passes each surface.
+        let [r, g, b, _] = m.pbr_metallic_roughness().base_color_factor();
+        let tint = Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE);
+        if m.pbr_metallic_roughness().base_color_texture().is_some() {
+            warnings.push(format!("{file}: {what}: a base colour texture on glass is not used; its factor {tint} tints the glass"));
+        }
+        let mut glass = Glass { ior, absorption: attenuation(m, file, what)?, tint, ..Glass::default() };
         if let Some(a) = medium.absorption {
             glass.absorption = Vec3::from(a);
         }

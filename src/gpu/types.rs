@@ -122,7 +122,9 @@ gpu_struct! {
         pub sample_offset: u32,
         /// …and its size in voxels (x fastest).
         pub sample_dims: [u32; 3],
-        pub _pad0: u32,
+        /// 1: a sharp interface (see [`Interface`]): the field adds its medium to the grids and
+        /// marks the octree, but no n — rays refract at its exact surface instead.
+        pub sharp: u32,
     }
 }
 
@@ -180,6 +182,11 @@ gpu_struct! {
         pub boundary: f32,
         /// Scattering coefficient per metre, rgb; w: Henyey–Greenstein g.
         pub scattering: [f32; 4],
+        /// 1: a sharp interface, as `Field::sharp`.
+        pub sharp: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+        pub _pad2: u32,
     }
 }
 
@@ -239,6 +246,28 @@ gpu_struct! {
         pub _pad0: u32,
         pub e2: [f32; 3],
         pub _pad1: u32,
+    }
+}
+
+gpu_struct! {
+    /// A sharp interface: the closed surface of a constant-index object (glass, water) where a
+    /// ray or photon refracts or reflects once, by Snell and Fresnel, instead of bending across
+    /// a smoothed step of n. Spheres and boxes are exact (intersected in their local frame);
+    /// meshes are found through the receivers' BVH, whose triangles carry
+    /// `INTERFACE_BIT | index`. Analytic interfaces come first in the buffer.
+    pub struct Interface {
+        pub world_to_local: [[f32; 4]; 4],
+        /// Box half extents, sphere radius in x (local units).
+        pub half_size: [f32; 3],
+        /// One of [`interface_kind`].
+        pub kind: u32,
+        /// Transmission tint per crossing (KHR_materials_transmission's base colour), rgb.
+        pub tint: [f32; 3],
+        /// Index of refraction inside.
+        pub ior: f32,
+        /// Absorption coefficient inside, per metre, rgb (Beer–Lambert over the exact path).
+        pub absorption: [f32; 3],
+        pub _pad0: u32,
     }
 }
 
@@ -383,7 +412,9 @@ gpu_struct! {
         pub receiver_count: u32,
         /// Longest path a photon follows, metres: see `march::max_path`.
         pub max_path: f32,
-        pub _pad1: u32,
+        /// The frame's photon seed: interface events draw reflect-or-refract from
+        /// hash(seed, photon, event).
+        pub seed: u32,
     }
 }
 
@@ -402,6 +433,17 @@ gpu_struct! {
         pub _pad1: u32,
         pub _pad2: u32,
     }
+}
+
+/// Interface kinds, as `Interface::kind` (mirrored by constants in `types.wgsl`).
+pub mod interface_kind {
+    /// Ends the list of analytic interfaces.
+    pub const NONE: u32 = 0;
+    pub const SPHERE: u32 = 1;
+    pub const BOX: u32 = 2;
+    pub const MESH: u32 = 3;
+    /// Set in `BvhTriangle::receiver` of an interface's triangle (low bits: the interface).
+    pub const BIT: u32 = 0x8000_0000;
 }
 
 /// Field kinds, as `Field::kind` (mirrored by constants in `types.wgsl`).
@@ -487,6 +529,7 @@ mod tests {
         check::<ProbeRecord>(&module);
         check::<BvhNode>(&module);
         check::<BvhTriangle>(&module);
+        check::<Interface>(&module);
         check::<ReceiverGpu>(&module);
         check::<Chart>(&module);
         check::<LightGpu>(&module);

@@ -447,7 +447,7 @@ impl LuaObject for Shape {
 // ---------------------------------------------------------------------------------------------
 // Materials.
 
-const GLASS_FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g"];
+const GLASS_FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g", "tint"];
 const DIFFUSE_FIELDS: &[&str] = &["color"];
 
 impl LuaObject for Material {
@@ -469,6 +469,7 @@ impl LuaObject for Material {
             (Material::Glass(g), "absorption") => vec_value(lua, g.absorption),
             (Material::Glass(g), "scattering") => vec_value(lua, g.scattering),
             (Material::Glass(g), "g") => Ok(number_value(g.g)),
+            (Material::Glass(g), "tint") => vec_value(lua, g.tint),
             // Transmittance over one metre (the color a 1 m thick piece has).
             (Material::Glass(g), "color") => vec_value(lua, (-g.absorption).exp()),
             (Material::Glass(_), "distance") => Ok(Value::Number(1.0)),
@@ -486,6 +487,13 @@ impl LuaObject for Material {
             }
             (Material::Glass(g), "absorption") => g.absorption = cv::color(lua, name, &value)?,
             (Material::Glass(g), "scattering") => g.scattering = cv::color(lua, name, &value)?,
+            (Material::Glass(g), "tint") => {
+                let c = cv::color(lua, name, &value)?;
+                if c.max_element() > 1.0 {
+                    return Err(error_at(lua, &format!("glass.tint is a fraction of the light passed per surface, each channel from 0 to 1 (got {c})")));
+                }
+                g.tint = c;
+            }
             (Material::Glass(g), "g") => {
                 g.g = cv::number_in(lua, name, &value, Some(-0.99), Some(0.99), "a number from −0.99 to 0.99")? as f32
             }

@@ -94,6 +94,8 @@ impl March {
             layout::storage(13, false),
             layout::storage_texture(14, GRID_FORMAT, d3),
             layout::storage_texture(15, GRID_FORMAT, d3),
+            layout::storage(16, true),
+            layout::storage(17, true),
         ];
         let (main, bgl) = layout::pipeline_entry(device, shaders, "march", "main", &entries)?;
         let (resolve, _) = layout::pipeline_entry(device, shaders, "march", "resolve", &entries)?;
@@ -173,6 +175,8 @@ impl March {
                     wgpu::BindGroupEntry { binding: 13, resource: self.stats.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 14, resource: layout::texture_view(&radiance.fluence.view) },
                     wgpu::BindGroupEntry { binding: 15, resource: layout::texture_view(&radiance.direction.view) },
+                    wgpu::BindGroupEntry { binding: 16, resource: receivers.interfaces.buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 17, resource: receivers.triangle_normals.buffer.as_entire_binding() },
                 ],
             });
             self.bound = Some((generations, bg));

@@ -8,6 +8,7 @@
 
 pub mod caustics;
 pub mod gradient;
+pub mod interfaces;
 pub mod lights;
 pub mod march;
 pub mod octree;
@@ -27,6 +28,7 @@ use glam::UVec3;
 use crate::frame::FrameDesc;
 use crate::gpu::GpuContext;
 use crate::gpu::shaders::ShaderLibrary;
+use crate::gpu::types::MarchParams;
 use crate::output::{Image, Layers};
 use caustics::CausticFilter;
 use lights::LightBuffers;
@@ -414,8 +416,10 @@ impl Renderer {
             self.radiance.as_ref().expect("prepared"),
             self.target.as_ref().expect("prepared"),
         );
-        let march_params =
-            march::March::params(grids, desc.photons, flux_unit, deposit, anisotropic_scattering(desc), desc.receivers.len() as u32, self.settings.fixed_point_headroom);
+        let march_params = MarchParams {
+            seed: self.settings.photon_seed,
+            ..march::March::params(grids, desc.photons, flux_unit, deposit, anisotropic_scattering(desc), desc.receivers.len() as u32, self.settings.fixed_point_headroom)
+        };
         let (volume_key, photon_key) = self.stage_keys(desc);
         let mut reused = self.reuse_of(&volume_key, &photon_key);
         reused.photons &= photons;
@@ -542,20 +546,20 @@ impl Renderer {
     /// [`frame`](Self::frame) (tests, `refrakt trace`).
     pub fn probe(&mut self, rays: &[crate::gpu::types::ProbeRay], opts: &probe::ProbeOptions) -> Result<Vec<crate::gpu::types::ProbeRecord>> {
         let Some(grids) = self.grids.as_ref() else { bail!("probe needs a volume: call build_volume first") };
-        self.probe.trace(&self.ctx, grids, rays, opts)
+        self.probe.trace(&self.ctx, grids, &self.receivers, rays, opts)
     }
 
     /// The octree's straight step at each ray's origin (tests): see [`probe::Probe::octree_steps`].
     pub fn probe_octree(&mut self, rays: &[crate::gpu::types::ProbeRay], step: f32, max_step: f32) -> Result<Vec<[f32; 4]>> {
         let Some(grids) = self.grids.as_ref() else { bail!("probe needs a volume: call build_volume first") };
-        self.probe.octree_steps(&self.ctx, grids, rays, step, max_step)
+        self.probe.octree_steps(&self.ctx, grids, &self.receivers, rays, step, max_step)
     }
 
     /// The cells segments cross, as the photon deposits traverse them (tests):
     /// see [`probe::Probe::dda_cells`].
     pub fn probe_dda(&mut self, segments: &[crate::gpu::types::ProbeRay], max_cells: u32) -> Result<Vec<[f32; 4]>> {
         let Some(grids) = self.grids.as_ref() else { bail!("probe needs a volume: call build_volume first") };
-        self.probe.dda_cells(&self.ctx, grids, segments, max_cells)
+        self.probe.dda_cells(&self.ctx, grids, &self.receivers, segments, max_cells)
     }
 
     /// The current grids (tests read them back to compare with the CPU twins).

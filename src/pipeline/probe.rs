@@ -1,11 +1,14 @@
 //! The probe kernels (`shaders/probe.wgsl`): trace given rays through the current `ior_grid`
 //! with the same steps the view and photon passes use and record their states; query the
 //! octree's straight steps at given points. Tests compare them with the CPU twins (`cpu::ray`,
-//! `cpu::octree`) and with closed-form optics.
+//! `cpu::octree`) and with closed-form optics. Traced rays refract at sharp interfaces (always
+//! the transmitted branch; reflected under total internal reflection), so the same optics tests
+//! hold for sharp glass and smooth media alike.
 
 use anyhow::{Result, anyhow};
 
 use super::layout;
+use super::receivers::Receivers;
 use super::resources::Grids;
 use crate::gpu::GpuContext;
 use crate::gpu::readback::Staging;
@@ -54,6 +57,10 @@ impl Probe {
             layout::uniform(5),
             layout::storage(6, true),
             layout::storage(7, false),
+            layout::storage(8, true),
+            layout::storage(9, true),
+            layout::storage(10, true),
+            layout::storage(11, true),
         ];
         let (trace, bgl) = layout::pipeline_entry(device, shaders, "probe", "main", &entries)?;
         let (query, _) = layout::pipeline_entry(device, shaders, "probe", "octree_query", &entries)?;
@@ -64,7 +71,8 @@ impl Probe {
 
     /// Runs a kernel over `rays`, returning the bytes it wrote to records (`Kernel::Trace`) or
     /// to the steps buffer.
-    fn run(&self, ctx: &GpuContext, grids: &Grids, rays: &[ProbeRay], params: ProbeParams, kernel: Kernel, out_size: u64) -> Result<Vec<u8>> {
+    #[allow(clippy::too_many_arguments)]
+    fn run(&self, ctx: &GpuContext, grids: &Grids, surfaces: &Receivers, rays: &[ProbeRay], params: ProbeParams, kernel: Kernel, out_size: u64) -> Result<Vec<u8>> {
         let query = kernel != Kernel::Trace;
         let device = &ctx.device;
         ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
@@ -91,6 +99,10 @@ impl Probe {
                 wgpu::BindGroupEntry { binding: 5, resource: grids.octree_params.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 6, resource: grids.octree.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 7, resource: steps.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 8, resource: surfaces.bvh_nodes.buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 9, resource: surfaces.bvh_triangles.buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 10, resource: surfaces.interfaces.buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 11, resource: surfaces.triangle_normals.buffer.as_entire_binding() },
             ],
         });
         let out = if query { &steps } else { &records };
@@ -128,29 +140,29 @@ impl Probe {
     }
 
     /// Traces `rays`; returns `records_per_ray` states per ray, ray after ray.
-    pub fn trace(&self, ctx: &GpuContext, grids: &Grids, rays: &[ProbeRay], opts: &ProbeOptions) -> Result<Vec<ProbeRecord>> {
+    pub fn trace(&self, ctx: &GpuContext, grids: &Grids, surfaces: &Receivers, rays: &[ProbeRay], opts: &ProbeOptions) -> Result<Vec<ProbeRecord>> {
         let params = Self::params(grids, rays.len(), opts)?;
         let size = (rays.len() * params.records_per_ray as usize * std::mem::size_of::<ProbeRecord>()) as u64;
-        Ok(bytemuck::cast_slice(&self.run(ctx, grids, rays, params, Kernel::Trace, size)?).to_vec())
+        Ok(bytemuck::cast_slice(&self.run(ctx, grids, surfaces, rays, params, Kernel::Trace, size)?).to_vec())
     }
 
     /// The octree's straight step at each ray's origin along its direction, clamped to
     /// [`step`, `max_step`]: (step, flat?, flat cell's x extent) per ray.
-    pub fn octree_steps(&self, ctx: &GpuContext, grids: &Grids, rays: &[ProbeRay], step: f32, max_step: f32) -> Result<Vec<[f32; 4]>> {
+    pub fn octree_steps(&self, ctx: &GpuContext, grids: &Grids, surfaces: &Receivers, rays: &[ProbeRay], step: f32, max_step: f32) -> Result<Vec<[f32; 4]>> {
         let opts = ProbeOptions { max_step, ..ProbeOptions::endpoints(step, 0) };
         let params = Self::params(grids, rays.len(), &opts)?;
         let size = (rays.len() * 16) as u64;
-        Ok(bytemuck::cast_slice(&self.run(ctx, grids, rays, params, Kernel::Octree, size)?).to_vec())
+        Ok(bytemuck::cast_slice(&self.run(ctx, grids, surfaces, rays, params, Kernel::Octree, size)?).to_vec())
     }
 
     /// The cells each segment (origin → origin + dir, cell units) crosses: up to `max_cells`
     /// (cell x, y, z, length) per segment, unused slots with length 0.
-    pub fn dda_cells(&self, ctx: &GpuContext, grids: &Grids, segments: &[ProbeRay], max_cells: u32) -> Result<Vec<[f32; 4]>> {
+    pub fn dda_cells(&self, ctx: &GpuContext, grids: &Grids, surfaces: &Receivers, segments: &[ProbeRay], max_cells: u32) -> Result<Vec<[f32; 4]>> {
         let opts = ProbeOptions { records_per_ray: max_cells, ..ProbeOptions::endpoints(0.0, 0) };
         let mut params = Self::params(grids, segments.len(), &opts)?;
         params.records_per_ray = max_cells;
         let size = (segments.len() * max_cells as usize * 16) as u64;
-        Ok(bytemuck::cast_slice(&self.run(ctx, grids, segments, params, Kernel::Dda, size)?).to_vec())
+        Ok(bytemuck::cast_slice(&self.run(ctx, grids, surfaces, segments, params, Kernel::Dda, size)?).to_vec())
     }
 }
 

@@ -7,6 +7,9 @@
 //! split by the direction they face, like a cube map, so surfaces of one receiver that face the
 //! same way and overlap in projection share texels (a documented limit, rare for floors and
 //! walls). Charts are rebuilt only when the receivers change.
+//!
+//! The BVH also holds the triangles of sharp glass meshes (`pipeline::interfaces`), so one
+//! closest-hit query finds the next surface of either kind and a shadow ray is stopped by both.
 
 use glam::{Vec2, Vec3};
 
@@ -14,7 +17,8 @@ use crate::bvh::{Bvh, Triangle};
 use super::resources::GrowableBuffer;
 use crate::frame::{FrameDesc, Receiver};
 use crate::gpu::GpuContext;
-use crate::gpu::types::{BvhNode, BvhTriangle, Chart, ReceiverGpu};
+use super::interfaces;
+use crate::gpu::types::{BvhNode, BvhTriangle, Chart, ReceiverGpu, interface_kind};
 
 /// Texels along the longest side of one chart, at most.
 pub const MAX_CHART_SIDE: f32 = 2048.0;
@@ -56,18 +60,32 @@ fn textured(r: &Receiver) -> Option<(&crate::scene::Texture2d, &[Vec2])> {
     (t.width > 0 && t.height > 0).then_some((t, uvs))
 }
 
+fn is_interface(t: &Triangle) -> bool {
+    t.receiver & interface_kind::BIT != 0
+}
+
 /// Per BVH triangle (in leaf order), its corners' texture coordinates as two vec4s:
-/// (uv₀, uv₁), (uv₂, 0, 0); zeros for untextured receivers.
+/// (uv₀, uv₁), (uv₂, 0, 0); zeros for untextured receivers and interfaces.
 fn triangle_uvs(bvh: &Bvh, receivers: &[Receiver]) -> Vec<[f32; 4]> {
     let mut out = Vec::with_capacity(2 * bvh.triangles.len());
     for t in &bvh.triangles {
-        let corners = textured(&receivers[t.receiver as usize]).map_or([Vec2::ZERO; 3], |(_, uv)| {
-            receivers[t.receiver as usize].mesh.triangles[t.index as usize].map(|i| uv[i as usize])
-        });
+        let receiver = (!is_interface(t)).then(|| &receivers[t.receiver as usize]);
+        let corners = receiver.and_then(|r| textured(r).map(|(_, uv)| r.mesh.triangles[t.index as usize].map(|i| uv[i as usize])));
+        let corners = corners.unwrap_or([Vec2::ZERO; 3]);
         out.push([corners[0].x, corners[0].y, corners[1].x, corners[1].y]);
         out.push([corners[2].x, corners[2].y, 0.0, 0.0]);
     }
     out
+}
+
+/// Per BVH triangle (in leaf order), the unit shading normals at its three corners, one vec4
+/// each: a sharp mesh's smooth normals, a receiver's face normal.
+fn triangle_normals(bvh: &Bvh, interface_normals: &[[Vec3; 3]]) -> Vec<[f32; 4]> {
+    bvh.triangles
+        .iter()
+        .flat_map(|t| if is_interface(t) { interface_normals[t.index as usize] } else { [t.normal().normalize(); 3] })
+        .map(|n| n.extend(0.0).to_array())
+        .collect()
 }
 
 /// A linear color as the 8-bit sRGB RGBA texel the GPU decodes (`unpack4x8unorm`, then the
@@ -86,13 +104,16 @@ pub struct ReceiverLayout {
     pub texels: u32,
     /// Two vec4 of texture coordinates per BVH triangle (see `triangle_uvs`).
     pub triangle_uvs: Vec<[f32; 4]>,
+    /// Three vec4 of corner normals per BVH triangle (see `triangle_normals`).
+    pub triangle_normals: Vec<[f32; 4]>,
     /// Every base color texture's texels, sRGB8-packed, one after another.
     pub albedo_texels: Vec<u32>,
 }
 
 /// Lays out BVH and charts; `texel` is the wanted texel size (metres), grown where a chart or
-/// the whole atlas would be too large.
-pub fn layout(receivers: &[Receiver], texel: f32) -> ReceiverLayout {
+/// the whole atlas would be too large. `interfaces` are the sharp meshes' triangles and corner
+/// normals (`interfaces::triangles`): they join the BVH but get no charts.
+pub fn layout(receivers: &[Receiver], interfaces: (Vec<Triangle>, Vec<[Vec3; 3]>), texel: f32) -> ReceiverLayout {
     let mut triangles = Vec::new();
     // (receiver, slot) → bounds in the chart's two axes.
     let mut extents: Vec<[Option<(Vec2, Vec2)>; 12]> = vec![[None; 12]; receivers.len()];
@@ -113,6 +134,8 @@ pub fn layout(receivers: &[Receiver], texel: f32) -> ReceiverLayout {
             triangles.push(t);
         }
     }
+    let (interface_triangles, interface_normals) = interfaces;
+    triangles.extend(interface_triangles);
     let bvh = Bvh::build(triangles);
     // Grow the texel where one chart would be too long, then every chart's by one factor if the
     // atlas is too big (growing only the wanted size would not shrink charts already capped).
@@ -179,7 +202,8 @@ pub fn layout(receivers: &[Receiver], texel: f32) -> ReceiverLayout {
         });
     }
     let triangle_uvs = triangle_uvs(&bvh, receivers);
-    ReceiverLayout { bvh, receivers: table, charts, texels: offset, triangle_uvs, albedo_texels }
+    let triangle_normals = triangle_normals(&bvh, &interface_normals);
+    ReceiverLayout { bvh, receivers: table, charts, texels: offset, triangle_uvs, triangle_normals, albedo_texels }
 }
 
 /// The receivers' GPU buffers and the caustic maps sized by their charts. Buffers only grow:
@@ -191,6 +215,10 @@ pub struct Receivers {
     pub charts: GrowableBuffer,
     /// Texture coordinates of the BVH triangles and the base color texels (view stage).
     pub triangle_uvs: GrowableBuffer,
+    /// Corner normals of the BVH triangles (interfaces' shading normals).
+    pub triangle_normals: GrowableBuffer,
+    /// The sharp interfaces' records (`pipeline::interfaces::table`), written every frame.
+    pub interfaces: GrowableBuffer,
     pub albedo_texels: GrowableBuffer,
     /// 4 u32 per texel: photon count, flux r, g, b (fixed point), written by the march stage.
     pub caustic_atlas: GrowableBuffer,
@@ -201,7 +229,7 @@ pub struct Receivers {
     pub layout: ReceiverLayout,
     /// Changes when a buffer was reallocated (consumers rebind).
     pub generation: u64,
-    key: Option<Vec<ReceiverKey>>,
+    key: Option<(Vec<ReceiverKey>, Vec<(usize, glam::Mat4)>)>,
 }
 
 /// What identifies a receiver: its mesh and texture by pointer, placement, albedo bits.
@@ -235,11 +263,13 @@ impl Receivers {
             receivers: buffer("receivers"),
             charts: buffer("charts"),
             triangle_uvs: buffer("triangle uvs"),
+            triangle_normals: buffer("triangle normals"),
+            interfaces: buffer("interfaces"),
             albedo_texels: buffer("albedo texels"),
             caustic_atlas: buffer("caustic atlas"),
             caustic_sat: buffer("caustic sat"),
             caustic_irradiance: buffer("caustic irradiance"),
-            layout: layout(&[], 1.0),
+            layout: layout(&[], Default::default(), 1.0),
             generation: super::resources::next_generation(),
             key: None,
         }
@@ -247,12 +277,16 @@ impl Receivers {
 
     /// Uploads this frame's receivers if they changed; true if they did.
     pub fn update(&mut self, ctx: &GpuContext, desc: &FrameDesc) -> bool {
+        let table = interfaces::table(desc);
+        if self.interfaces.write(ctx, bytemuck::cast_slice(&table)) {
+            self.generation = super::resources::next_generation();
+        }
         let texel = Self::texel_for(desc);
-        let key = key_of(desc, texel);
+        let key = (key_of(desc, texel), interfaces::mesh_key(desc));
         if self.key.as_ref() == Some(&key) {
             return false;
         }
-        self.layout = layout(&desc.receivers, texel);
+        self.layout = layout(&desc.receivers, interfaces::triangles(desc), texel);
         let mut nodes = self.layout.bvh.nodes.clone();
         if self.layout.bvh.triangles.is_empty() {
             nodes = vec![BvhNode::default()]; // first = 0, count = 0: the empty tree
@@ -267,6 +301,8 @@ impl Receivers {
         grown |= self.charts.write(ctx, bytemuck::cast_slice(&self.layout.charts));
         let uvs = if self.layout.triangle_uvs.is_empty() { vec![[0.0f32; 4]] } else { self.layout.triangle_uvs.clone() };
         grown |= self.triangle_uvs.write(ctx, bytemuck::cast_slice(&uvs));
+        let normals = if self.layout.triangle_normals.is_empty() { vec![[0.0f32; 4]] } else { self.layout.triangle_normals.clone() };
+        grown |= self.triangle_normals.write(ctx, bytemuck::cast_slice(&normals));
         let texels = if self.layout.albedo_texels.is_empty() { vec![0u32] } else { self.layout.albedo_texels.clone() };
         grown |= self.albedo_texels.write(ctx, bytemuck::cast_slice(&texels));
         grown |= self.caustic_atlas.reserve(ctx, texel_bytes);
@@ -293,7 +329,7 @@ mod tests {
     #[test]
     fn a_floor_gets_one_chart_per_side_a_box_twelve() {
         let floor = receiver(mesh::plane(Vec2::new(4.0, 2.0)), glam::Mat4::IDENTITY);
-        let l = layout(&[floor], 0.01);
+        let l = layout(&[floor], Default::default(), 0.01);
         // Top (+Y front) and bottom (the back of the same triangles, facing −Y).
         assert_eq!(l.charts.len(), 2);
         let top = &l.charts[l.receivers[0].charts_a[2] as usize];
@@ -301,7 +337,7 @@ mod tests {
         // A +Y chart spans (z, x): 2 m and 4 m at 1 cm, plus a texel of margin on each side.
         assert_eq!((top.width, top.height), (202, 402));
         let cube = receiver(mesh::cuboid(Vec3::ONE), glam::Mat4::IDENTITY);
-        assert_eq!(layout(&[cube], 0.01).charts.len(), 12);
+        assert_eq!(layout(&[cube], Default::default(), 0.01).charts.len(), 12);
     }
 
     #[test]
@@ -314,7 +350,7 @@ mod tests {
     #[test]
     fn huge_receivers_are_capped() {
         let floor = receiver(mesh::plane(Vec2::new(1000.0, 1000.0)), glam::Mat4::IDENTITY);
-        let l = layout(&[floor], 0.001);
+        let l = layout(&[floor], Default::default(), 0.001);
         assert!(l.texels as f32 <= MAX_ATLAS_TEXELS * 1.01, "{} texels", l.texels);
         assert!(l.charts.iter().all(|c| c.width as f32 <= MAX_CHART_SIDE + 3.0));
     }

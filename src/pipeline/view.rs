@@ -117,6 +117,8 @@ impl View {
                 layout::storage(18, false),
                 layout::storage(19, true),
                 layout::storage(20, true),
+                layout::storage(21, true),
+                layout::storage(22, true),
             ],
         )?;
         let params = layout::uniform_buffer::<ViewParams>(device, "view params");
@@ -161,6 +163,8 @@ impl View {
                     wgpu::BindGroupEntry { binding: 18, resource: self.steps.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 19, resource: receivers.triangle_uvs.buffer.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 20, resource: receivers.albedo_texels.buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 21, resource: receivers.interfaces.buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 22, resource: receivers.triangle_normals.buffer.as_entire_binding() },
                 ],
             });
             self.bound = Some((generations, bg));

@@ -347,6 +347,8 @@ impl MeshVoxelizer {
                 absorption: m.glass.absorption.into(),
                 boundary: m.boundary,
                 scattering: m.glass.scattering.extend(m.glass.g).into(),
+                sharp: m.sharp as u32,
+                ..Default::default()
             });
         }
         if !runs.is_empty() {

@@ -183,6 +183,7 @@ fn mesh_instance(node: &Node, mesh: &Arc<MeshData>, world: Mat4, glass: Glass, b
     let (lo, hi) = mesh.bounds().ok_or_else(|| anyhow!("{}: the mesh of node {} has no vertices", node.origin, display_name(node)))?;
     let h = 0.5 * (hi - lo);
     let centre = Mat4::from_translation(0.5 * (lo + hi));
+    let sharp = is_sharp(&glass, boundary) && mesh.is_closed();
     Ok(MeshInstance {
         name: node.name.clone(),
         origin: node.origin.0.clone(),
@@ -191,7 +192,15 @@ fn mesh_instance(node: &Node, mesh: &Arc<MeshData>, world: Mat4, glass: Glass, b
         glass,
         boundary: boundary.unwrap_or(-1.0),
         bounds: world_bounds(&(world * centre), h),
+        sharp,
     })
+}
+
+/// Whether a glass object becomes a sharp interface: it refracts (n differs from air's) and its
+/// script did not ask for a smooth boundary of a chosen width (`boundary = …` keeps the paper's
+/// smoothed step, as before sharp interfaces existed).
+fn is_sharp(glass: &Glass, boundary: Option<f32>) -> bool {
+    boundary.is_none() && (glass.ior - 1.0).abs() > crate::pipeline::photons::EPS_REFRACT
 }
 
 fn push_field(c: &mut Contents, node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) {
@@ -223,10 +232,12 @@ fn field_of(node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) 
         ior,
         gradient,
         boundary: shape.boundary().unwrap_or(-1.0),
+        sharp: matches!(shape, Shape::Sphere { .. } | Shape::Box { .. }) && is_sharp(&glass, shape.boundary()),
         scale: uniform,
         absorption: glass.absorption,
         scattering: glass.scattering,
         g: glass.g,
+        tint: glass.tint,
         bounds: world_bounds(&world, half_size),
     }
 }

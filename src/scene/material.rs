@@ -15,6 +15,10 @@ pub struct Glass {
     pub scattering: Vec3,
     /// Henyey–Greenstein anisotropy of the scattering, in (−1, 1).
     pub g: f32,
+    /// Multiplies the light transmitted through each crossing of the surface, linear rgb in
+    /// [0, 1] (KHR_materials_transmission's base colour: coloured glass whose colour does not
+    /// deepen with thickness — that is `absorption`). Applies at sharp interfaces.
+    pub tint: Vec3,
 }
 
 impl Glass {
@@ -28,7 +32,7 @@ impl Glass {
 
 impl Default for Glass {
     fn default() -> Self {
-        Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0 }
+        Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0, tint: Vec3::ONE }
     }
 }
 

@@ -84,6 +84,58 @@ impl MeshData {
             .copied()
             .collect()
     }
+
+    /// Whether the surface is closed: every edge (corners welded by position) is shared by an
+    /// even number of triangles, so a line crossing the surface alternates outside and inside —
+    /// what a sharp interface needs to know which medium a ray is in.
+    pub fn is_closed(&self) -> bool {
+        let mut edges: std::collections::HashMap<[[u32; 3]; 2], u32> = std::collections::HashMap::new();
+        for t in self.solid_triangles() {
+            let c = t.map(|i| self.positions[i as usize].to_array().map(f32::to_bits));
+            for (a, b) in [(c[0], c[1]), (c[1], c[2]), (c[2], c[0])] {
+                *edges.entry(if a < b { [a, b] } else { [b, a] }).or_default() += 1;
+            }
+        }
+        !edges.is_empty() && edges.values().all(|&n| n % 2 == 0)
+    }
+
+    /// Shading normals at each corner of each triangle (unit, oriented like the triangle's own
+    /// normal): the area-weighted mean of the normals of the triangles around that corner's
+    /// position that meet this one at less than `crease` radians, so a curved surface refracts
+    /// smoothly while a cube's edges stay sharp (Blender's "auto smooth").
+    pub fn corner_normals(&self, crease: f32) -> Vec<[Vec3; 3]> {
+        let face: Vec<Vec3> = self
+            .triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| self.positions[i as usize]);
+                (b - a).cross(c - a)
+            })
+            .collect();
+        let mut around: std::collections::HashMap<[u32; 3], Vec<usize>> = std::collections::HashMap::new();
+        for (k, t) in self.triangles.iter().enumerate() {
+            for &i in t {
+                around.entry(self.positions[i as usize].to_array().map(f32::to_bits)).or_default().push(k);
+            }
+        }
+        let cos_crease = crease.cos();
+        self.triangles
+            .iter()
+            .enumerate()
+            .map(|(k, t)| {
+                let own = face[k].normalize_or_zero();
+                t.map(|i| {
+                    let key = self.positions[i as usize].to_array().map(f32::to_bits);
+                    let sum: Vec3 = around[&key]
+                        .iter()
+                        .map(|&j| face[j])
+                        .filter(|n| n.normalize_or_zero().dot(own) >= cos_crease)
+                        .sum();
+                    sum.try_normalize().unwrap_or(own)
+                })
+            })
+            .collect()
+    }
 }
 
 /// A `size.x` × `size.y` rectangle in the local XZ plane, centred, facing +Y.

@@ -1,0 +1,268 @@
+// Sharp interfaces: where a ray or photon meets the surface of a constant-index object (glass,
+// water) it refracts or reflects once, at the exact surface, by Snell's law and the unpolarized
+// Fresnel equations (pbrt-v4 §9.5), instead of bending across a smoothed step of n. Smooth
+// gradient-index interiors (Luneburg, slabs, script fields) keep the ray equation and reflect
+// nothing: they are not interfaces.
+//
+// Spheres and boxes are intersected exactly in their local frame; meshes are triangles of the
+// receivers' BVH whose `receiver` word carries INTERFACE_BIT | interface index, shaded with
+// interpolated corner normals. Which medium a path is in is tracked by a small stack of the
+// interfaces it has entered (crossing a surface of the object on top leaves it; any other
+// enters it), so nested objects (ice in water) work to a depth of MEDIA_DEPTH.
+//
+// Expects the stage to declare `interfaces: array<Interface>`, `triangle_normals:
+// array<vec4<f32>>` (3 per BVH triangle), and what shared/bvh.wgsl needs. The CPU twin is
+// src/cpu/interface.rs.
+
+const NO_INTERFACE: u32 = 0xffffffffu;
+const MEDIA_DEPTH: u32 = 4u;
+
+// The next surface along a straight line: a receiver (`interface` = NO_INTERFACE, `triangle` its
+// BVH triangle) or an interface, with the unit shading normal at the hit (either orientation).
+struct SurfaceHit {
+    t: f32,
+    triangle: u32,
+    interface_id: u32,
+    normal: vec3<f32>,
+    u: f32,
+    v: f32,
+}
+
+fn is_receiver_hit(h: SurfaceHit) -> bool {
+    return h.triangle != 0xffffffffu && h.interface_id == NO_INTERFACE;
+}
+
+fn no_surface(t_max: f32) -> SurfaceHit {
+    return SurfaceHit(t_max, 0xffffffffu, NO_INTERFACE, vec3<f32>(0.0, 1.0, 0.0), 0.0, 0.0);
+}
+
+// Parameter interval (t₀, t₁) where o + t·d is inside interface i's solid (t₀ > t₁: missed), and
+// the local normals there. Local coordinates keep t: world_to_local is affine, so a point at
+// parameter t maps to local o' + t·d' without renormalising d'.
+struct Span {
+    t0: f32,
+    t1: f32,
+    n0: vec3<f32>,
+    n1: vec3<f32>,
+}
+
+fn sphere_span(o: vec3<f32>, d: vec3<f32>, r: f32) -> Span {
+    // |o + t·d|² = r²: t = (−b ± √(b² − a·c)) / a with b = o·d.
+    let a = dot(d, d);
+    let b = dot(o, d);
+    let c = dot(o, o) - r * r;
+    let disc = b * b - a * c;
+    if disc < 0.0 {
+        return Span(1.0, -1.0, vec3<f32>(0.0), vec3<f32>(0.0));
+    }
+    let q = sqrt(disc);
+    let t0 = (-b - q) / a;
+    let t1 = (-b + q) / a;
+    return Span(t0, t1, o + t0 * d, o + t1 * d);
+}
+
+fn box_span(o: vec3<f32>, d: vec3<f32>, h: vec3<f32>) -> Span {
+    let inv = 1.0 / d;
+    let ta = (-h - o) * inv;
+    let tb = (h - o) * inv;
+    let lo = min(ta, tb);
+    let hi = max(ta, tb);
+    let t0 = max(max(lo.x, lo.y), lo.z);
+    let t1 = min(min(hi.x, hi.y), hi.z);
+    // The face of a slab test's winning plane: its axis, against the direction of travel on
+    // entry and along it on exit.
+    let axis0 = select(select(vec3<f32>(0.0, 0.0, 1.0), vec3<f32>(0.0, 1.0, 0.0), lo.y >= lo.z), vec3<f32>(1.0, 0.0, 0.0), lo.x >= lo.y && lo.x >= lo.z);
+    let axis1 = select(select(vec3<f32>(0.0, 0.0, 1.0), vec3<f32>(0.0, 1.0, 0.0), hi.y <= hi.z), vec3<f32>(1.0, 0.0, 0.0), hi.x <= hi.y && hi.x <= hi.z);
+    return Span(t0, t1, -axis0 * sign(d), axis1 * sign(d));
+}
+
+fn analytic_span(f: Interface, o: vec3<f32>, d: vec3<f32>) -> Span {
+    let lo = (f.world_to_local * vec4<f32>(o, 1.0)).xyz;
+    let ld = (f.world_to_local * vec4<f32>(d, 0.0)).xyz;
+    if f.kind == INTERFACE_SPHERE {
+        return sphere_span(lo, ld, f.half_size.x);
+    }
+    return box_span(lo, ld, f.half_size);
+}
+
+// A local normal to world: normals transform by the inverse transpose of local → world, which
+// is the transpose of world_to_local.
+fn normal_to_world(f: Interface, n: vec3<f32>) -> vec3<f32> {
+    let m = mat3x3<f32>(f.world_to_local[0].xyz, f.world_to_local[1].xyz, f.world_to_local[2].xyz);
+    return normalize(transpose(m) * n);
+}
+
+// The closest analytic interface surface along o + t·d, t in (t_min, best.t).
+fn analytic_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, best: SurfaceHit) -> SurfaceHit {
+    var hit = best;
+    let count = arrayLength(&interfaces);
+    for (var i = 0u; i < count; i++) {
+        let f = interfaces[i];
+        if f.kind == INTERFACE_NONE || f.kind == INTERFACE_MESH {
+            break;
+        }
+        let s = analytic_span(f, o, d);
+        if s.t0 > s.t1 {
+            continue;
+        }
+        if s.t0 > t_min && s.t0 < hit.t {
+            hit = SurfaceHit(s.t0, 0xffffffffu, i, normal_to_world(f, s.n0), 0.0, 0.0);
+        } else if s.t1 > t_min && s.t1 < hit.t {
+            hit = SurfaceHit(s.t1, 0xffffffffu, i, normal_to_world(f, s.n1), 0.0, 0.0);
+        }
+    }
+    return hit;
+}
+
+// The interpolated shading normal of BVH triangle k at barycentrics (u, v).
+fn shading_normal(k: u32, u: f32, v: f32) -> vec3<f32> {
+    let n = triangle_normals[3u * k].xyz * (1.0 - u - v) + triangle_normals[3u * k + 1u].xyz * u + triangle_normals[3u * k + 2u].xyz * v;
+    return normalize(n);
+}
+
+// The next surface of any kind — receiver, mesh interface or analytic interface — along
+// o + t·d for t in (t_min, t_max).
+fn surface_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> SurfaceHit {
+    let b = bvh_closest_hit(o, d, t_min, t_max);
+    var hit = no_surface(b.t);
+    if b.triangle != 0xffffffffu {
+        let word = bvh_triangles[b.triangle].receiver;
+        let is_interface = (word & INTERFACE_BIT) != 0u;
+        let normal = select(bvh_triangle_normal(b.triangle), shading_normal(b.triangle, b.u, b.v), is_interface);
+        hit = SurfaceHit(b.t, b.triangle, select(NO_INTERFACE, word & ~INTERFACE_BIT, is_interface), normal, b.u, b.v);
+    }
+    return analytic_hit(o, d, t_min, hit);
+}
+
+// Whether any analytic interface lies along o + t·d, t in (t_min, t_max) (shadow rays).
+fn analytic_any_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> bool {
+    return analytic_hit(o, d, t_min, no_surface(t_max)).t < t_max;
+}
+
+// The interfaces a path is inside, innermost last.
+struct Media {
+    ids: array<u32, 4>,
+    depth: u32,
+}
+
+fn no_media() -> Media {
+    return Media(array<u32, 4>(NO_INTERFACE, NO_INTERFACE, NO_INTERFACE, NO_INTERFACE), 0u);
+}
+
+// The index of the medium a path is in (air outside every interface).
+fn media_ior(m: Media) -> f32 {
+    if m.depth == 0u {
+        return 1.0;
+    }
+    return interfaces[m.ids[m.depth - 1u]].ior;
+}
+
+fn media_absorption(m: Media) -> vec3<f32> {
+    if m.depth == 0u {
+        return vec3<f32>(0.0);
+    }
+    return interfaces[m.ids[m.depth - 1u]].absorption;
+}
+
+// The media after crossing interface i: leaving it if it is the innermost, else entering it.
+fn media_crossed(m: Media, i: u32) -> Media {
+    var out = m;
+    if m.depth > 0u && m.ids[m.depth - 1u] == i {
+        out.depth -= 1u;
+        out.ids[out.depth] = NO_INTERFACE;
+    } else if m.depth < MEDIA_DEPTH {
+        out.ids[m.depth] = i;
+        out.depth += 1u;
+    }
+    return out;
+}
+
+// Unpolarized Fresnel reflectance for cos θᵢ (> 0) and η = n₂/n₁; 1 past the critical angle.
+fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let c = clamp(cos_i, 0.0, 1.0);
+    let sin2_t = (1.0 - c * c) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = sqrt(1.0 - sin2_t);
+    let r_parallel = (eta * c - cos_t) / (eta * c + cos_t);
+    let r_perpendicular = (c - eta * cos_t) / (c + eta * cos_t);
+    return 0.5 * (r_parallel * r_parallel + r_perpendicular * r_perpendicular);
+}
+
+// What happens at one crossing: both outgoing directions, the reflectance R (1 under total
+// internal reflection, when `transmitted` is meaningless), the transmitted branch's tint and the
+// media on the far side.
+struct Crossing {
+    reflected: vec3<f32>,
+    transmitted: vec3<f32>,
+    reflectance: f32,
+    tint: vec3<f32>,
+    beyond: Media,
+    // The surface normal facing the incident side.
+    facing: vec3<f32>,
+}
+
+fn cross_interface(d: vec3<f32>, hit: SurfaceHit, media: Media) -> Crossing {
+    let beyond = media_crossed(media, hit.interface_id);
+    let eta = media_ior(beyond) / media_ior(media);
+    var n = select(hit.normal, -hit.normal, dot(hit.normal, d) > 0.0);
+    let cos_i = -dot(d, n);
+    let reflectance = fresnel_dielectric(cos_i, eta);
+    let reflected = d + 2.0 * cos_i * n;
+    var transmitted = reflected;
+    if reflectance < 1.0 {
+        let cos_t = sqrt(1.0 - (1.0 - cos_i * cos_i) / (eta * eta));
+        transmitted = normalize(d / eta + (cos_i / eta - cos_t) * n);
+    }
+    return Crossing(reflected, transmitted, reflectance, interfaces[hit.interface_id].tint, beyond, n);
+}
+
+// A point just off the surface on the side a new direction w leaves to, so the next query
+// does not find the same surface again.
+fn leave_surface(p: vec3<f32>, facing: vec3<f32>, w: vec3<f32>, eps: f32) -> vec3<f32> {
+    return p + select(-facing, facing, dot(w, facing) > 0.0) * eps;
+}
+
+// The surface ahead of a marching path: `hit` along the straight line from `origin` (the BVH and
+// the analytic interfaces), valid while the path has not bent since it was cast. Casting the
+// BVH costs a traversal, so after a bend it waits until a step could reach the BVH's box;
+// analytic interfaces are cheap and checked within every step meanwhile.
+struct Lookahead {
+    origin: vec3<f32>,
+    hit: SurfaceHit,
+    valid: bool,
+}
+
+fn look_from(x: vec3<f32>, d: vec3<f32>) -> Lookahead {
+    return Lookahead(x, surface_hit(x, d, 0.0, 3.4e38), true);
+}
+
+// Distance from x0 along d to the next surface if it lies within `jump` (then `la.hit` is that
+// surface); 3.4e38 otherwise.
+fn surface_within(la: ptr<function, Lookahead>, x0: vec3<f32>, d: vec3<f32>, jump: f32) -> f32 {
+    if (*la).valid {
+        return (*la).hit.t - dot(x0 - (*la).origin, d);
+    }
+    if bvh_may_hit(x0, d, jump) {
+        *la = look_from(x0, d);
+        return (*la).hit.t;
+    }
+    let h = analytic_hit(x0, d, 0.0, no_surface(jump));
+    if h.t < jump {
+        (*la).origin = x0;
+        (*la).hit = h;
+        return h.t;
+    }
+    return 3.4e38;
+}
+
+// The surface ahead of x along d once a path stops marching (it left the grid).
+fn surface_after(la: ptr<function, Lookahead>, x: vec3<f32>, d: vec3<f32>) -> SurfaceHit {
+    if !(*la).valid {
+        *la = look_from(x, d);
+    }
+    var hit = (*la).hit;
+    hit.t -= dot(x - (*la).origin, d);
+    return hit;
+}

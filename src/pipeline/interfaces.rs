@@ -1,0 +1,107 @@
+//! Sharp interfaces (`shaders/shared/interface.wgsl`): the surfaces of constant-index objects,
+//! where rays and photons refract and reflect once, by Snell's law and the Fresnel equations,
+//! at the exact surface — instead of bending across the paper's smoothed step of n, whose width
+//! blurs shadows, widens alpha and misplaces caustic energy by a voxel or two.
+//!
+//! Glass spheres and boxes are analytic: each is one [`Interface`] record the shaders intersect
+//! in its local frame. Closed glass meshes are triangles in the receivers' BVH, marked with
+//! `interface_kind::BIT | index`, with shading normals per corner; their record carries the
+//! medium (index, tint, absorption). Which objects are sharp is decided in `scene::eval`.
+
+use glam::{Mat3, Vec3};
+
+use crate::bvh::Triangle;
+use crate::frame::{FieldDesc, FieldKind, FrameDesc, MeshInstance};
+use crate::gpu::types::{Interface, interface_kind};
+
+/// Faces meeting at less than this angle share a smooth shading normal (meshes without their
+/// own normals; the value Blender's "auto smooth" defaults to).
+pub const CREASE_ANGLE_DEGREES: f32 = 30.0;
+
+/// The sharp objects of a frame as interface records: the analytic ones first, then the
+/// meshes, then one `NONE` record that ends the analytic list even when there is no mesh.
+pub fn table(desc: &FrameDesc) -> Vec<Interface> {
+    let analytic = desc.fields.iter().filter(|f| f.sharp).map(analytic_record);
+    let meshes = sharp_meshes(desc).map(|m| Interface {
+        world_to_local: m.world.inverse().to_cols_array_2d(),
+        kind: interface_kind::MESH,
+        tint: m.glass.tint.into(),
+        ior: m.glass.ior,
+        absorption: m.glass.absorption.into(),
+        ..Default::default()
+    });
+    analytic.chain(meshes).chain(std::iter::once(Interface::default())).collect()
+}
+
+fn analytic_record(f: &FieldDesc) -> Interface {
+    let kind = match f.kind {
+        FieldKind::Sphere => interface_kind::SPHERE,
+        FieldKind::Box => interface_kind::BOX,
+        _ => unreachable!("only spheres and boxes are sharp (scene::eval::is_sharp)"),
+    };
+    Interface {
+        world_to_local: f.world_to_local.to_cols_array_2d(),
+        half_size: f.half_size.into(),
+        kind,
+        tint: f.tint.into(),
+        ior: f.ior,
+        absorption: f.absorption.into(),
+        _pad0: 0,
+    }
+}
+
+fn sharp_meshes(desc: &FrameDesc) -> impl Iterator<Item = &MeshInstance> {
+    desc.meshes.iter().filter(|m| m.sharp)
+}
+
+/// World-space triangles of the sharp meshes for the BVH (`receiver` = BIT | interface index,
+/// `index` = where their corner normals are in the second vector).
+pub fn triangles(desc: &FrameDesc) -> (Vec<Triangle>, Vec<[Vec3; 3]>) {
+    let first = desc.fields.iter().filter(|f| f.sharp).count() as u32;
+    let mut triangles = Vec::new();
+    let mut normals = Vec::new();
+    for (j, m) in sharp_meshes(desc).enumerate() {
+        let normal_to_world = Mat3::from_mat4(m.world).inverse().transpose();
+        let positions: Vec<Vec3> = m.mesh.positions.iter().map(|p| m.world.transform_point3(*p)).collect();
+        let corners = m.mesh.corner_normals(CREASE_ANGLE_DEGREES.to_radians());
+        for (t, n) in m.mesh.triangles.iter().zip(corners) {
+            triangles.push(Triangle {
+                v: t.map(|i| positions[i as usize]),
+                receiver: interface_kind::BIT | (first + j as u32),
+                index: normals.len() as u32,
+            });
+            normals.push(n.map(|v| (normal_to_world * v).normalize_or_zero()));
+        }
+    }
+    (triangles, normals)
+}
+
+/// What identifies the sharp meshes' triangles (so the BVH is rebuilt when one moves).
+pub fn mesh_key(desc: &FrameDesc) -> Vec<(usize, glam::Mat4)> {
+    sharp_meshes(desc).map(|m| (std::sync::Arc::as_ptr(&m.mesh) as usize, m.world)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::mesh;
+
+    #[test]
+    fn smooth_normals_follow_a_sphere_and_keep_a_cubes_edges() {
+        let ball = mesh::icosphere(1.0, 3);
+        for (t, n) in ball.triangles.iter().zip(ball.corner_normals(CREASE_ANGLE_DEGREES.to_radians())) {
+            for (i, n) in t.iter().zip(n) {
+                // On a unit sphere the true normal is the position.
+                assert!(n.dot(ball.positions[*i as usize].normalize()) > 0.9995);
+            }
+        }
+        let cube = mesh::cuboid(Vec3::ONE);
+        for (t, n) in cube.triangles.iter().zip(cube.corner_normals(CREASE_ANGLE_DEGREES.to_radians())) {
+            let [a, b, c] = t.map(|i| cube.positions[i as usize]);
+            let face = (b - a).cross(c - a).normalize();
+            assert!(n.iter().all(|v| v.dot(face) > 0.9999), "a cube's faces stay flat");
+        }
+        assert!(ball.is_closed() && cube.is_closed());
+        assert!(!mesh::plane(glam::Vec2::ONE).is_closed());
+    }
+}

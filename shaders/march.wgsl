@@ -213,7 +213,7 @@ fn march_photon(photon: Photon, index: u32) -> u32 {
     }
     var s = ray_start(ior_grid, grid_sampler, grid, photon.origin + d * max(span.x, 0.0), d);
     var refracted = false;
-    var media = no_media();
+    var media = media_unpacked(vec2<u32>(photon.media_lo, photon.media_hi));
     var events = 0u;
     let box_max = grid_box_max(grid);
     var n_steps = 0u;

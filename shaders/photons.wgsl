@@ -180,5 +180,5 @@ fn emit(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) g
         // The sun's disc: directions spread over its angular radius (soft caustics).
         ray.dir = cone_direction(e.axis, e.right, e.up, light.half_angle, vec2<f32>(random01(seed, i, 3u), random01(seed, i, 4u)));
     }
-    photons[i] = Photon(ray.origin, 1u, ray.dir, 0u, flux, 0u);
+    photons[i] = Photon(ray.origin, 1u, ray.dir, light.media.x, flux, light.media.y);
 }

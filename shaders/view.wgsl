@@ -291,17 +291,25 @@ struct Branch {
     events: u32,
 }
 
-// Radiance of the lights seen along d by a path that met glass: the sun's disc (a uniform disc
-// of its angular radius; E / its solid angle 2π(1 − cos α)). Point and spot lights are points
-// and show no highlight.
-fn lights_seen(d: vec3<f32>) -> vec3<f32> {
+// Radiance of the lights a path that met glass sees along o + t·d, t < t_max: the sun's disc
+// (a uniform disc of its angular radius: E over its solid angle 2π(1 − cos α)), seen only by a
+// path that leaves the scene, and the bulbs of point and spot lights, spheres of their radius r
+// whose radiance toward the viewer is I(ω) / (π r²).
+fn lights_seen(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> vec3<f32> {
     var l = vec3<f32>(0.0);
     for (var i = 0u; i < params.light_count; i++) {
         let light = lights[i];
-        if light.kind == LIGHT_SUN && light.half_angle > 0.0 {
+        if light.kind == LIGHT_SUN {
             let cos_a = cos(light.half_angle);
-            if dot(d, -light.direction) >= cos_a {
+            if t_max >= NO_HIT && light.half_angle > 0.0 && dot(d, -light.direction) >= cos_a {
                 l += light.radiant / (2.0 * PI * (1.0 - cos_a));
+            }
+        } else if light.kind != LIGHT_RECT && light.radius > 0.0 {
+            let oc = o - light.position;
+            let b = dot(oc, d);
+            let disc = b * b - (dot(oc, oc) - light.radius * light.radius);
+            if disc >= 0.0 && -b - sqrt(disc) > 0.0 && -b - sqrt(disc) < t_max {
+                l += light_intensity(light, -d) / (PI * light.radius * light.radius);
             }
         }
     }
@@ -314,17 +322,21 @@ fn end_in_environment(out: ptr<function, ViewSample>, b: Branch) {
         (*out).radiance += b.weight * env_radiance(env_map, env_sampler, params.env, b.d);
     }
     if b.events > 0u {
-        (*out).radiance += b.weight * lights_seen(b.d);
+        (*out).radiance += b.weight * lights_seen(b.x, b.d, NO_HIT);
     }
 }
 
-// Ends a branch on a receiver: its shading, weighted.
-fn end_on_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, b: Branch, k: u32) {
+// Ends a branch on a receiver: its shading, weighted (and, once it met glass, the bulbs it
+// passed since `start`, the start of its last straight piece).
+fn end_on_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, b: Branch, start: vec3<f32>, k: u32) {
     first_depth(out, p);
     let sh = shade_receiver(hit, p, b.d, k);
     (*out).caustic += b.weight * sh.caustic;
     (*out).direct += b.weight * sh.direct;
     (*out).radiance += b.weight * (sh.caustic + sh.direct);
+    if b.events > 0u {
+        (*out).radiance += b.weight * lights_seen(start, b.d, distance(start, p));
+    }
 }
 
 // Traces one branch to its end. At an interface it goes on along the transmitted direction and
@@ -373,7 +385,7 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
             if on_surface {
                 let hit = ahead_of.hit;
                 if hit.interface_id == NO_INTERFACE {
-                    end_on_receiver(out, hit, s.x, b, k);
+                    end_on_receiver(out, hit, s.x, b, ahead_of.origin, k);
                     return;
                 }
                 first_depth(out, s.x);
@@ -420,7 +432,7 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
     }
     let hit = surface_after(&ahead_of, b.x, b.d);
     if is_receiver_hit(hit) {
-        end_on_receiver(out, hit, b.x + b.d * hit.t, b, k);
+        end_on_receiver(out, hit, b.x + b.d * hit.t, b, b.x, k);
         return;
     }
     end_in_environment(out, b);
@@ -430,10 +442,15 @@ fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
     var out = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
     var stack: array<Branch, BRANCH_STACK>;
     var top = 0u;
-    trace_branch(&out, Branch(params.camera.position, dir0, vec3<f32>(1.0), no_media(), 0u), &stack, &top, k);
-    while top > 0u {
+    var branch = Branch(params.camera.position, dir0, vec3<f32>(1.0), media_unpacked(vec2<u32>(params.camera_media_lo, params.camera_media_hi)), 0u);
+    // (One call site: the branch tracer is the pass's largest function.)
+    loop {
+        trace_branch(&out, branch, &stack, &top, k);
+        if top == 0u {
+            break;
+        }
         top--;
-        trace_branch(&out, stack[top], &stack, &top, k);
+        branch = stack[top];
     }
     out.radiance += out.volume;
     return out;

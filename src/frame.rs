@@ -245,6 +245,8 @@ pub struct LightDesc {
     pub up: Vec3,
     /// color × intensity / 683: W/sr (point, spot), W/m² (sun), W/(m²·sr) (rect).
     pub radiant: Vec3,
+    /// Point and spot lights: the bulb's radius glass shows as a highlight, metres.
+    pub radius: f32,
 }
 
 /// Whether `p` is inside the closed surface of receiver `r`: an odd number of crossings along a

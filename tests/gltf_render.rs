@@ -177,7 +177,8 @@ fn a_base_color_texture_is_sampled_on_the_receiver_like_its_cpu_twin() {
 
 /// An asymmetric solid (a tetrahedron off the origin) mirrored by its node's scale −1 in x, and
 /// the same solid with its vertices mirrored by hand (and its winding flipped): the voxelized
-/// index grids agree, voxel for voxel.
+/// index grids agree, voxel for voxel. (The material's smooth `boundary` keeps the closed mesh
+/// in the grid rather than a sharp interface.)
 #[test]
 fn a_mirrored_gltf_mesh_voxelizes_as_its_mirror_image() {
     let tetra = [[0.1f32, 0.0, 0.0], [0.6, 0.0, 0.0], [0.1, 0.45, 0.0], [0.1, 0.0, 0.5]];
@@ -185,7 +186,10 @@ fn a_mirrored_gltf_mesh_voxelizes_as_its_mirror_image() {
     let glb = |positions: &[[f32; 3]], tris: &[[u32; 3]], scale: [f32; 3]| {
         let mut g = GltfBuilder::new();
         g.uses("KHR_materials_transmission", false);
-        let m = g.push("materials", json!({ "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } } }));
+        let m = g.push(
+            "materials",
+            json!({ "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } }, "extras": { "refrakt": { "boundary": 3 } } }),
+        );
         let mesh = g.mesh(positions, tris, Some(m));
         let n = g.push("nodes", json!({ "name": "solid", "mesh": mesh, "scale": scale }));
         g.scene("S", &[n]);

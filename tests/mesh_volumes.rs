@@ -23,14 +23,15 @@ fn asset(name: &str) -> MeshData {
 }
 
 /// One glass mesh (n = 2, so α = n − 1) placed by `transform`, in a volume of `resolution`
-/// fitted to it, or the fixed box `bounds`.
+/// fitted to it, or the fixed box `bounds`. Its boundary is given (the default width, 3 voxels),
+/// so a closed mesh is voxelized into n rather than becoming a sharp interface.
 fn frame(mesh: MeshData, transform: Transform, resolution: u32, bounds: Option<(Vec3, Vec3)>) -> FrameDesc {
     let scene = Scene::default();
     scene.volume.borrow_mut().resolution = resolution;
     scene.volume.borrow_mut().bounds = bounds;
     let mut node = Node::new("solid");
     node.transform = transform;
-    node.shape = Some(shared(Shape::Mesh { mesh: Arc::new(mesh), source: "test".into(), boundary: None }));
+    node.shape = Some(shared(Shape::Mesh { mesh: Arc::new(mesh), source: "test".into(), boundary: Some(3.0) }));
     node.material = Some(shared(Material::Glass(Glass { ior: 2.0, ..Default::default() })));
     let mut scene = scene;
     scene.roots.push(shared(node));

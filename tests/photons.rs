@@ -218,42 +218,16 @@ fn a_closed_room_receives_all_the_emitted_flux() {
         let ratio = s.received[c] / s.emitted[c];
         assert!((ratio - 1.0).abs() < 0.01, "channel {c}: received/emitted = {ratio}");
         assert!(s.escaped[c] < 1e-3 * s.emitted[c], "nothing escapes a closed room");
-        // Photons are aimed at the ball's outline (to a voxel, on a 64² raster): most arrive
-        // refracted (82 % measured; the rest graze past the outline).
-        assert!(s.caustic[c] > 0.75 * s.received[c], "channel {c}: caustic share {}", s.caustic[c] / s.received[c]);
+        // Photons are aimed at the voxels the ball touches (a 64² raster, the octree's level 0
+        // dilated by a voxel): most meet the ball (about 61 % measured on the exact sphere;
+        // the rest graze past its outline and light the walls as the direct light does).
+        assert!(s.caustic[c] > 0.5 * s.received[c], "channel {c}: caustic share {}", s.caustic[c] / s.received[c]);
     }
     assert_eq!(s.saturated, 0);
     // The emitted flux is the light's power into the cone of the volume box, in watts:
     // 1000 cd / 683 lm/W over the cap's solid angle, up to the cells the raster left out.
     let cap = desc.lights[0].radiant.x * 4.0 * std::f32::consts::PI; // upper bound: the whole sphere
     assert!(s.emitted[0] > 0.0 && (s.emitted[0] as f32) < cap);
-}
-
-#[test]
-fn absorbing_slab_transmits_exp_minus_kappa_l() {
-    let (kappa, thickness) = (Vec3::new(1.0, 2.0, 4.0), 0.2f32);
-    // The slab is wider than the volume box, so every photon crosses its full thickness.
-    let desc = frame_from_lua(&format!(
-        r#"local r = require("refrakt")
-        local scene = r.scene{{ volume = {{ resolution = 48, min = {{-0.5, -0.3, -0.5}}, max = {{0.5, 0.3, 0.5}} }},
-                               photons = 30000, camera = r.camera{{ size = {{8, 8}} }} }}
-        scene:add(r.node{{ name = "slab", shape = r.box{{ size = {{3, {thickness}, 3}} }},
-                          material = r.glass{{ ior = 1.5, absorption = {{{}, {}, {}}} }} }})
-        scene:add(r.node{{ name = "floor", translation = {{0, -1, 0}}, shape = r.plane{{ size = {{4, 4}} }},
-                          material = r.diffuse{{ color = {{1, 1, 1}} }} }})
-        scene:add(r.node{{ name = "sun", light = r.sun{{ direction = {{0, -1, 0}}, intensity = 683, angular_diameter = 0 }} }})
-        return scene"#,
-        kappa.x, kappa.y, kappa.z
-    ));
-    let mut r = renderer();
-    r.frame(&desc).unwrap();
-    let s = r.photon_stats().unwrap();
-    for c in 0..3 {
-        let expected = (-kappa[c] * thickness).exp() as f64;
-        let ratio = s.received[c] / s.emitted[c];
-        eprintln!("channel {c}: received/emitted {ratio:.4}, exp(−κL) = {expected:.4}");
-        assert!((ratio - expected).abs() < 0.01 * expected, "channel {c}: {ratio} vs {expected}");
-    }
 }
 
 /// The caustics example at a size lavapipe renders quickly.
@@ -343,8 +317,7 @@ fn density_adaptive_filter_beats_fixed_kernels() {
 /// inside a glass sphere (index n, radius R) at distance b from its centre: in a spherically
 /// symmetric medium the ray equation conserves L = n(r)·|x × d|, and a ray reaches radius r only
 /// where n(r)·r ≥ L, so a ray from the light at angle θ to the radius stays inside for good when
-/// n·b·sin θ exceeds the least n(r)·r across the boundary (R for a sharp surface; a little more,
-/// R_min, across refrakt's smooth one) — a whispering-gallery path. For isotropic emission that
+/// n·b·sin θ exceeds the least n(r)·r across the boundary (R for a sharp surface) — a whispering-gallery path. For isotropic emission that
 /// is the fraction √(1 − (R_min/(n·b))²) of the photons; the rest reach the room's walls.
 /// Before paths were cut at `march::max_path`, every trapped photon ran to the step budget and
 /// then landed on a wall anyway (all the flux "received").
@@ -363,23 +336,15 @@ fn photons_trapped_by_total_internal_reflection_are_absorbed() {
     let mut r = renderer();
     r.frame(&desc).unwrap();
     let s = r.photon_stats().unwrap();
-    // R_min = min n(r)·r over the smooth boundary: n = 1 + (n − 1)·smootherstep across 3 voxels
-    // centred on R (src/cpu/field.rs, the profile the voxelize stage writes).
-    let w = 3.0 * desc.volume.voxel_size as f64;
-    let r_min = (0..=1000)
-        .map(|i| {
-            let r = radius - 0.5 * w + w * i as f64 / 1000.0;
-            let t = ((radius + 0.5 * w - r) / w).clamp(0.0, 1.0);
-            (1.0 + (n - 1.0) * cpu::field::smootherstep(t as f32) as f64) * r
-        })
-        .fold(f64::INFINITY, f64::min);
+    // The ball is a sharp interface: R_min = R. (Across the paper's smooth boundary it was a
+    // little more, and the closed form 0.416 instead of 0.380.) Photons below the critical angle
+    // leave after a few Fresnel reflections inside; those above it never do.
+    let r_min = radius;
     let escaping = 1.0 - (1.0 - (r_min / (n * b)).powi(2)).sqrt();
     let received = s.received[0] / s.emitted[0];
     eprintln!("received {received:.4} of the emitted flux; closed form {escaping:.4} (R_min = {r_min:.4} m)");
-    // Not more trapped than the closed form allows (beyond photon noise); somewhat fewer, since
-    // the grid's finite differences let near-threshold paths leak out over the metres they
-    // travel before the cap (+0.07 measured at 96³, +0.05 at 128³).
-    assert!(received > escaping - 0.03 && received < escaping + 0.12, "received {received}, closed form {escaping}");
+    // Measured 0.3792 against 0.3800 on lavapipe: within photon noise.
+    assert!((received - escaping).abs() < 0.02, "received {received}, closed form {escaping}");
     // Trapped photons end at the path cap, not the step budget: a few hundred steps each at most.
     let steps_per_photon = s.steps as f64 / desc.photons as f64;
     assert!(steps_per_photon < 600.0, "{steps_per_photon} steps per photon");

@@ -139,42 +139,73 @@ fn analytic_any_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> bool 
     return analytic_hit(o, d, t_min, no_surface(t_max)).t < t_max;
 }
 
-// The interfaces a path is inside, innermost last.
+// The interfaces a path is inside, innermost last: up to MEDIA_DEPTH interface indices + 1
+// (0: an empty slot) in 16 bits each, two to a word — so the stack lives in registers, not in
+// memory a marching loop would read every step — and the innermost medium's index and
+// absorption, kept at hand. Lights and the camera inside glass start with the media the CPU
+// found around them (`pipeline::interfaces::media_at`).
 struct Media {
-    ids: array<u32, 4>,
+    ids: vec2<u32>,
     depth: u32,
+    ior: f32,
+    absorption: vec3<f32>,
 }
 
 fn no_media() -> Media {
-    return Media(array<u32, 4>(NO_INTERFACE, NO_INTERFACE, NO_INTERFACE, NO_INTERFACE), 0u);
+    return Media(vec2<u32>(0u), 0u, 1.0, vec3<f32>(0.0));
+}
+
+fn media_id(m: Media, slot: u32) -> u32 {
+    return ((m.ids[slot / 2u] >> (16u * (slot % 2u))) & 0xffffu) - 1u;
+}
+
+// The innermost medium's optics, from the top of the stack.
+fn media_top(m: Media) -> Media {
+    var out = m;
+    out.ior = 1.0;
+    out.absorption = vec3<f32>(0.0);
+    if out.depth > 0u {
+        let f = interfaces[media_id(out, out.depth - 1u)];
+        out.ior = f.ior;
+        out.absorption = f.absorption;
+    }
+    return out;
+}
+
+// Media from their packed words (slots filled from the first).
+fn media_unpacked(ids: vec2<u32>) -> Media {
+    var depth = 0u;
+    for (var slot = 0u; slot < MEDIA_DEPTH; slot++) {
+        if ((ids[slot / 2u] >> (16u * (slot % 2u))) & 0xffffu) != 0u {
+            depth = slot + 1u;
+        }
+    }
+    return media_top(Media(ids, depth, 1.0, vec3<f32>(0.0)));
 }
 
 // The index of the medium a path is in (air outside every interface).
 fn media_ior(m: Media) -> f32 {
-    if m.depth == 0u {
-        return 1.0;
-    }
-    return interfaces[m.ids[m.depth - 1u]].ior;
+    return m.ior;
 }
 
 fn media_absorption(m: Media) -> vec3<f32> {
-    if m.depth == 0u {
-        return vec3<f32>(0.0);
-    }
-    return interfaces[m.ids[m.depth - 1u]].absorption;
+    return m.absorption;
 }
 
 // The media after crossing interface i: leaving it if it is the innermost, else entering it.
 fn media_crossed(m: Media, i: u32) -> Media {
     var out = m;
-    if m.depth > 0u && m.ids[m.depth - 1u] == i {
+    if m.depth > 0u && media_id(m, m.depth - 1u) == i {
         out.depth -= 1u;
-        out.ids[out.depth] = NO_INTERFACE;
+        let shift = 16u * (out.depth % 2u);
+        out.ids[out.depth / 2u] &= ~(0xffffu << shift);
     } else if m.depth < MEDIA_DEPTH {
-        out.ids[m.depth] = i;
+        let word = out.depth / 2u;
+        let shift = 16u * (out.depth % 2u);
+        out.ids[word] = (out.ids[word] & ~(0xffffu << shift)) | (((i + 1u) & 0xffffu) << shift);
         out.depth += 1u;
     }
-    return out;
+    return media_top(out);
 }
 
 // Unpolarized Fresnel reflectance for cos θᵢ (> 0) and η = n₂/n₁; 1 past the critical angle.

@@ -45,9 +45,9 @@ struct ViewParams {
     max_step: f32,
     eps_refract: f32,
     max_path: f32,
-    _pad1: u32,
+    camera_media_lo: u32,
     ambient: vec3<f32>,
-    _pad2: u32,
+    camera_media_hi: u32,
 }
 
 struct Field {
@@ -192,9 +192,8 @@ struct LightGpu {
     radiant: vec3<f32>,
     size_x: f32,
     size_y: f32,
-    _pad0: f32,
-    _pad1: f32,
-    _pad2: f32,
+    radius: f32,
+    media: vec2<u32>,
 }
 
 struct Emitter {
@@ -216,9 +215,9 @@ struct Photon {
     origin: vec3<f32>,
     flags: u32,
     dir: vec3<f32>,
-    _pad0: u32,
+    media_lo: u32,
     flux: vec3<f32>,
-    _pad1: u32,
+    media_hi: u32,
 }
 
 struct OctreeParams {

@@ -49,6 +49,13 @@ pub fn medium_at(fields: &[FieldDesc], fog: Option<&crate::frame::FogDesc>, x: V
     let mut scattering = fog.map_or(Vec4::ZERO, |f| f.scattering.extend(f.g));
     for f in fields {
         let (a, nf) = field_sample(f, x);
+        if f.sharp {
+            // A sharp interface adds no n (rays refract at its surface) and only its scattering,
+            // with a hard edge (voxelize.wgsl's `composite`).
+            let inside = if a >= 0.5 { 1.0 } else { 0.0 };
+            scattering = scattering.lerp(f.scattering.extend(f.g), inside);
+            continue;
+        }
         n = n * (1.0 - a) + nf * a;
         absorption = absorption.lerp(f.absorption, a);
         scattering = scattering.lerp(f.scattering.extend(f.g), a);

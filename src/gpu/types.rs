@@ -90,10 +90,12 @@ gpu_struct! {
         pub eps_refract: f32,
         /// Longest path a camera ray follows through the volume, metres (`march::max_path`).
         pub max_path: f32,
-        pub _pad1: u32,
+        /// The sharp interfaces around the camera, packed (`interfaces::media_at`): low word…
+        pub camera_media_lo: u32,
         /// Mean environment radiance: the receivers' ambient light.
         pub ambient: [f32; 3],
-        pub _pad2: u32,
+        /// …and high word.
+        pub camera_media_hi: u32,
     }
 }
 
@@ -319,9 +321,10 @@ gpu_struct! {
         pub radiant: [f32; 3],
         pub size_x: f32,
         pub size_y: f32,
-        pub _pad0: f32,
-        pub _pad1: f32,
-        pub _pad2: f32,
+        /// Point and spot lights: the radius of the bulb glass shows, metres.
+        pub radius: f32,
+        /// The sharp interfaces around the light, packed (`interfaces::media_at`).
+        pub media: [u32; 2],
     }
 }
 
@@ -352,9 +355,11 @@ gpu_struct! {
         pub origin: [f32; 3],
         pub flags: u32,
         pub dir: [f32; 3],
-        pub _pad0: u32,
+        /// The sharp interfaces the photon starts inside, packed (from its light): low word…
+        pub media_lo: u32,
         pub flux: [f32; 3],
-        pub _pad1: u32,
+        /// …and high word.
+        pub media_hi: u32,
     }
 }
 

@@ -550,8 +550,8 @@ pub fn new_glass(lua: &Lua, table: Option<Table>) -> mlua::Result<Obj<Material>>
 // ---------------------------------------------------------------------------------------------
 // Lights.
 
-const POINT_FIELDS: &[&str] = &["color", "intensity", "power"];
-const SPOT_FIELDS: &[&str] = &["color", "intensity", "power", "angle", "blend", "target"];
+const POINT_FIELDS: &[&str] = &["color", "intensity", "power", "radius"];
+const SPOT_FIELDS: &[&str] = &["color", "intensity", "power", "angle", "blend", "target", "radius"];
 const SUN_FIELDS: &[&str] = &["color", "intensity", "strength", "direction", "angular_diameter"];
 const RECT_FIELDS: &[&str] = &["color", "intensity", "size", "target"];
 
@@ -584,6 +584,7 @@ impl LuaObject for Light {
             (LightKind::Sun { .. }, "strength") => num(self.intensity / LUMENS_PER_WATT),
             (LightKind::Spot { angle, .. }, "angle") => num(angle.to_degrees()),
             (LightKind::Spot { blend, .. }, "blend") => num(*blend),
+            (LightKind::Point | LightKind::Spot { .. }, "radius") => num(self.radius),
             (LightKind::Sun { angular_diameter }, "angular_diameter") => num(angular_diameter.to_degrees()),
             (LightKind::Rect { size }, "size") => lua.create_sequence_from(size.to_array().map(decimal))?.into_lua(lua),
             (LightKind::Spot { .. } | LightKind::Rect { .. }, "target") => self.target.map_or(Ok(Value::Nil), |t| vec_value(lua, t)),
@@ -602,6 +603,9 @@ impl LuaObject for Light {
                 self.intensity = cv::non_negative(lua, name, &value)? * CANDELA_PER_WATT
             }
             (LightKind::Sun { .. }, "strength") => self.intensity = cv::non_negative(lua, name, &value)? * LUMENS_PER_WATT,
+            (LightKind::Point | LightKind::Spot { .. }, "radius") => {
+                self.radius = cv::number_in(lua, name, &value, Some(0.0), Some(10.0), "a radius in metres from 0 to 10")? as f32
+            }
             (LightKind::Spot { angle, .. }, "angle") => {
                 *angle = (cv::number_in(lua, name, &value, Some(0.1), Some(90.0), "a half-angle in degrees from 0.1 to 90")?
                     as f32)

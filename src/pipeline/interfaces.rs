@@ -14,6 +14,12 @@ use crate::bvh::Triangle;
 use crate::frame::{FieldDesc, FieldKind, FrameDesc, MeshInstance};
 use crate::gpu::types::{Interface, interface_kind};
 
+/// The coverage band a sharp object is voxelized with, in voxels. Its n stays out of the grid;
+/// the band only marks the voxels it touches for the photon raster (`voxelize.wgsl`): coverage
+/// is above zero where the signed distance is below half of it, 0.875 voxel — every voxel whose
+/// cube the solid reaches (half a voxel's diagonal is 0.866).
+pub const MARK_WIDTH_VOXELS: f32 = 1.75;
+
 /// Faces meeting at less than this angle share a smooth shading normal (meshes without their
 /// own normals; the value Blender's "auto smooth" defaults to).
 pub const CREASE_ANGLE_DEGREES: f32 = 30.0;
@@ -74,6 +80,50 @@ pub fn triangles(desc: &FrameDesc) -> (Vec<Triangle>, Vec<[Vec3; 3]>) {
         }
     }
     (triangles, normals)
+}
+
+/// The sharp interfaces whose solid contains `p`, outermost first (by the size of their boxes),
+/// packed as the shaders' media stack (`shared/interface.wgsl`): interface index + 1 in 16 bits,
+/// two to a word, at most four. Lights and the camera inside glass start their paths with it.
+pub fn media_at(desc: &FrameDesc, p: Vec3) -> [u32; 2] {
+    let analytic = desc.fields.iter().filter(|f| f.sharp).map(|f| (f.bounds, field_contains(f, p)));
+    let meshes = sharp_meshes(desc).map(|m| (m.bounds, mesh_contains(m, p)));
+    let mut around: Vec<(f32, u32)> = analytic
+        .chain(meshes)
+        .enumerate()
+        .filter(|(_, (_, inside))| *inside)
+        .map(|(i, ((lo, hi), _))| (-(hi - lo).element_product(), i as u32))
+        .collect();
+    around.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut words = [0u32; 2];
+    for (slot, (_, i)) in around.iter().take(4).enumerate() {
+        words[slot / 2] |= ((i + 1) & 0xffff) << (16 * (slot % 2));
+    }
+    words
+}
+
+fn field_contains(f: &FieldDesc, p: Vec3) -> bool {
+    let q = f.world_to_local.transform_point3(p);
+    match f.kind {
+        FieldKind::Sphere => q.length() < f.half_size.x,
+        _ => q.abs().cmplt(f.half_size).all(),
+    }
+}
+
+/// Inside a closed mesh: an odd number of crossings along a ray (slightly off-axis, so it does
+/// not run along the edges of axis-aligned meshes).
+fn mesh_contains(m: &MeshInstance, p: Vec3) -> bool {
+    let dir = Vec3::new(1.0, 0.0123, 0.0071).normalize();
+    let crossings = m
+        .mesh
+        .triangles
+        .iter()
+        .filter(|t| {
+            let v = t.map(|i| m.world.transform_point3(m.mesh.positions[i as usize]));
+            crate::bvh::moller_trumbore(&Triangle { v, receiver: 0, index: 0 }, p, dir).is_some_and(|h| h.0 > 0.0)
+        })
+        .count();
+    crossings % 2 == 1
 }
 
 /// What identifies the sharp meshes' triangles (so the BVH is rebuilt when one moves).

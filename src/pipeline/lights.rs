@@ -9,7 +9,8 @@ use crate::gpu::types::{Emitter, LightGpu, light_kind};
 /// Cells per side of each light's photon raster (G×G importance cells).
 pub const RASTER_CELLS: u32 = 64;
 
-pub fn light_gpu(l: &LightDesc) -> LightGpu {
+/// The light's record; `media`: the sharp interfaces around it (`interfaces::media_at`).
+pub fn light_gpu(l: &LightDesc, media: [u32; 2]) -> LightGpu {
     let (kind, cos_outer, cos_inner, half_angle, size) = match l.shape {
         LightShape::Point => (light_kind::POINT, -1.0, -1.0, 0.0, glam::Vec2::ZERO),
         LightShape::Spot { cos_outer, cos_inner } => (light_kind::SPOT, cos_outer, cos_inner, 0.0, glam::Vec2::ZERO),
@@ -28,7 +29,21 @@ pub fn light_gpu(l: &LightDesc) -> LightGpu {
         radiant: l.radiant.into(),
         size_x: size.x,
         size_y: size.y,
+        radius: l.radius,
+        media,
         ..Default::default()
+    }
+}
+
+/// Where a light's photons start: its position, or for the sun the plane across its direction
+/// just outside the volume's bounding sphere (where its emitter raster lies, `emitter_for`).
+pub fn photon_start(l: &LightDesc, volume: &VolumeDesc) -> Vec3 {
+    match l.shape {
+        LightShape::Sun { .. } => {
+            let (lo, hi) = (volume.min, volume.max());
+            0.5 * (lo + hi) - l.direction * (0.5 * (hi - lo).length() * 1.01)
+        }
+        _ => l.position,
     }
 }
 
@@ -56,7 +71,7 @@ pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, first_cell: u
                 uy = uy.max((*c - centre).dot(up).abs());
             }
             Some(Emitter {
-                origin: (centre - axis * (radius * 1.01)).into(),
+                origin: photon_start(l, volume).into(),
                 light: index,
                 axis: axis.into(),
                 cos_max: 1.0,
@@ -145,13 +160,14 @@ impl LightBuffers {
     }
 
     /// Uploads this frame's lights and their emitters.
-    pub fn update(&mut self, ctx: &crate::gpu::GpuContext, lights: &[LightDesc], volume: &VolumeDesc) {
+    /// `media[i]`: the sharp interfaces around light i.
+    pub fn update(&mut self, ctx: &crate::gpu::GpuContext, lights: &[LightDesc], media: &[[u32; 2]], volume: &VolumeDesc) {
         if lights.len() > self.capacity {
             self.capacity = lights.len().next_power_of_two();
             (self.lights, self.emitters) = Self::buffers(&ctx.device, self.capacity);
             self.generation = super::resources::next_generation();
         }
-        let gpu: Vec<LightGpu> = lights.iter().map(light_gpu).collect();
+        let gpu: Vec<LightGpu> = lights.iter().zip(media).map(|(l, m)| light_gpu(l, *m)).collect();
         let mut emitters = Vec::new();
         self.raster_power = 0.0;
         for (i, l) in lights.iter().enumerate() {

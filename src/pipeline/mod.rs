@@ -314,7 +314,9 @@ impl Renderer {
         if self.receivers.update(&self.ctx, desc) {
             self.counters.receiver_uploads += 1;
         }
-        self.lights.update(&self.ctx, &desc.lights, &desc.volume);
+        let media: Vec<[u32; 2]> =
+            desc.lights.iter().map(|l| interfaces::media_at(desc, lights::photon_start(l, &desc.volume))).collect();
+        self.lights.update(&self.ctx, &desc.lights, &media, &desc.volume);
         let radiance_dims = if self.deposits(desc) { desc.volume.dims } else { UVec3::ONE };
         if self.radiance.as_ref().is_none_or(|r| r.dims != radiance_dims) {
             self.radiance = Some(RadianceGrid::new(&self.ctx, radiance_dims)?);

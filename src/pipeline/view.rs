@@ -57,6 +57,7 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
     // A curved ray can wander: allow a few box diagonals of steps before giving up.
     let diagonal = (v.max() - v.min).length();
     let max_steps = ((4.0 * diagonal / v.step).ceil() as u32).clamp(16, 1 << 20);
+    let camera_media = super::interfaces::media_at(desc, desc.camera.position);
     let mut flags = 0;
     if desc.has_media() {
         flags |= view_flags::MEDIA;
@@ -84,6 +85,8 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
         max_step: if inputs.scattering { v.voxel_size } else { 64.0 * v.voxel_size },
         eps_refract: super::photons::EPS_REFRACT,
         ambient: ambient.into(),
+        camera_media_lo: camera_media[0],
+        camera_media_hi: camera_media[1],
         ..Default::default()
     }
 }

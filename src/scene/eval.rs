@@ -80,11 +80,13 @@ pub fn evaluate(scene: &Scene, time: f64, opts: &EvalOptions) -> Result<FrameDes
     let volume = fit_volume(&bounds, &settings, resolution)?;
     // Boundary widths are set in voxels; now that the voxel size is known, make them metres.
     let metres = |b: f32| if b < 0.0 { settings.boundary } else { b } * volume.voxel_size;
+    // Sharp objects are voxelized only to mark where they are (`interfaces::MARK_WIDTH_VOXELS`).
+    let mark = crate::pipeline::interfaces::MARK_WIDTH_VOXELS;
     for f in &mut c.fields {
-        f.boundary = metres(f.boundary);
+        f.boundary = metres(if f.sharp { mark } else { f.boundary });
     }
     for m in &mut c.meshes {
-        m.boundary = metres(m.boundary);
+        m.boundary = metres(if m.sharp { mark } else { m.boundary });
     }
     for (i, n) in &c.functions {
         let samples = index_fn::sample_over_voxels(&c.fields[*i], n, &volume)?;
@@ -280,6 +282,7 @@ fn light_of(p: &Placed) -> Result<Option<LightDesc>> {
         right,
         up,
         radiant: light.color * light.intensity / LUMENS_PER_WATT,
+        radius: light.radius,
     }))
 }
 

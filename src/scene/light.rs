@@ -33,10 +33,17 @@ pub struct Light {
     pub target: Option<Vec3>,
     /// World-space direction the light travels (sun), overriding the node's orientation.
     pub direction: Option<Vec3>,
+    /// Radius of a point or spot light's bulb, metres: what glass shows of it as a highlight
+    /// (Blender's light radius). Its shading of receivers stays a point's.
+    pub radius: f32,
 }
+
+/// A point or spot light's radius unless set (Blender's default is 0.1 m; a smaller bulb keeps
+/// highlights crisp).
+pub const DEFAULT_LIGHT_RADIUS: f32 = 0.05;
 
 impl Light {
     pub fn new(kind: LightKind) -> Self {
-        Self { kind, color: Vec3::ONE, intensity: 1.0, target: None, direction: None }
+        Self { kind, color: Vec3::ONE, intensity: 1.0, target: None, direction: None, radius: DEFAULT_LIGHT_RADIUS }
     }
 }

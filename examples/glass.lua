@@ -21,7 +21,7 @@ scene:add(r.node{ name = "block", translation = {0.05, -0.15, 0.35}, rotation = 
                   material = r.glass{ ior = 1.5, tint = r.srgb("#6fd08c") } })
 scene:add(r.node{ name = "pebble", translation = {0.85, -0.08, -0.1}, shape = r.blob{ radius = 0.33 },
                   material = r.glass{ ior = 1.5, color = r.srgb("#ffb347"), distance = 0.3 } })
-scene:add(r.node{ name = "sun", light = r.sun{ direction = {-0.45, -1, -0.7}, intensity = 900 } })
+scene:add(r.node{ name = "sun", light = r.sun{ direction = {0.3, -1, 0.75}, intensity = 900 } })
 scene:add(r.node{ name = "bulb", translation = {1.4, 1.3, 1.2}, light = r.point{ intensity = 60, radius = 0.08 } })
 
 return scene

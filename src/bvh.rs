@@ -15,6 +15,8 @@ use crate::gpu::types::{BvhNode, BvhTriangle};
 pub const LEAF_SIZE: usize = 4;
 /// Deeper trees would overflow the GPU traversal stack (`BVH_STACK` in `bvh.wgsl`).
 pub const MAX_DEPTH: u32 = 30;
+/// Centroid bins per axis the SAH split is chosen among.
+const SAH_BINS: usize = 12;
 
 /// A world-space triangle with the receiver it belongs to.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -83,12 +85,17 @@ impl Bvh {
             (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
             |(lo, hi), c| (lo.min(c), hi.max(c)),
         );
-        let extent = chi - clo;
-        let axis = if extent.x >= extent.y && extent.x >= extent.z { 0 } else if extent.y >= extent.z { 1 } else { 2 };
-        let mid = first + (end - first) / 2;
-        self.triangles[first..end].select_nth_unstable_by(mid - first, |a, b| {
-            a.centroid()[axis].total_cmp(&b.centroid()[axis])
-        });
+        let mid = match self.sah_split(first, end, clo, chi) {
+            Some(mid) => mid,
+            None => {
+                // No useful plane (coincident centroids): halve along the longest axis.
+                let extent = chi - clo;
+                let axis = if extent.x >= extent.y && extent.x >= extent.z { 0 } else if extent.y >= extent.z { 1 } else { 2 };
+                let mid = first + (end - first) / 2;
+                self.triangles[first..end].select_nth_unstable_by(mid - first, |a, b| a.centroid()[axis].total_cmp(&b.centroid()[axis]));
+                mid
+            }
+        };
         let left = self.nodes.len();
         self.nodes.push(BvhNode::default());
         self.nodes.push(BvhNode::default());
@@ -99,6 +106,62 @@ impl Bvh {
     }
 
     /// GPU form of the triangles: v0 and two edges (what Möller–Trumbore needs).
+    /// The surface area heuristic over `SAH_BINS` centroid bins per axis (Wald 2007): the plane
+    /// that minimizes area(left)·count(left) + area(right)·count(right), i.e. the expected work of
+    /// a ray that meets the node. Partitions the triangles there and returns the split index;
+    /// `None` when every centroid falls in one bin.
+    fn sah_split(&mut self, first: usize, end: usize, clo: Vec3, chi: Vec3) -> Option<usize> {
+        let extent = chi - clo;
+        let bin_of = |c: Vec3, axis: usize| (((c[axis] - clo[axis]) / extent[axis] * SAH_BINS as f32) as usize).min(SAH_BINS - 1);
+        let area = |lo: Vec3, hi: Vec3| {
+            let e = (hi - lo).max(Vec3::ZERO);
+            e.x * e.y + e.y * e.z + e.z * e.x
+        };
+        let empty = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        let mut best: Option<(f32, usize, usize)> = None;
+        for axis in 0..3 {
+            if extent[axis] <= 0.0 {
+                continue;
+            }
+            let mut bins = [(empty, 0usize); SAH_BINS];
+            for t in &self.triangles[first..end] {
+                let b = &mut bins[bin_of(t.centroid(), axis)];
+                for p in t.v {
+                    b.0 = (b.0.0.min(p), b.0.1.max(p));
+                }
+                b.1 += 1;
+            }
+            // Sweep from the right, then from the left, costing each of the SAH_BINS − 1 planes.
+            let mut right = [0.0f32; SAH_BINS];
+            let (mut bounds, mut count) = (empty, 0);
+            for k in (1..SAH_BINS).rev() {
+                bounds = (bounds.0.min(bins[k].0.0), bounds.1.max(bins[k].0.1));
+                count += bins[k].1;
+                right[k] = area(bounds.0, bounds.1) * count as f32;
+            }
+            let (mut bounds, mut count) = (empty, 0);
+            for k in 0..SAH_BINS - 1 {
+                bounds = (bounds.0.min(bins[k].0.0), bounds.1.max(bins[k].0.1));
+                count += bins[k].1;
+                let cost = area(bounds.0, bounds.1) * count as f32 + right[k + 1];
+                if count > 0 && count < end - first && best.is_none_or(|b| cost < b.0) {
+                    best = Some((cost, axis, k));
+                }
+            }
+        }
+        let (_, axis, plane) = best?;
+        let (mut i, mut j) = (first, end);
+        while i < j {
+            if bin_of(self.triangles[i].centroid(), axis) <= plane {
+                i += 1;
+            } else {
+                j -= 1;
+                self.triangles.swap(i, j);
+            }
+        }
+        Some(i)
+    }
+
     pub fn gpu_triangles(&self) -> Vec<BvhTriangle> {
         self.triangles
             .iter()

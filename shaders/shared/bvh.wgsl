@@ -54,8 +54,13 @@ fn bvh_closest_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> BvhHit
         }
         if node.count == 0u {
             if node.first != 0u && top + 2u <= BVH_STACK {
-                stack[top] = node.first;
-                stack[top + 1u] = node.first + 1u;
+                // Nearer child last, so it is visited first and the far one is often culled
+                // by the closer hit it finds (child centres projected on the ray).
+                let a = bvh_nodes[node.first];
+                let b = bvh_nodes[node.first + 1u];
+                let b_nearer = dot(b.min + b.max - a.min - a.max, d) < 0.0;
+                stack[top] = select(node.first + 1u, node.first, b_nearer);
+                stack[top + 1u] = select(node.first, node.first + 1u, b_nearer);
                 top += 2u;
             }
             continue;

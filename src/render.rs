@@ -112,49 +112,10 @@ impl GltfScene {
         let mut player = import.player;
         let shown = path.display().to_string();
         if !placed_nodes(&scene).iter().any(|p| p.node.borrow().camera.is_some()) {
-            view_without_camera(&mut scene, &mut player, import.settings.environment.is_none(), opts.size, &shown)?;
+            crate::gltf::framing::view_without_camera(&mut scene, &mut player, import.settings.environment.is_none(), opts.size, &shown)?;
         }
         Ok(Self { scene, player, catalog: import.catalog, access })
     }
-}
-
-/// What glTF viewers show a file without a camera: a camera framing the scene's bounds over all
-/// of its (chosen) animation, and — when the file sets no environment — the neutral "studio"
-/// one; said in the log, since the user did not ask for either.
-fn view_without_camera(scene: &mut Scene, player: &mut Player, no_environment: bool, size: Option<(u32, u32)>, file: &str) -> Result<()> {
-    use crate::gltf::framing;
-    let times = framing::sample_times(player);
-    let bounds = framing::animated_bounds(scene, player, &times);
-    let size = size.unwrap_or(crate::scene::Camera::default().size);
-    let mut said = Vec::new();
-    if let Some((lo, hi)) = bounds {
-        let camera = framing::default_camera(lo, hi, size);
-        said.push(format!(
-            "a default camera at ({:.3}, {:.3}, {:.3}) frames the scene's bounds ({:.3}, {:.3}, {:.3}) → ({:.3}, {:.3}, {:.3}){}, \
-             from the front and {}° above, with a {}° vertical field of view",
-            camera.position.x, camera.position.y, camera.position.z, lo.x, lo.y, lo.z, hi.x, hi.y, hi.z,
-            if times.len() > 1 { format!(" over {} sampled times of its animation", times.len()) } else { String::new() },
-            framing::ELEVATION_DEG,
-            camera.fov_y.to_degrees().round(),
-        ));
-        scene.camera = Some(crate::scene::shared(camera));
-    }
-    if no_environment {
-        let image = crate::scene::environment::preset("studio")?;
-        scene.environment = crate::scene::shared(crate::scene::Environment {
-            source: crate::scene::EnvironmentSource::Preset { name: "studio".into(), image },
-            ..crate::scene::Environment::default()
-        });
-        said.push("the neutral \"studio\" environment lights it".into());
-    }
-    if !said.is_empty() {
-        tracing::warn!(
-            "{file}: the file has no camera, so {} (add a camera to the file, or pick the view in a Lua scene with \
-             refrakt.gltf; docs/gltf.md#files-without-a-camera)",
-            said.join(", and ")
-        );
-    }
-    Ok(())
 }
 
 impl SceneSource {

@@ -7,11 +7,13 @@
 //! refrakt's default 35° vertical field of view, from the distance at which the bounding
 //! sphere just fits the narrower of the image's two fields of view.
 
+use anyhow::Result;
 use glam::{Mat4, Vec3};
 
 use super::Player;
 use crate::scene::eval::placed_nodes;
-use crate::scene::{Camera, Scene, Shape};
+use crate::scene::environment::{self, Environment, EnvironmentSource};
+use crate::scene::{Camera, Scene, Shape, shared};
 
 /// How far above the horizontal the default camera looks down at the scene.
 pub const ELEVATION_DEG: f32 = 15.0;
@@ -111,6 +113,44 @@ pub fn default_camera(lo: Vec3, hi: Vec3, size: (u32, u32)) -> Camera {
     let e = ELEVATION_DEG.to_radians();
     let from = Vec3::new(0.0, e.sin(), e.cos());
     Camera { position: centre + distance * from, target: Some(centre), ..base }
+}
+
+/// What glTF viewers show a file without a camera: a camera framing the scene's bounds over all
+/// of its (chosen) animation, and — when the file sets no environment — the neutral "studio"
+/// one; said in the log, since the user did not ask for either.
+pub fn view_without_camera(scene: &mut Scene, player: &mut Player, no_environment: bool, size: Option<(u32, u32)>, file: &str) -> Result<()> {
+    let times = sample_times(player);
+    let bounds = animated_bounds(scene, player, &times);
+    let size = size.unwrap_or(Camera::default().size);
+    let mut said = Vec::new();
+    if let Some((lo, hi)) = bounds {
+        let camera = default_camera(lo, hi, size);
+        said.push(format!(
+            "a default camera at ({:.3}, {:.3}, {:.3}) frames the scene's bounds ({:.3}, {:.3}, {:.3}) → ({:.3}, {:.3}, {:.3}){}, \
+             from the front and {}° above, with a {}° vertical field of view",
+            camera.position.x, camera.position.y, camera.position.z, lo.x, lo.y, lo.z, hi.x, hi.y, hi.z,
+            if times.len() > 1 { format!(" over {} sampled times of its animation", times.len()) } else { String::new() },
+            ELEVATION_DEG,
+            camera.fov_y.to_degrees().round(),
+        ));
+        scene.camera = Some(shared(camera));
+    }
+    if no_environment {
+        let image = environment::preset("studio")?;
+        scene.environment = shared(Environment {
+            source: EnvironmentSource::Preset { name: "studio".into(), image },
+            ..Environment::default()
+        });
+        said.push("the neutral \"studio\" environment lights it".into());
+    }
+    if !said.is_empty() {
+        tracing::warn!(
+            "{file}: the file has no camera, so {} (add a camera to the file, or pick the view in a Lua scene with \
+             refrakt.gltf; docs/gltf.md#files-without-a-camera)",
+            said.join(", and ")
+        );
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -63,7 +63,7 @@ enum Filter {
 }
 
 /// The extension object of a buffer or bufferView, under either name.
-fn extension<'a>(others: Option<&'a serde_json::Map<String, Value>>) -> Option<(&'static str, &'a Value)> {
+fn extension(others: Option<&serde_json::Map<String, Value>>) -> Option<(&'static str, &Value)> {
     let others = others?;
     NAMES.iter().find_map(|n| others.get(*n).map(|v| (*n, v)))
 }

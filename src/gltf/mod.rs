@@ -214,15 +214,21 @@ fn clips(
 /// One warning per pair of animations that drive the same properties (all play at once, and
 /// the later one in the file wins), counting what they share.
 fn overlaps(clips: &[animation::Clip], file: &str) -> Vec<String> {
+    /// Two animations (earlier, later) that drive `shared` properties, the first on `node`.
+    struct Overlap {
+        clips: (usize, usize),
+        shared: usize,
+        node: usize,
+        target: animation::Target,
+    }
     let mut driven_by = std::collections::HashMap::new();
-    // (earlier clip, later clip) → (properties both drive, the first of them), in file order.
-    let mut pairs: Vec<((usize, usize), usize, (usize, animation::Target))> = Vec::new();
+    let mut pairs: Vec<Overlap> = Vec::new();
     for (k, clip) in clips.iter().enumerate() {
         for c in &clip.channels {
             match driven_by.insert((c.node, c.target), k) {
-                Some(first) if first != k => match pairs.iter_mut().find(|(p, ..)| *p == (first, k)) {
-                    Some((_, n, _)) => *n += 1,
-                    None => pairs.push(((first, k), 1, (c.node, c.target))),
+                Some(first) if first != k => match pairs.iter_mut().find(|p| p.clips == (first, k)) {
+                    Some(p) => p.shared += 1,
+                    None => pairs.push(Overlap { clips: (first, k), shared: 1, node: c.node, target: c.target }),
                 },
                 _ => {}
             }
@@ -230,7 +236,7 @@ fn overlaps(clips: &[animation::Clip], file: &str) -> Vec<String> {
     }
     pairs
         .into_iter()
-        .map(|((a, b), n, (node, target))| {
+        .map(|Overlap { clips: (a, b), shared: n, node, target }| {
             let more = if n > 1 { format!(" and {} more propert{}", n - 1, if n == 2 { "y" } else { "ies" }) } else { String::new() };
             format!(
                 "{file}: animations \"{}\" and \"{}\" both drive the {target:?} of nodes[{node}]{more}; all animations \

@@ -14,8 +14,9 @@ use serde_json::{Value, json};
 
 use crate::frame::{FrameDesc, LightDesc};
 use crate::lua::objects::decimal;
-use crate::render::{RenderOptions, frame_time};
-use crate::scene::eval::placed_nodes;
+use crate::gltf::Catalog;
+use crate::render::{RenderOptions, SceneSource, frame_time};
+use crate::scene::eval::{camera_nodes, placed_nodes};
 use crate::scene::{EnvironmentSource, LightKind, Material, Scene};
 
 fn vec3(v: Vec3) -> Value {
@@ -52,6 +53,8 @@ pub fn frame_json(scene: &Scene, desc: &FrameDesc, frame: Option<i64>) -> Result
             })
         })
         .collect();
+    let cameras: Vec<Value> =
+        camera_nodes(&placed).iter().enumerate().map(|(i, p)| json!({ "index": i, "node": p.node.borrow().name })).collect();
     let light_nodes: Vec<_> = placed.iter().filter(|p| p.node.borrow().light.is_some()).collect();
     if light_nodes.len() != desc.lights.len() {
         return Err(anyhow!("internal error: {} light nodes but {} lights in the frame", light_nodes.len(), desc.lights.len()));
@@ -88,6 +91,7 @@ pub fn frame_json(scene: &Scene, desc: &FrameDesc, frame: Option<i64>) -> Result
             "yfov": c.fov_y,
             "size": [c.width, c.height],
         },
+        "cameras": cameras,
         "lights": lights,
         "materials": materials,
         "meshes": meshes,
@@ -141,14 +145,27 @@ fn light_json(l: &crate::scene::Light, d: &LightDesc) -> Value {
     v
 }
 
+/// A glTF file's scenes and animations by index and name, and which are taken: what
+/// `--scene` and `--animation` can name (unnamed ones by index).
+fn catalog_json(c: &Catalog) -> Value {
+    let list = |names: &[Option<String>], taken: &dyn Fn(usize) -> bool| -> Vec<Value> {
+        names.iter().enumerate().map(|(i, n)| json!({ "index": i, "name": n, "chosen": taken(i) })).collect()
+    };
+    json!({
+        "scenes": list(&c.scenes, &|i| c.scene == Some(i)),
+        "animations": list(&c.animations, &|i| c.animation.is_none_or(|a| a == i)),
+    })
+}
+
 /// Numbers that are f32 values (all but the time) written as the shortest decimal that reads
-/// back as the same f32: 0.7, not 0.699999988079071.
+/// back as the same f32: 0.7, not 0.699999988079071; and −0 as 0 (e.g. the absorption
+/// −ln(1) / d of a channel that absorbs nothing).
 fn shorten(v: &mut Value) {
     match v {
         Value::Number(n) if n.is_f64() => {
             let x = n.as_f64().unwrap_or_default();
             if (x as f32) as f64 == x {
-                *v = json!(decimal(x as f32));
+                *v = json!(decimal(if x == 0.0 { 0.0 } else { x as f32 }));
             }
         }
         Value::Array(items) => items.iter_mut().for_each(shorten),
@@ -171,6 +188,9 @@ pub fn run(scene_path: &Path, opts: &RenderOptions, out: &mut impl Write) -> Res
             None => e,
         })?;
         let mut doc = source.with_scene(|scene| frame_json(scene, &desc, frame))?;
+        if let SceneSource::Gltf(g) = &source {
+            doc["gltf"] = catalog_json(&g.catalog);
+        }
         shorten(&mut doc);
         match writeln!(out, "{}", serde_json::to_string(&doc)?) {
             // A reader that has seen enough (`refrakt dump … | head -1`) is not an error.

@@ -101,14 +101,15 @@ struct SceneArgs {
     /// Camera rays per pixel, overriding the scene's (antialiasing).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=256))]
     samples: Option<u32>,
-    /// Use the node of this name that carries a camera.
-    #[arg(long)]
+    /// Use the camera node of this name, or of this index among the camera nodes (as `refrakt
+    /// dump` lists them under `cameras`).
+    #[arg(long, value_name = "NAME|INDEX")]
     camera: Option<String>,
-    /// glTF: render the scene of this name (default: the file's default scene, else its first).
-    #[arg(long = "scene", value_name = "NAME")]
+    /// glTF: render the scene of this name or index (default: the file's default scene, else its first).
+    #[arg(long = "scene", value_name = "NAME|INDEX")]
     gltf_scene: Option<String>,
-    /// glTF: play only the animation of this name (default: all of the file's animations at once).
-    #[arg(long, value_name = "NAME")]
+    /// glTF: play only the animation of this name or index (default: all of the file's animations at once).
+    #[arg(long, value_name = "NAME|INDEX")]
     animation: Option<String>,
     /// Let the scene read files below this folder too (repeatable).
     #[arg(long, value_name = "DIR")]
@@ -236,7 +237,7 @@ impl SceneArgs {
             eval: EvalOptions { size: self.size, resolution: self.volume, camera: self.camera.clone(), samples: self.samples, photons: self.photons },
             allow_read: self.allow_read.clone(),
             limits: refrakt::lua::Limits { time_budget: Duration::from_secs_f64(self.script_timeout), memory_bytes: self.script_memory << 20 },
-            gltf: ImportOptions { scene: self.gltf_scene.clone(), animation: self.animation.clone() },
+            gltf: ImportOptions { scene: self.gltf_scene.clone(), animation: self.animation.clone(), size: self.size },
         })
     }
 }

@@ -17,7 +17,7 @@ use crate::output::{self, Format, Image, Layers, png::PngOptions};
 use crate::pipeline::Renderer;
 use crate::progress::{Progress, ProgressMode};
 use crate::scene::Scene;
-use crate::scene::eval::{EvalOptions, evaluate};
+use crate::scene::eval::{EvalOptions, evaluate, placed_nodes};
 
 /// Set by Ctrl-C / SIGTERM: the render stops after the frame in hand.
 pub static INTERRUPTED: AtomicBool = AtomicBool::new(false);
@@ -90,6 +90,8 @@ pub enum SceneSource {
 pub struct GltfScene {
     pub scene: Scene,
     pub player: Player,
+    /// The file's scenes and animations, and which were taken.
+    pub catalog: crate::gltf::Catalog,
     /// The file policy its buffers and images were read through (and the record of them).
     pub access: FileAccess,
 }
@@ -107,7 +109,12 @@ impl GltfScene {
         }
         let mut scene = Scene { roots: import.roots, base_dir: access.base.clone(), ..Scene::default() };
         import.settings.apply(&mut scene);
-        Ok(Self { scene, player: import.player, access })
+        let mut player = import.player;
+        let shown = path.display().to_string();
+        if !placed_nodes(&scene).iter().any(|p| p.node.borrow().camera.is_some()) {
+            crate::gltf::framing::view_without_camera(&mut scene, &mut player, import.settings.environment.is_none(), opts.size, &shown)?;
+        }
+        Ok(Self { scene, player, catalog: import.catalog, access })
     }
 }
 

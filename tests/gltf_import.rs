@@ -99,7 +99,7 @@ fn a_scene_is_chosen_by_name_or_the_files_default() {
     let first = load_with(&path, &ImportOptions { scene: Some("First".into()), ..Default::default() }).unwrap();
     assert!(first.scene.find("in-first").is_some() && first.scene.find("in-second").is_none());
     let e = format!("{:#}", load_with(&path, &ImportOptions { scene: Some("Third".into()), ..Default::default() }).err().unwrap());
-    assert!(e.contains("no scene called \"Third\"") && e.contains("\"First\", \"Second\""), "{e}");
+    assert!(e.contains("no scene called \"Third\"") && e.contains("0 \"First\", 1 \"Second\""), "{e}");
 }
 
 /// A material of each kind on its own tetrahedron node: (name, material JSON).

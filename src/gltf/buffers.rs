@@ -78,6 +78,11 @@ pub fn load_buffers(doc: &gltf::Document, bin: Option<&[u8]>, at: &Location) -> 
             let i = b.index();
             let claimed = b.length() as u64;
             let what = format!("buffers[{i}]");
+            if matches!(b.source(), gltf::buffer::Source::Bin) && super::meshopt::is_fallback(&doc.as_json().buffers[i]) {
+                // Stands in for meshopt-compressed views, which are decoded into buffers of
+                // their own (super::meshopt); it has no bytes to read.
+                return Ok(Vec::new());
+            }
             let data = match b.source() {
                 // §4.4.3.3: the buffer without a URI is the BIN chunk.
                 gltf::buffer::Source::Bin => bin.map(<[u8]>::to_vec).ok_or_else(|| {

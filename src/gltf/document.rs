@@ -17,6 +17,26 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
     // Quantized attributes are plain integer accessors, which the accessor reader converts.
     "KHR_mesh_quantization",
+    "KHR_texture_transform",
+    // Compressed bufferViews, decoded by meshoptimizer's own decoders (super::meshopt).
+    "EXT_meshopt_compression",
+    "KHR_meshopt_compression",
+];
+
+/// Required extensions refrakt cannot decode, with what to do about each: a tool that writes
+/// the same scene without them.
+const UNDECODABLE: &[(&str, &str)] = &[
+    (
+        "KHR_draco_mesh_compression",
+        "its meshes are Draco-compressed, and no maintained Rust Draco decoder exists yet; decompress them first, e.g. \
+         `gltf-transform copy in.glb out.glb` (glTF Transform drops Draco when copying) or re-export without Draco \
+         (meshopt compression, `gltf-transform meshopt in.glb out.glb`, is read)",
+    ),
+    (
+        "KHR_texture_basisu",
+        "its textures are KTX2 / Basis Universal, which refrakt does not decode; convert them to PNG first, e.g. \
+         `gltf-transform ktxdecompress in.glb out.glb`, or re-export with PNG or JPEG textures",
+    ),
 ];
 
 /// The chunks of a `.glb`: the JSON text and the binary buffer, if any.
@@ -96,6 +116,10 @@ pub fn parse(json_text: &[u8], file: &str) -> Result<gltf::Document> {
     let root: json::Root = json::deserialize::from_slice(json_text)
         .map_err(|e| anyhow!("{file}: the glTF JSON cannot be read: {e} (is the file complete? re-export it)"))?;
     check_version(&root, file)?;
+    // Before validation: a required extension changes what the data means (a Draco mesh's
+    // accessors have no bufferView, a KTX2 texture no source), which validation would report
+    // as damage.
+    check_required_extensions(&root.extensions_required, file)?;
     check_positions(&root, file)?;
     let mut errors = Vec::new();
     root.validate(&root, json::Path::new, &mut |path, error| {
@@ -109,7 +133,6 @@ pub fn parse(json_text: &[u8], file: &str) -> Result<gltf::Document> {
         let more = if errors.len() > 3 { format!(" (and {} more)", errors.len() - 3) } else { String::new() };
         bail!("{file}: the glTF is invalid: {}{more}; fix or re-export the file", errors[..errors.len().min(3)].join("; "));
     }
-    check_required_extensions(&root, file)?;
     check_images(&root, file)?;
     check_channel_targets(&root, file)?;
     check_trees(&root, file)?;
@@ -197,13 +220,17 @@ fn check_version(root: &json::Root, file: &str) -> Result<()> {
 }
 
 /// §3.12: "If a required extension is not supported, the asset MUST NOT be loaded."
-fn check_required_extensions(root: &json::Root, file: &str) -> Result<()> {
-    let unknown: Vec<&str> =
-        root.extensions_required.iter().map(String::as_str).filter(|e| !SUPPORTED_EXTENSIONS.contains(e)).collect();
+fn check_required_extensions(required: &[String], file: &str) -> Result<()> {
+    for (extension, what_to_do) in UNDECODABLE {
+        if required.iter().any(|e| e == extension) {
+            bail!("{file}: the file requires the glTF extension {extension}: {what_to_do}");
+        }
+    }
+    let unknown: Vec<&str> = required.iter().map(String::as_str).filter(|e| !SUPPORTED_EXTENSIONS.contains(e)).collect();
     if !unknown.is_empty() {
         bail!(
             "{file}: the file requires the glTF extension(s) {}, which refrakt does not support (it reads {}); export \
-             without them (e.g. no Draco or meshopt compression, PNG or JPEG textures)",
+             without them",
             unknown.join(", "),
             SUPPORTED_EXTENSIONS.join(", ")
         );

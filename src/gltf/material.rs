@@ -9,7 +9,7 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 use anyhow::{Result, anyhow, bail};
-use glam::Vec3;
+use glam::{Affine2, Vec2, Vec3};
 
 use super::buffers::{self, Location};
 use super::extras;
@@ -20,8 +20,35 @@ use crate::scene::{Diffuse, Glass, Material, Texture2d};
 pub struct Converted {
     pub material: Material,
     pub boundary: Option<f32>,
-    /// The TEXCOORD set its base color texture samples.
-    pub uv_set: Option<u32>,
+    /// Where its base color texture is sampled.
+    pub uv: Option<UvMap>,
+}
+
+/// The TEXCOORD_n set a texture samples, and the KHR_texture_transform applied to it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UvMap {
+    pub set: u32,
+    pub transform: Affine2,
+}
+
+impl UvMap {
+    fn of(info: &gltf::texture::Info, file: &str, what: &str) -> Result<Self> {
+        let Some(t) = info.texture_transform() else { return Ok(Self { set: info.tex_coord(), transform: Affine2::IDENTITY }) };
+        let (offset, scale) = (Vec2::from(t.offset()), Vec2::from(t.scale()));
+        if !(offset.is_finite() && scale.is_finite() && t.rotation().is_finite()) {
+            bail!("{file}: {what}: KHR_texture_transform offset, rotation and scale must be finite numbers");
+        }
+        Ok(Self { set: t.tex_coord().unwrap_or(info.tex_coord()), transform: texture_transform(offset, t.rotation(), scale) })
+    }
+}
+
+/// KHR_texture_transform: uv' = T(offset) · R(rotation) · S(scale) · uv. The rotation turns the
+/// UVs counter-clockwise as the image is seen (v pointing down), i.e. u' = cos·u + sin·v,
+/// v' = −sin·u + cos·v: the extension's example (offset [0, 1], rotation π/2, scale ½) then
+/// maps the unit square onto the image's lower-left quadrant, as the spec says it does.
+pub fn texture_transform(offset: Vec2, rotation: f32, scale: Vec2) -> Affine2 {
+    let (sin, cos) = rotation.sin_cos();
+    Affine2::from_cols(Vec2::new(cos, -sin) * scale.x, Vec2::new(sin, cos) * scale.y, offset)
 }
 
 /// Converts materials, decoding each texture image once.
@@ -34,7 +61,7 @@ pub struct Materials<'a> {
 
 /// The glTF default material (§3.9.6): base color 1, opaque.
 pub fn default_material() -> Converted {
-    Converted { material: Material::Diffuse(Diffuse { color: Vec3::ONE, texture: None }), boundary: None, uv_set: None }
+    Converted { material: Material::Diffuse(Diffuse { color: Vec3::ONE, texture: None }), boundary: None, uv: None }
 }
 
 impl<'a> Materials<'a> {
@@ -49,7 +76,7 @@ impl<'a> Materials<'a> {
         let transmission = m.transmission().map_or(0.0, |t| t.transmission_factor());
         if transmission > 0.0 || medium.is_medium() {
             let glass = self.glass(m, &what, transmission, &medium, warnings)?;
-            return Ok(Converted { material: Material::Glass(glass), boundary: medium.boundary, uv_set: None });
+            return Ok(Converted { material: Material::Glass(glass), boundary: medium.boundary, uv: None });
         }
         let pbr = m.pbr_metallic_roughness();
         let [r, g, b, _] = pbr.base_color_factor();
@@ -57,12 +84,12 @@ impl<'a> Materials<'a> {
         if !color.is_finite() {
             bail!("{}: {what}: baseColorFactor must be finite", self.at.file);
         }
-        let (texture, uv_set) = match pbr.base_color_texture() {
-            Some(info) => (Some(self.texture(&info, &what, warnings)?), Some(info.tex_coord())),
+        let (texture, uv) = match pbr.base_color_texture() {
+            Some(info) => (Some(self.texture(&info, &what, warnings)?), Some(UvMap::of(&info, self.at.file, &what)?)),
             None => (None, None),
         };
         let diffuse = Diffuse { color: color.clamp(Vec3::ZERO, Vec3::ONE), texture };
-        Ok(Converted { material: Material::Diffuse(diffuse), boundary: medium.boundary, uv_set })
+        Ok(Converted { material: Material::Diffuse(diffuse), boundary: medium.boundary, uv })
     }
 
     fn glass(&self, m: &gltf::Material, what: &str, transmission: f32, medium: &extras::MediumExtras, warnings: &mut Vec<String>) -> Result<Glass> {
@@ -145,4 +172,23 @@ fn decode_image(bytes: &[u8]) -> Result<Texture2d> {
         height: rgba.height(),
         texels: rgba.pixels().map(|p| [linear(p[0]), linear(p[1]), linear(p[2]), p[3] as f32 / 255.0]).collect(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_extensions_example_maps_the_unit_square_onto_the_lower_left_quadrant() {
+        // "This example utilizes only the lower left quadrant of the source image, rotated
+        // clockwise 90°": offset [0, 1], rotation π/2, scale [0.5, 0.5].
+        let t = texture_transform(Vec2::new(0.0, 1.0), std::f32::consts::FRAC_PI_2, Vec2::splat(0.5));
+        for (uv, want) in [((0.0, 0.0), (0.0, 1.0)), ((1.0, 0.0), (0.0, 0.5)), ((0.0, 1.0), (0.5, 1.0)), ((1.0, 1.0), (0.5, 0.5))] {
+            let got = t.transform_point2(Vec2::new(uv.0, uv.1));
+            assert!((got - Vec2::new(want.0, want.1)).length() < 1e-6, "{uv:?} → {got}, want {want:?}");
+        }
+        // Offset and scale alone: what gltfpack writes for quantized texture coordinates.
+        let q = texture_transform(Vec2::new(0.25, -0.5), 0.0, Vec2::new(2.0, 4.0));
+        assert_eq!(q.transform_point2(Vec2::new(0.5, 0.5)), Vec2::new(1.25, 1.5));
+    }
 }

@@ -10,6 +10,7 @@ use gltf::Semantic;
 use gltf::mesh::Mode;
 
 use super::accessor::Accessors;
+use super::material::UvMap;
 use crate::scene::MeshData;
 
 /// Up to 4·n joints per vertex, with their weights (JOINTS_0/WEIGHTS_0, JOINTS_1/WEIGHTS_1, …).
@@ -32,12 +33,13 @@ pub struct Part {
     pub influences: Option<Influences>,
 }
 
-/// The mesh's primitives; `uv_set(material)` says which TEXCOORD_n a material samples.
-pub fn read_mesh(mesh: &gltf::Mesh, acc: &Accessors, uv_set: impl Fn(Option<usize>) -> Option<u32>) -> Result<Vec<Part>> {
+/// The mesh's primitives; `uv_map(material)` says which TEXCOORD_n a material samples and how
+/// it transforms them.
+pub fn read_mesh(mesh: &gltf::Mesh, acc: &Accessors, uv_map: impl Fn(Option<usize>) -> Option<UvMap>) -> Result<Vec<Part>> {
     mesh.primitives()
         .map(|p| {
             let what = format!("meshes[{}]{} primitives[{}]", mesh.index(), quoted(mesh.name()), p.index());
-            read_primitive(&p, acc, &what, uv_set(p.material().index()))
+            read_primitive(&p, acc, &what, uv_map(p.material().index()))
         })
         .collect()
 }
@@ -46,7 +48,7 @@ pub fn quoted(name: Option<&str>) -> String {
     name.map_or(String::new(), |n| format!(" \"{n}\""))
 }
 
-fn read_primitive(p: &gltf::Primitive, acc: &Accessors, what: &str, uv_set: Option<u32>) -> Result<Part> {
+fn read_primitive(p: &gltf::Primitive, acc: &Accessors, what: &str, uv_map: Option<UvMap>) -> Result<Part> {
     let Some(position) = p.get(&Semantic::Positions) else {
         bail!("{}: {what} has no POSITION attribute; every primitive refrakt reads needs one", acc.file);
     };
@@ -66,8 +68,11 @@ fn read_primitive(p: &gltf::Primitive, acc: &Accessors, what: &str, uv_set: Opti
         None => (0..n as u32).collect(),
     };
     let triangles = triangles(p.mode(), &order).map_err(|m| anyhow::anyhow!("{}: {what}: {m}", acc.file))?;
-    let uvs = match uv_set.and_then(|set| p.get(&Semantic::TexCoords(set)).map(|a| (set, a))) {
-        Some((set, a)) => Some(same_count(acc, vec2s(acc, a.index(), &format!("{what} TEXCOORD_{set}"))?, n, what, "TEXCOORD")?),
+    let uvs = match uv_map.and_then(|m| p.get(&Semantic::TexCoords(m.set)).map(|a| (m, a))) {
+        Some((m, a)) => {
+            let uvs = same_count(acc, vec2s(acc, a.index(), &format!("{what} TEXCOORD_{}", m.set))?, n, what, "TEXCOORD")?;
+            Some(uvs.into_iter().map(|uv| m.transform.transform_point2(uv)).collect())
+        }
         None => None,
     };
     let targets = p
@@ -120,6 +125,39 @@ fn triangles(mode: Mode, v: &[u32]) -> Result<Vec<[u32; 3]>, String> {
     }
 }
 
+/// Why a triangle mesh encloses no volume, if it does not: an open surface (edges that belong to
+/// one triangle only, once vertices at the same position are taken as one, as UV seams split
+/// them) or a closed one with no thickness (a sheet modelled double-sided). refrakt voxelizes
+/// the solid a transmissive mesh encloses, so such glass shows nothing.
+pub fn encloses_no_volume(mesh: &MeshData) -> Option<String> {
+    let mut welded = std::collections::HashMap::new();
+    let ids: Vec<usize> = mesh.positions.iter().map(|p| {
+        let next = welded.len();
+        *welded.entry(p.to_array().map(f32::to_bits)).or_insert(next)
+    }).collect();
+    let mut edges: std::collections::HashMap<(usize, usize), u32> = std::collections::HashMap::new();
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| ids[i as usize]);
+        if a == b || b == c || c == a {
+            continue;
+        }
+        for (u, v) in [(a, b), (b, c), (c, a)] {
+            *edges.entry((u.min(v), u.max(v))).or_default() += 1;
+        }
+    }
+    let open = edges.values().filter(|&&n| n == 1).count();
+    if open > 0 {
+        return Some(format!("it is an open surface ({open} edges belong to one triangle only)"));
+    }
+    let (lo, hi) = mesh.bounds()?;
+    let size = (hi - lo).length() as f64;
+    // Closed: the divergence theorem's volume is that of the solid, whatever the origin.
+    if mesh.signed_volume().abs() <= 1e-6 * size * size * size {
+        return Some("it is closed but flat (it encloses no volume)".into());
+    }
+    None
+}
+
 /// JOINTS_n / WEIGHTS_n pairs, all sets the primitive has.
 fn influences(p: &gltf::Primitive, acc: &Accessors, what: &str, n: usize) -> Result<Option<Influences>> {
     let mut inf = Influences::default();
@@ -160,6 +198,22 @@ mod tests {
         assert_eq!(triangles(Mode::TriangleFan, &[0, 1, 2, 3]).unwrap(), vec![[1, 2, 0], [2, 3, 0]]);
         assert!(triangles(Mode::Lines, &[0, 1]).unwrap_err().contains("Lines"));
         assert!(triangles(Mode::Triangles, &[0, 1]).is_err());
+    }
+
+    #[test]
+    fn sheets_enclose_no_volume_and_solids_with_split_vertices_do() {
+        let quad = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, 1.0), Vec3::Z];
+        let mesh = |positions: Vec<Vec3>, triangles: Vec<[u32; 3]>| MeshData { positions, triangles, uvs: None };
+        let single = mesh(quad.to_vec(), vec![[0, 1, 2], [0, 2, 3]]);
+        assert!(encloses_no_volume(&single).unwrap().contains("open surface (4 edges"));
+        let double_sided = mesh(quad.to_vec(), vec![[0, 1, 2], [0, 2, 3], [0, 2, 1], [0, 3, 2]]);
+        assert!(encloses_no_volume(&double_sided).unwrap().contains("flat"));
+        // A tetrahedron whose every triangle has vertices of its own (as UV seams split them).
+        let corners = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
+        let faces = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+        let positions: Vec<Vec3> = faces.iter().flat_map(|f| f.map(|i| corners[i])).collect();
+        let split = mesh(positions, (0..4).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect());
+        assert_eq!(encloses_no_volume(&split), None);
     }
 
     #[test]

@@ -12,8 +12,10 @@ pub mod animation;
 pub mod buffers;
 pub mod document;
 pub mod extras;
+pub mod framing;
 pub mod material;
 pub mod mesh;
+pub mod meshopt;
 pub mod nodes;
 pub mod player;
 
@@ -24,16 +26,32 @@ use glam::Vec3;
 
 use crate::lua::sandbox::FileAccess;
 use crate::scene::environment::{self, Environment, EnvironmentSource};
-use crate::scene::{Fog, Node, Scene, Shared, VolumeSettings, shared};
+use crate::scene::{Fog, Node, Scene, Shared, VolumeSettings, by_name_or_index, shared};
 pub use player::Player;
 
 /// What to take from a file with several scenes or animations.
 #[derive(Clone, Debug, Default)]
 pub struct ImportOptions {
-    /// `--scene NAME`: the scene of that name (default: the file's `scene`, else the first).
+    /// `--scene NAME|INDEX`: the scene of that name, else of that index (default: the file's
+    /// `scene`, else the first).
     pub scene: Option<String>,
-    /// `--animation NAME`: only the animation of that name (default: all of them at once).
+    /// `--animation NAME|INDEX`: only the animation of that name, else of that index (default:
+    /// all of them at once).
     pub animation: Option<String>,
+    /// `--size WxH`: the image a file without a camera is framed for (its aspect ratio).
+    pub size: Option<(u32, u32)>,
+}
+
+/// The scenes and animations a file has, by index, and which were taken — what `refrakt dump`
+/// lists so unnamed ones can be chosen by index.
+#[derive(Clone, Debug, Default)]
+pub struct Catalog {
+    pub scenes: Vec<Option<String>>,
+    /// The imported scene (`None`: the file has no scenes, so every root node was taken).
+    pub scene: Option<usize>,
+    pub animations: Vec<Option<String>>,
+    /// The animation that plays (`None`: all of them).
+    pub animation: Option<usize>,
 }
 
 /// A glTF scene made into refrakt nodes.
@@ -44,6 +62,7 @@ pub struct Import {
     /// refrakt's scene settings from `scenes[i].extras.refrakt`.
     pub settings: Settings,
     pub player: Player,
+    pub catalog: Catalog,
     /// Things the user should hear about: ignored extensions, approximations.
     pub warnings: Vec<String>,
 }
@@ -101,7 +120,8 @@ pub fn import(path: &Path, shown: &str, access: &FileAccess, opts: &ImportOption
     let doc = document::parse(container.json, shown)?;
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new(".")).to_path_buf();
     let at = buffers::Location { file: shown, dir: &dir, access };
-    let buffers = buffers::load_buffers(&doc, container.bin, &at)?;
+    let mut buffers = buffers::load_buffers(&doc, container.bin, &at)?;
+    let doc = meshopt::decompress(doc, &mut buffers, shown)?;
     let acc = accessor::Accessors { root: doc.as_json(), buffers: &buffers, file: shown };
 
     let mut warnings: Vec<String> = document::ignored_extensions(&doc)
@@ -121,21 +141,39 @@ pub fn import(path: &Path, shown: &str, access: &FileAccess, opts: &ImportOption
     let materials = material::Materials::new(&doc, &buffers, &at);
     let graph = nodes::build(&doc, &acc, materials, &roots, &mut warnings)?;
     let clips = clips(&doc, &acc, &graph, opts.animation.as_deref(), shown, &mut warnings)?;
+    let animations: Vec<Option<&str>> = doc.animations().map(|a| a.name()).collect();
+    let catalog = Catalog {
+        scenes: doc.scenes().map(|s| s.name().map(str::to_string)).collect(),
+        scene: scene.as_ref().map(|s| s.index()),
+        animation: opts.animation.as_deref().and_then(|a| by_name_or_index(&animations, a)),
+        animations: animations.iter().map(|a| a.map(str::to_string)).collect(),
+    };
     let name = scene.and_then(|s| s.name().map(str::to_string)).unwrap_or_else(|| {
         path.file_stem().map_or_else(|| "gltf".to_string(), |s| s.to_string_lossy().to_string())
     });
     let player = Player::new(graph.nodes, clips, graph.weights, graph.deformables);
-    Ok(Import { name, roots: graph.roots, settings, player, warnings })
+    Ok(Import { name, roots: graph.roots, settings, player, catalog, warnings })
 }
 
-/// §3.5.3: the scene named by `--scene`, else the file's `scene`, else the first one.
-fn choose_scene<'a>(doc: &'a gltf::Document, name: Option<&str>, file: &str) -> Result<Option<gltf::Scene<'a>>> {
-    let Some(name) = name else { return Ok(doc.default_scene().or_else(|| doc.scenes().next())) };
-    if let Some(s) = doc.scenes().find(|s| s.name() == Some(name)) {
-        return Ok(Some(s));
+/// §3.5.3: the scene `--scene` names (by name, else by index), else the file's `scene`, else
+/// the first one.
+fn choose_scene<'a>(doc: &'a gltf::Document, chosen: Option<&str>, file: &str) -> Result<Option<gltf::Scene<'a>>> {
+    let Some(chosen) = chosen else { return Ok(doc.default_scene().or_else(|| doc.scenes().next())) };
+    let names: Vec<Option<&str>> = doc.scenes().map(|s| s.name()).collect();
+    match by_name_or_index(&names, chosen) {
+        Some(i) => Ok(doc.scenes().nth(i)),
+        None => bail!("{file}: there is no scene called \"{chosen}\" and no scene of that index (scenes: {})", catalog(&names)),
     }
-    let names: Vec<String> = doc.scenes().map(|s| s.name().map_or_else(|| format!("(unnamed scenes[{}])", s.index()), |n| format!("\"{n}\""))).collect();
-    bail!("{file}: there is no scene called \"{name}\" (scenes: {})", if names.is_empty() { "none".into() } else { names.join(", ") })
+}
+
+/// `0 "Walk", 1 (unnamed)` — what `--scene` / `--animation` can name, for messages.
+pub fn catalog(names: &[Option<&str>]) -> String {
+    if names.is_empty() {
+        return "none".into();
+    }
+    let items: Vec<String> =
+        names.iter().enumerate().map(|(i, n)| n.map_or_else(|| format!("{i} (unnamed)"), |n| format!("{i} \"{n}\""))).collect();
+    items.join(", ")
 }
 
 fn root_nodes(doc: &gltf::Document) -> Vec<usize> {
@@ -160,31 +198,53 @@ fn clips(
 ) -> Result<Vec<animation::Clip>> {
     let chosen: Vec<gltf::Animation> = match name {
         Some(name) => {
-            let hit: Vec<_> = doc.animations().filter(|a| a.name() == Some(name)).take(1).collect();
-            if hit.is_empty() {
-                let names: Vec<String> = doc.animations().map(|a| format!("\"{}\"", a.name().unwrap_or("(unnamed)"))).collect();
-                bail!("{file}: there is no animation called \"{name}\" (animations: {})", if names.is_empty() { "none".into() } else { names.join(", ") });
+            let names: Vec<Option<&str>> = doc.animations().map(|a| a.name()).collect();
+            match by_name_or_index(&names, name) {
+                Some(i) => doc.animations().skip(i).take(1).collect(),
+                None => bail!("{file}: there is no animation called \"{name}\" and no animation of that index (animations: {})", catalog(&names)),
             }
-            hit
         }
         None => doc.animations().collect(),
     };
     let clips = animation::read_clips(chosen, acc, |n| graph.weights[n].len())?;
-    let mut driven = std::collections::HashMap::new();
-    for clip in &clips {
+    warnings.extend(overlaps(&clips, file));
+    Ok(clips)
+}
+
+/// One warning per pair of animations that drive the same properties (all play at once, and
+/// the later one in the file wins), counting what they share.
+fn overlaps(clips: &[animation::Clip], file: &str) -> Vec<String> {
+    /// Two animations (earlier, later) that drive `shared` properties, the first on `node`.
+    struct Overlap {
+        clips: (usize, usize),
+        shared: usize,
+        node: usize,
+        target: animation::Target,
+    }
+    let mut driven_by = std::collections::HashMap::new();
+    let mut pairs: Vec<Overlap> = Vec::new();
+    for (k, clip) in clips.iter().enumerate() {
         for c in &clip.channels {
-            if let Some(first) = driven.insert((c.node, c.target), clip.name.clone())
-                && first != clip.name
-            {
-                warnings.push(format!(
-                    "{file}: animations \"{first}\" and \"{}\" both drive the {:?} of nodes[{}]; all animations play \
-                     at once and the later wins (pick one with --animation NAME)",
-                    clip.name, c.target, c.node
-                ));
+            match driven_by.insert((c.node, c.target), k) {
+                Some(first) if first != k => match pairs.iter_mut().find(|p| p.clips == (first, k)) {
+                    Some(p) => p.shared += 1,
+                    None => pairs.push(Overlap { clips: (first, k), shared: 1, node: c.node, target: c.target }),
+                },
+                _ => {}
             }
         }
     }
-    Ok(clips)
+    pairs
+        .into_iter()
+        .map(|Overlap { clips: (a, b), shared: n, node, target }| {
+            let more = if n > 1 { format!(" and {} more propert{}", n - 1, if n == 2 { "y" } else { "ies" }) } else { String::new() };
+            format!(
+                "{file}: animations \"{}\" and \"{}\" both drive the {target:?} of nodes[{node}]{more}; all animations \
+                 play at once and the later wins (pick one with --animation NAME or INDEX)",
+                clips[a].name, clips[b].name
+            )
+        })
+        .collect()
 }
 
 /// `scenes[i].extras.refrakt`, with the environment image loaded.

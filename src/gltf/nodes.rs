@@ -11,7 +11,7 @@ use glam::{Mat4, Quat, Vec3};
 
 use super::accessor::Accessors;
 use super::extras::{self, FieldExtras, FieldType, NodeRole};
-use super::material::{self, Converted, Materials};
+use super::material::{self, Converted, Materials, UvMap};
 use super::mesh::{self, Part};
 use super::player::{Deformable, Skin};
 use crate::scene::{Camera, Glass, Light, LightKind, Material, Node, Origin, Shape, Shared, shared};
@@ -33,9 +33,10 @@ pub struct Graph {
     pub deformables: Vec<Deformable>,
 }
 
-/// A converted material, shared by every node that uses it: (material, boundary, TEXCOORD set).
+/// A converted material, shared by every node that uses it: (material, boundary, where its
+/// texture is sampled).
 #[derive(Clone)]
-struct MaterialEntry(Shared<Material>, Option<f32>, Option<u32>);
+struct MaterialEntry(Shared<Material>, Option<f32>, Option<UvMap>);
 
 struct Builder<'a, 'b> {
     acc: &'a Accessors<'a>,
@@ -45,13 +46,15 @@ struct Builder<'a, 'b> {
     graph: Graph,
     /// (deformable, skin index) pairs whose joints are filled in once every node exists.
     skinned: Vec<(usize, usize)>,
+    /// (mesh, primitive) pairs already checked for enclosing a volume.
+    sheets_warned: std::collections::HashSet<(usize, usize)>,
     warnings: &'a mut Vec<String>,
 }
 
 pub fn build(doc: &gltf::Document, acc: &Accessors, materials: Materials, roots: &[usize], warnings: &mut Vec<String>) -> Result<Graph> {
     let n = doc.nodes().count();
     let graph = Graph { roots: Vec::new(), nodes: (0..n).map(|_| Weak::new()).collect(), weights: vec![Vec::new(); n], deformables: Vec::new() };
-    let mut b = Builder { acc, materials, converted: HashMap::new(), meshes: HashMap::new(), graph, skinned: Vec::new(), warnings };
+    let mut b = Builder { acc, materials, converted: HashMap::new(), meshes: HashMap::new(), graph, skinned: Vec::new(), sheets_warned: Default::default(), warnings };
     for &r in roots {
         let node = doc.nodes().nth(r).ok_or_else(|| anyhow!("{}: nodes[{r}] does not exist", acc.file))?;
         let built = b.node(&node)?;
@@ -167,11 +170,11 @@ impl<'a> Builder<'a, '_> {
         if let Some(m) = self.converted.get(&index) {
             return Ok(m.clone());
         }
-        let Converted { material, boundary, uv_set } = match index.and_then(|i| self.materials.doc.materials().nth(i)) {
+        let Converted { material, boundary, uv } = match index.and_then(|i| self.materials.doc.materials().nth(i)) {
             Some(m) => self.materials.convert(&m, self.warnings)?,
             None => material::default_material(),
         };
-        let entry = MaterialEntry(shared(material), boundary, uv_set);
+        let entry = MaterialEntry(shared(material), boundary, uv);
         self.converted.insert(index, entry.clone());
         Ok(entry)
     }
@@ -180,17 +183,17 @@ impl<'a> Builder<'a, '_> {
         if let Some(p) = self.meshes.get(&m.index()) {
             return Ok(p.clone());
         }
-        let mut uv_sets = HashMap::new();
+        let mut uv_maps = HashMap::new();
         for p in m.primitives() {
             let i = p.material().index();
-            uv_sets.insert(i, self.material(i)?.2);
+            uv_maps.insert(i, self.material(i)?.2);
         }
-        let parts = mesh::read_mesh(m, self.acc, |i| uv_sets.get(&i).copied().flatten())?;
+        let parts = mesh::read_mesh(m, self.acc, |i| uv_maps.get(&i).copied().flatten())?;
         for p in parts.iter().filter(|p| p.rest.uvs.is_none()) {
-            if let Some(set) = uv_sets.get(&p.material).copied().flatten() {
+            if let Some(uv) = uv_maps.get(&p.material).copied().flatten() {
                 self.warnings.push(format!(
-                    "{}: meshes[{}]{} primitives[{}] has no TEXCOORD_{set} for its material's base color texture; the texture is not used",
-                    self.file(), m.index(), mesh::quoted(m.name()), p.primitive
+                    "{}: meshes[{}]{} primitives[{}] has no TEXCOORD_{} for its material's base color texture; the texture is not used",
+                    self.file(), m.index(), mesh::quoted(m.name()), p.primitive, uv.set
                 ));
             }
         }
@@ -209,6 +212,9 @@ impl<'a> Builder<'a, '_> {
         let single = parts.len() == 1;
         for part in parts {
             let MaterialEntry(material, boundary, _) = self.material(part.material)?;
+            if matches!(*material.borrow(), Material::Glass(_)) {
+                self.warn_if_no_volume(g, &m, &part);
+            }
             let source = format!("{} meshes[{}]{}", self.file(), m.index(), mesh::quoted(m.name()));
             let shape = Shape::Mesh { mesh: part.rest.clone(), source, boundary };
             let carrier = if single {
@@ -236,6 +242,27 @@ impl<'a> Builder<'a, '_> {
             }
         }
         Ok(())
+    }
+
+    /// Transmissive geometry that encloses no volume (a window pane modelled as one sheet)
+    /// would vanish from the voxel grid without a word: say so, once per mesh primitive.
+    fn warn_if_no_volume(&mut self, g: &gltf::Node, m: &gltf::Mesh, part: &Part) {
+        if !self.sheets_warned.insert((m.index(), part.primitive)) {
+            return;
+        }
+        if let Some(why) = mesh::encloses_no_volume(&part.rest) {
+            self.warnings.push(format!(
+                "{}: meshes[{}]{} primitives[{}] (on nodes[{}]{}) has a transmissive material, but {why}; refrakt renders \
+                 glass as the solid a closed mesh encloses, so it will not show (give the sheet a thickness, e.g. Blender's \
+                 Solidify modifier, and re-export)",
+                self.file(),
+                m.index(),
+                mesh::quoted(m.name()),
+                part.primitive,
+                g.index(),
+                mesh::quoted(g.name())
+            ));
+        }
     }
 
     /// An analytic field from the node's extras, in place of its mesh. Its medium comes from

@@ -77,7 +77,7 @@ impl std::fmt::Display for FieldName<'_> {
     }
 }
 
-fn wrong(lua: &Lua, name: FieldName, expected: &str, got: &Value) -> mlua::Error {
+pub fn wrong(lua: &Lua, name: FieldName, expected: &str, got: &Value) -> mlua::Error {
     error_at(lua, format!("{name} must be {expected}, got {}", describe(got)))
 }
 

@@ -69,13 +69,23 @@ fn table_args(lua: &Lua, t: &Table) -> mlua::Result<(String, ImportOptions)> {
         let name = FieldName { what: "gltf", field: &key };
         match key.as_str() {
             "file" => file = Some(cv::string(lua, name, &v)?),
-            "scene" => opts.scene = Some(cv::string(lua, name, &v)?),
-            "animation" => opts.animation = Some(cv::string(lua, name, &v)?),
+            "scene" => opts.scene = Some(name_or_index(lua, name, &v)?),
+            "animation" => opts.animation = Some(name_or_index(lua, name, &v)?),
             _ => return Err(unknown_field(lua, "gltf", &key, GLTF_FIELDS)),
         }
     }
     let file = file.ok_or_else(|| error_at(lua, "gltf needs a field \"file\" (refrakt.gltf{file = \"model.glb\"})"))?;
     Ok((file, opts))
+}
+
+/// A scene or animation by name, or by its index in the file (0 is the first): an integer ≥ 0
+/// is passed on as its digits, which the importer reads as an index when no name matches.
+fn name_or_index(lua: &Lua, name: FieldName, v: &Value) -> mlua::Result<String> {
+    match v {
+        Value::Integer(i) if *i >= 0 => Ok(i.to_string()),
+        Value::Number(x) if x.fract() == 0.0 && *x >= 0.0 && *x < 1e15 => Ok((*x as i64).to_string()),
+        _ => cv::string(lua, name, v).map_err(|_| cv::wrong(lua, name, "a name or an index (an integer ≥ 0)", v)),
+    }
 }
 
 /// Sets every imported node to its animated pose at `t` seconds.

@@ -17,7 +17,8 @@ pub struct EvalOptions {
     pub size: Option<(u32, u32)>,
     /// `--volume N`: voxels along the longest side.
     pub resolution: Option<u32>,
-    /// `--camera NAME`: a node carrying a camera.
+    /// `--camera NAME` or `INDEX`: a node carrying a camera, by name or by its place among the
+    /// camera nodes.
     pub camera: Option<String>,
     /// `--samples N`: camera rays per pixel.
     pub samples: Option<u32>,
@@ -341,8 +342,14 @@ fn fit_volume(objects: &[(Vec3, Vec3, Option<f32>)], s: &super::VolumeSettings, 
     Ok(VolumeDesc { min, voxel_size, dims, step: s.step * voxel_size })
 }
 
-/// The camera for this frame: `--camera NAME` (a node with a camera), else the scene camera,
-/// else the first node camera; `--size` overrides the resolution.
+/// The nodes that carry a camera, in evaluation order: what `--camera INDEX` counts (and
+/// `refrakt dump` lists as `cameras`).
+pub fn camera_nodes(placed: &[Placed]) -> Vec<&Placed> {
+    placed.iter().filter(|p| p.node.borrow().camera.is_some()).collect()
+}
+
+/// The camera for this frame: `--camera NAME` or `INDEX` (a node with a camera), else the scene
+/// camera, else the first node camera; `--size` overrides the resolution.
 fn camera_of(scene: &Scene, placed: &[Placed], opts: &EvalOptions) -> Result<CameraDesc> {
     let node_camera = |p: &Placed| -> Option<CameraDesc> {
         let node = p.node.borrow();
@@ -350,22 +357,17 @@ fn camera_of(scene: &Scene, placed: &[Placed], opts: &EvalOptions) -> Result<Cam
         let (_, rotation, translation) = p.world.to_scale_rotation_translation();
         Some(CameraDesc { position: translation, orientation: rotation, fov_y: cam.fov_y, width: cam.size.0, height: cam.size.1 })
     };
-    let mut desc = if let Some(name) = &opts.camera {
-        placed
-            .iter()
-            .find(|p| p.node.borrow().name == *name && p.node.borrow().camera.is_some())
-            .and_then(node_camera)
-            .ok_or_else(|| {
-                let names: Vec<String> = placed
-                    .iter()
-                    .filter(|p| p.node.borrow().camera.is_some())
-                    .map(|p| format!("\"{}\"", p.node.borrow().name))
-                    .collect();
-                anyhow!(
-                    "--camera \"{name}\": no node of that name carries a camera (cameras: {})",
-                    if names.is_empty() { "none".into() } else { names.join(", ") }
-                )
-            })?
+    let mut desc = if let Some(chosen) = &opts.camera {
+        let cameras = camera_nodes(placed);
+        let names: Vec<String> = cameras.iter().map(|p| p.node.borrow().name.clone()).collect();
+        let named: Vec<Option<&str>> = names.iter().map(|n| Some(n.as_str()).filter(|n| !n.is_empty())).collect();
+        super::by_name_or_index(&named, chosen).and_then(|i| node_camera(cameras[i])).ok_or_else(|| {
+            let list: Vec<String> = names.iter().enumerate().map(|(i, n)| if n.is_empty() { format!("{i} (unnamed)") } else { format!("{i} \"{n}\"") }).collect();
+            anyhow!(
+                "--camera \"{chosen}\": no node of that name carries a camera, and there is no camera of that index (cameras: {})",
+                if list.is_empty() { "none".into() } else { list.join(", ") }
+            )
+        })?
     } else if let Some(cam) = &scene.camera {
         let cam = cam.borrow();
         CameraDesc {

@@ -154,6 +154,13 @@ impl Node {
     }
 }
 
+/// The element called `chosen`, else the one whose index it is — how `--scene`, `--animation`
+/// and `--camera` pick (so unnamed ones can be chosen too, and a name that looks like a number
+/// still wins).
+pub fn by_name_or_index(names: &[Option<&str>], chosen: &str) -> Option<usize> {
+    names.iter().position(|n| *n == Some(chosen)).or_else(|| chosen.parse::<usize>().ok().filter(|&i| i < names.len()))
+}
+
 /// The whole scene: settings plus the root nodes.
 #[derive(Clone, Debug)]
 pub struct Scene {

@@ -35,10 +35,12 @@ fn every_example_animates_and_renders() {
             let covered = (0..18).flat_map(|y| (0..32).map(move |x| (x, y))).filter(|&(x, y)| image.beauty(x, y)[3] > 0.5).count();
             coverage.push(covered);
         }
-        assert!(coverage[0] > 32, "{}: the objects should fill part of the frame ({coverage:?} pixels)", path.display());
+        // (At 32×18 the wine glass's own silhouette is 30 pixels: glass covers what its surface
+        // covers, not a smoothing band around it.)
+        assert!(coverage[0] > 16, "{}: the objects should fill part of the frame ({coverage:?} pixels)", path.display());
         if source.is_animated() {
             // Moving objects change what covers the frame (or at least keep covering it).
-            assert!(coverage[1] > 32, "{}: {coverage:?}", path.display());
+            assert!(coverage[1] > 16, "{}: {coverage:?}", path.display());
         }
     }
 }

@@ -11,6 +11,7 @@
 
 pub mod environment;
 pub mod eval;
+pub mod image_header;
 pub mod index_fn;
 pub mod light;
 pub mod material;

@@ -11,28 +11,31 @@ use std::time::{Duration, Instant};
 
 use common::write_script;
 
-/// A tiny lens whose `update` says "ready" on stderr, then keeps the CPU busy for a while: a
-/// signal sent on "ready" arrives in the middle of the frame, after the render loop's own check.
-const SLOW_UPDATE: &str = r#"local r = require("refrakt")
-local scene = r.scene{
-  camera = r.camera{ position = {0, 0, 3}, target = {0, 0, 0}, fov = 35, size = {16, 12} },
-  volume = { resolution = 16 },
+/// A tiny Luneburg lens, with `extra` Lua before `return scene`.
+fn lens(extra: &str) -> String {
+    format!(
+        r#"local r = require("refrakt")
+local scene = r.scene{{
+  camera = r.camera{{ position = {{0, 0, 3}}, target = {{0, 0, 0}}, fov = 35, size = {{16, 12}} }},
+  volume = {{ resolution = 16 }},
   samples = 1,
-}
-scene:add(r.node{ shape = r.luneburg{ radius = 0.5 } })
-function update(scene, t)
-  print("ready")
-  local t0 = os.clock()
-  while os.clock() - t0 < 1.5 do end
-end
+}}
+scene:add(r.node{{ shape = r.luneburg{{ radius = 0.5 }} }})
+{extra}
 return scene
-"#;
+"#
+    )
+}
 
-/// Renders SLOW_UPDATE (one frame) and sends SIGINT `signals` times, 150 ms apart, once its
-/// update has begun. Returns (exit code, stderr, the files left in --out).
+/// An `update` that says "ready" on stderr, then keeps the CPU busy for a while: a signal sent
+/// on "ready" arrives in the middle of the frame, after the render loop's own check.
+const SLOW_UPDATE: &str = "function update(scene, t)\n  print(\"ready\")\n  local t0 = os.clock()\n  while os.clock() - t0 < 1.5 do end\nend";
+
+/// Renders the lens with SLOW_UPDATE (one frame) and sends SIGINT `signals` times, 150 ms
+/// apart, once its update has begun. Returns (exit code, stderr, the files left in --out).
 #[cfg(unix)]
 fn interrupted_render(signals: usize) -> (i32, String, Vec<String>) {
-    let (dir, path) = write_script("slow.lua", SLOW_UPDATE);
+    let (dir, path) = write_script("slow.lua", &lens(SLOW_UPDATE));
     let out = dir.path().join("out");
     let mut child = Command::new(env!("CARGO_BIN_EXE_refrakt"))
         .args(["render", path.to_str().unwrap(), "--out", out.to_str().unwrap(), "--format", "png", "--progress", "lines"])
@@ -87,16 +90,6 @@ fn a_second_ctrl_c_stops_at_once() {
     eprintln!("stopped {:.1} s after the start", started.elapsed().as_secs_f64());
 }
 
-const LENS: &str = r#"local r = require("refrakt")
-local scene = r.scene{
-  camera = r.camera{ position = {0, 0, 3}, target = {0, 0, 0}, fov = 35, size = {16, 12} },
-  volume = { resolution = 16 },
-  samples = 1,
-}
-scene:add(r.node{ shape = r.luneburg{ radius = 0.5 } })
-return scene
-"#;
-
 fn render_json(path: &Path, out: &Path, extra: &[&str]) -> Vec<serde_json::Value> {
     let output = Command::new(env!("CARGO_BIN_EXE_refrakt"))
         .args(["render", path.to_str().unwrap(), "--out", out.to_str().unwrap(), "--format", "png", "--progress", "json"])
@@ -109,7 +102,7 @@ fn render_json(path: &Path, out: &Path, extra: &[&str]) -> Vec<serde_json::Value
 
 #[test]
 fn a_resumed_render_counts_what_it_rendered_and_frame_times_add_up() {
-    let (dir, path) = write_script("lens.lua", LENS);
+    let (dir, path) = write_script("lens.lua", &lens(""));
     let out = dir.path().join("out");
     let events = render_json(&path, &out, &["--frames", "0..3"]);
     // Frames are pipelined: each frame's seconds is its share of the run, so they add up to

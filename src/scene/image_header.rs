@@ -48,7 +48,7 @@ impl Caps {
                 side = self.max_side,
                 w = self.max_image.0,
                 h = self.max_image.1,
-                mib = self.max_texels() * 16 >> 20,
+                mib = (self.max_texels() * 16) >> 20,
             );
         }
         Ok(())

@@ -35,8 +35,8 @@ script("box.lua", 'scene.volume = { resolution = 16, min = {1, -1, -1}, max = {-
 open("taken", "w").write("a file")
 
 cases = [
-    ("environment EXR whose dataWindow claims 200000² (8×4 pixels)", ["render", "env_huge.lua", "--progress", "quiet"]),
-    ("environment EXR (8×4 pixels, 500 bytes) whose dataWindow claims 16384×8192", ["render", "env_short.lua", "--progress", "quiet"]),
+    ("environment EXR (16×12 pixels) whose dataWindow claims 200000²", ["render", "env_huge.lua", "--progress", "quiet"]),
+    ("environment EXR (16×12 pixels, ~1 kB) whose dataWindow claims 16384×8192", ["render", "env_short.lua", "--progress", "quiet"]),
     ("environment HDR claiming 200000²", ["render", "env_hdr.lua", "--progress", "quiet"]),
     ("`--out` an existing file", ["render", "ok.lua", "--out", "taken"]),
     ("`--name ../escape`", ["render", "ok.lua", "--name", "../escape"]),

@@ -90,16 +90,17 @@ struct SceneArgs {
     #[arg(long, default_value_t = 24.0)]
     fps: f64,
     /// Image size, overriding the camera's, e.g. 1920x1080.
-    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    #[arg(long, value_name = "WxH", value_parser = parse_size, allow_hyphen_values = true)]
     size: Option<(u32, u32)>,
-    /// Voxels along the longest side of the volume, overriding the scene's.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(8..=2048))]
+    /// Voxels along the longest side of the volume (8 to 2048), overriding the scene's.
+    #[arg(long, value_name = "N", value_parser = |s: &str| parse_whole(s, 8, 2048), allow_hyphen_values = true)]
     volume: Option<u32>,
-    /// Photons per frame, overriding the scene's budget.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=(1 << 30)))]
+    /// Photons per frame (0 to 2^30; 1e6 is read as 1000000), overriding the scene's budget;
+    /// 0 renders without caustics or light shafts.
+    #[arg(long, value_name = "N", value_parser = |s: &str| parse_whole(s, 0, 1 << 30), allow_hyphen_values = true)]
     photons: Option<u32>,
-    /// Camera rays per pixel, overriding the scene's (antialiasing).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=256))]
+    /// Camera rays per pixel (1 to 256), overriding the scene's (antialiasing).
+    #[arg(long, value_name = "N", value_parser = |s: &str| parse_whole(s, 1, 256), allow_hyphen_values = true)]
     samples: Option<u32>,
     /// Use the camera node of this name, or of this index among the camera nodes (as `refrakt
     /// dump` lists them under `cameras`).
@@ -275,11 +276,31 @@ fn render_options(frames: Option<FrameRange>, time: f64, c: &SceneArgs) -> Resul
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let err = || format!("\"{s}\" is not a size like 1024x576");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(err)?;
-    let (w, h): (u32, u32) = (w.trim().parse().map_err(|_| err())?, h.trim().parse().map_err(|_| err())?);
-    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+    let side = |t: &str| whole_number(t.trim()).ok_or_else(err);
+    let (w, h) = (side(w)?, side(h)?);
+    if !(1..=16384).contains(&w) || !(1..=16384).contains(&h) {
         return Err(format!("size {s}: width and height must be from 1 to 16384"));
     }
-    Ok((w, h))
+    Ok((w as u32, h as u32))
+}
+
+/// A whole number as people write them: `70000`, `-1`, or `1e6` (exponent notation when the
+/// value is whole).
+fn whole_number(s: &str) -> Option<i128> {
+    if let Ok(n) = s.parse::<i128>() {
+        return Some(n);
+    }
+    let x: f64 = s.parse().ok()?;
+    (x.is_finite() && x.fract() == 0.0 && x.abs() < 1e30).then_some(x as i128)
+}
+
+/// A count option: a whole number from `lo` to `hi`, with a message that says so.
+fn parse_whole(s: &str, lo: u32, hi: u32) -> Result<u32, String> {
+    let n = whole_number(s.trim()).ok_or_else(|| format!("\"{s}\" is not a whole number (from {lo} to {hi})"))?;
+    if n < lo as i128 || n > hi as i128 {
+        return Err(format!("{s} is out of range: it must be a whole number from {lo} to {hi}"));
+    }
+    Ok(n as u32)
 }
 
 fn run(cli: Cli) -> Result<()> {
@@ -383,13 +404,17 @@ fn main() -> ExitCode {
     std::panic::set_hook(Box::new(|info| {
         eprintln!("refrakt: internal error (a bug in refrakt, please report it): {info}");
     }));
-    // The first Ctrl-C / SIGTERM asks the command to stop after the frame in hand; a second one
-    // exits at once, removing the temporary file of a write in progress.
+    // The first Ctrl-C / SIGTERM asks the command to stop after the frame in hand, and says so
+    // at once (a frame can take a minute on a CPU driver); a second one exits at once, removing
+    // the temporary file of a write in progress. (ctrlc runs this on a thread of its own, not
+    // in the signal handler, so printing is safe.)
     let _ = ctrlc::set_handler(|| {
         if render::INTERRUPTED.swap(true, Ordering::SeqCst) {
+            eprintln!("refrakt: stopping now (frames already written are whole)");
             refrakt::output::remove_temporaries_in_flight();
             std::process::exit(130);
         }
+        eprintln!("refrakt: stopping after the frame in hand; press Ctrl-C again to stop now");
     });
     // `watch` ends only when interrupted, and that is its normal end: no error, but 130.
     let watching = matches!(cli.command, Command::Watch(_));

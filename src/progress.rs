@@ -5,9 +5,14 @@
 //! {"event":"start","frames":48,"first":1,"last":48}
 //! {"event":"frame","frame":1,"done":1,"total":48,"seconds":0.41,"files":["out/scene.0001.exr"]}
 //! {"event":"skip","frame":2,"done":2,"total":48}
-//! {"event":"done","frames":48,"seconds":19.6}
+//! {"event":"done","frames":47,"skipped":1,"seconds":19.6}
 //! {"event":"error","message":"scene.lua:12: …","frame":3}
 //! ```
+//!
+//! A frame's `seconds` is the time since the previous frame's files were in place (since the
+//! start for the first): frames are pipelined (one is evaluated while the GPU renders the one
+//! before), so times measured from each frame's own start would overlap; these add up to the
+//! total. `done` of the last event counts skipped frames; `frames` of `done` does not.
 //!
 //! `refrakt watch` adds `{"event":"watching","files":[…],"shaders":…}` and writes `frame` events
 //! with `quality` and `stats` (see `watch::FrameEvent`); its errors do not end the process.
@@ -30,7 +35,11 @@ pub struct Progress {
     mode: ProgressMode,
     bar: Option<indicatif::ProgressBar>,
     total: u64,
+    /// Frames rendered or skipped so far.
     done: u64,
+    skipped: u64,
+    /// Seconds the last frame took (for the time left of the next one).
+    last_frame: Option<f64>,
 }
 
 fn json_line(value: serde_json::Value) {
@@ -46,7 +55,7 @@ impl Progress {
             ProgressMode::Auto => ProgressMode::Lines,
             m => m,
         };
-        Self { mode, bar: None, total: 0, done: 0 }
+        Self { mode, bar: None, total: 0, done: 0, skipped: 0, last_frame: None }
     }
 
     pub fn start(&mut self, first: i64, last: i64) {
@@ -57,6 +66,9 @@ impl Progress {
                 if let Ok(style) = indicatif::ProgressStyle::with_template("{spinner} frame {pos}/{len} [{bar:32}] {elapsed} (eta {eta}) {msg}") {
                     bar.set_style(style.progress_chars("=> "));
                 }
+                // The spinner and clock move while a frame renders, which takes a minute on a
+                // CPU driver; the message says which part of the frame the GPU is on.
+                bar.enable_steady_tick(std::time::Duration::from_millis(120));
                 self.bar = Some(bar);
             }
             ProgressMode::Json => json_line(serde_json::json!({"event": "start", "frames": self.total, "first": first, "last": last})),
@@ -64,8 +76,16 @@ impl Progress {
         }
     }
 
+    /// Where the frame in flight is (a bar's message only: lines and JSON stay one per frame).
+    pub fn within_frame(&mut self, frame: Option<i64>, p: &crate::pipeline::parts::FrameProgress) {
+        if let Some(b) = &self.bar {
+            b.set_message(crate::pipeline::parts::progress_line(frame, p, self.last_frame));
+        }
+    }
+
     pub fn frame(&mut self, frame: i64, seconds: f64, files: &[PathBuf]) {
         self.done += 1;
+        self.last_frame = Some(seconds);
         let names: Vec<String> = files.iter().map(|p| p.display().to_string()).collect();
         match self.mode {
             ProgressMode::Bar => {
@@ -74,7 +94,9 @@ impl Progress {
                     b.inc(1);
                 }
             }
-            ProgressMode::Lines => eprintln!("frame {frame} ({}/{}) in {seconds:.2} s: {}", self.done, self.total, names.join(", ")),
+            ProgressMode::Lines => {
+                eprintln!("frame {frame} ({}/{}), {seconds:.2} s after the last: {}", self.done, self.total, names.join(", "))
+            }
             ProgressMode::Json => json_line(serde_json::json!({
                 "event": "frame", "frame": frame, "done": self.done, "total": self.total,
                 "seconds": seconds, "files": names,
@@ -85,6 +107,7 @@ impl Progress {
 
     pub fn skip(&mut self, frame: i64) {
         self.done += 1;
+        self.skipped += 1;
         match self.mode {
             ProgressMode::Bar => {
                 if let Some(b) = &self.bar {
@@ -98,15 +121,22 @@ impl Progress {
     }
 
     pub fn finish(&mut self, seconds: f64) {
+        let rendered = self.done - self.skipped;
+        let summary = match self.skipped {
+            0 => format!("rendered {rendered} frame(s) in {seconds:.2} s"),
+            n => format!("rendered {rendered} frame(s) in {seconds:.2} s; skipped {n} whose files exist"),
+        };
         match self.mode {
             ProgressMode::Bar => {
                 if let Some(b) = self.bar.take() {
                     b.finish_and_clear();
                 }
-                eprintln!("rendered {} frame(s) in {seconds:.2} s", self.done);
+                eprintln!("{summary}");
             }
-            ProgressMode::Lines => eprintln!("rendered {} frame(s) in {seconds:.2} s", self.done),
-            ProgressMode::Json => json_line(serde_json::json!({"event": "done", "frames": self.done, "seconds": seconds})),
+            ProgressMode::Lines => eprintln!("{summary}"),
+            ProgressMode::Json => {
+                json_line(serde_json::json!({"event": "done", "frames": rendered, "skipped": self.skipped, "seconds": seconds}))
+            }
             _ => {}
         }
     }

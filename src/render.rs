@@ -193,18 +193,43 @@ pub fn frame_time(frame: Option<i64>, opts: &RenderOptions) -> f64 {
     frame.map_or(opts.time, |k| k as f64 / opts.scene.fps)
 }
 
-/// The files frame `k` goes to: `<name>.<ext>` for a still, `<name>.<k:04>.<ext>` in a range.
+/// The files frame `k` goes to: `<name>.<k>.<ext>` in a range, `k` padded with zeros to the
+/// digits of the range's last frame (at least 4, so names sort in frame order); for a still
+/// `<name>.<ext>` at t = 0 and `<name>.t<seconds>s.<ext>` at any other `--time`, so stills at
+/// different times do not overwrite each other.
 pub fn frame_paths(opts: &RenderOptions, name: &str, frame: Option<i64>) -> Vec<(Format, PathBuf)> {
+    let digits = opts.frames.map_or(4, |r| frame_digits(r.last));
     opts.formats
         .iter()
         .map(|&f| {
             let file = match frame {
-                Some(k) => format!("{name}.{k:04}.{}", f.extension()),
-                None => format!("{name}.{}", f.extension()),
+                Some(k) => format!("{name}.{k:0digits$}.{}", f.extension()),
+                None if opts.time == 0.0 => format!("{name}.{}", f.extension()),
+                None => format!("{name}.t{}s.{}", opts.time, f.extension()),
             };
             (f, opts.out.join(file))
         })
         .collect()
+}
+
+/// Digits of frame numbers in file names: those of `last`, and at least 4.
+pub fn frame_digits(last: i64) -> usize {
+    last.max(0).to_string().len().max(4)
+}
+
+/// Checks `--name`: one plain file name (no folders: those go in `--out`), not empty, and not
+/// starting with a dot (hidden files, and the pattern of refrakt's temporaries).
+pub fn check_name(name: &str) -> Result<()> {
+    if name.is_empty() {
+        bail!("--name is empty; give the frames a base name, or leave --name out to use the scene's file name");
+    }
+    if name.contains(['/', '\\', '\0']) || name == ".." {
+        bail!("--name \"{name}\" is not a plain file name: put folders in --out (e.g. --out render/shots --name take1)");
+    }
+    if name.starts_with('.') {
+        bail!("--name \"{name}\" starts with a dot, which would make hidden files; choose a name without it");
+    }
+    Ok(())
 }
 
 /// Writes one rendered frame in every requested format.
@@ -216,6 +241,12 @@ pub fn write_frame(image: &Image, paths: &[(Format, PathBuf)], png: &PngOptions)
 }
 
 pub fn run(scene_path: &Path, opts: &RenderOptions) -> Result<()> {
+    // What can be known wrong before the scene loads and the GPU starts is reported first.
+    if let Some(name) = &opts.name {
+        check_name(name)?;
+    }
+    output::check_writable_folder(&opts.out).map_err(|e| anyhow!("--out {}: {e:#}", opts.out.display()))?;
+    output::remove_stale_temporaries(&opts.out);
     let progress = Arc::new(Mutex::new(Progress::new(opts.progress)));
     let mut current = None;
     let result = render_all(scene_path, opts, &progress, &mut current);
@@ -236,7 +267,6 @@ struct Outgoing {
     frame: i64,
     paths: Vec<(Format, PathBuf)>,
     png: PngOptions,
-    started: Instant,
 }
 
 /// Writes frames on a thread of its own, so EXR/PNG encoding overlaps the next frame's GPU
@@ -254,11 +284,14 @@ impl FrameWriter {
         let (jobs, inbox) = std::sync::mpsc::channel::<(Image, Outgoing)>();
         let (outbox, done) = std::sync::mpsc::channel();
         let thread = std::thread::spawn(move || {
+            // Frames overlap (see `render_all`): each is timed from the one before it.
+            let mut previous = Instant::now();
             for (image, out) in inbox {
                 let result = write_frame(&image, &out.paths, &out.png);
                 if result.is_ok() {
                     let files: Vec<PathBuf> = out.paths.into_iter().map(|(_, p)| p).collect();
-                    lock(&progress).frame(out.frame, out.started.elapsed().as_secs_f64(), &files);
+                    lock(&progress).frame(out.frame, previous.elapsed().as_secs_f64(), &files);
+                    previous = Instant::now();
                 }
                 let failed = result.is_err();
                 if outbox.send(result).is_err() || failed {
@@ -297,6 +330,12 @@ impl Drop for FrameWriter {
     }
 }
 
+/// Waits for frame `frame` on the GPU, showing on the progress bar which part it is on.
+fn wait_for(renderer: &Renderer, ticket: &crate::pipeline::Ticket, frame: i64, opts: &RenderOptions, progress: &Mutex<Progress>) -> Result<()> {
+    let numbered = opts.frames.map(|_| frame);
+    renderer.wait(ticket, &mut |p| lock(progress).within_frame(numbered, p))
+}
+
 /// Renders every frame; `current` names the frame in hand when one fails.
 ///
 /// Frames are pipelined: while the GPU renders frame k, the CPU runs `update` and evaluates the
@@ -331,7 +370,6 @@ fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &Arc<Mutex<Prog
                 continue;
             }
             *current = numbered;
-            let t0 = Instant::now();
             let t = frame_time(numbered, opts);
             let desc = source.frame_desc(t, &opts.scene.eval).map_err(|e| match numbered {
                 Some(k) if k > first => anyhow!(
@@ -350,8 +388,9 @@ fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &Arc<Mutex<Prog
             let ticket = renderer.submit(&desc)?;
             let mut png = opts.png;
             png.alpha = !desc.environment.visible;
-            let outgoing = Outgoing { frame: k, paths, png, started: t0 };
+            let outgoing = Outgoing { frame: k, paths, png };
             if let Some((previous, out)) = in_flight.replace((ticket, outgoing)) {
+                wait_for(&renderer, &previous, out.frame, opts, progress)?;
                 writer.send(renderer.finish(previous)?, out)?;
             }
             writer.check(false)?;
@@ -359,11 +398,19 @@ fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &Arc<Mutex<Prog
         Ok(())
     })();
     // Whatever happened, frames already rendered are written whole before returning.
-    let drained = in_flight.take().map_or(Ok(()), |(ticket, out)| renderer.finish(ticket).and_then(|image| writer.send(image, out)));
+    let drained = in_flight.take().map_or(Ok(()), |(ticket, out)| {
+        wait_for(&renderer, &ticket, out.frame, opts, progress)?;
+        renderer.finish(ticket).and_then(|image| writer.send(image, out))
+    });
     let written = writer.check(true);
     result?;
     drained?;
     written?;
+    // Interrupted during the last frame (or the only one): it was finished and written, but
+    // the command was stopped, and says so with its exit code.
+    if INTERRUPTED.load(Ordering::SeqCst) {
+        bail!("interrupted; the frame in hand was finished and written whole");
+    }
     lock(progress).finish(started.elapsed().as_secs_f64());
     Ok(())
 }

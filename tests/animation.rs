@@ -63,7 +63,7 @@ fn frame_k_equals_the_still_at_k_over_fps() {
     assert_eq!(code, 0, "{err}");
     for ext in ["exr", "png"] {
         let frame = std::fs::read(seq.join(format!("anim.0002.{ext}"))).unwrap();
-        let alone = std::fs::read(still.join(format!("anim.{ext}"))).unwrap();
+        let alone = std::fs::read(still.join(format!("anim.t0.2s.{ext}"))).unwrap();
         assert!(frame == alone, "frame 2 of the sequence and the still at t = 0.2 s differ ({ext})");
     }
     // The animation moves: consecutive frames differ, so the comparison above means something.

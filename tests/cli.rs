@@ -165,8 +165,6 @@ scene:add(r.node{ name = \"floor\", translation = {0, -0.5, 0}, shape = r.plane{
 fn negative_photon_budget_is_refused() {
     let (code, err) = render_script(&format!("{LIT}scene.photons = -5\nreturn scene\n"), &[]);
     assert_clean_failure(code, &err, &["scene.lua:5:", "scene.photons must be a whole number"]);
-    let (code, _, err) = refrakt(&["render", "x.lua", "--photons", "0"]);
-    assert_eq!(code, 2, "{err}");
 }
 
 #[test]
@@ -195,4 +193,131 @@ fn a_light_inside_a_closed_receiver_is_pointed_out() {
     let (code, err) = render_script(&src, &[]);
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("light \"bulb\" is inside receiver \"crate\""), "{err}");
+}
+
+// Issue #16: what can be known wrong before rendering is reported before rendering, names stay
+// inside --out, and count options say what they take.
+
+/// A scene that would fail to load: an error about it means the command got that far.
+const BROKEN: &str = "local x = = 1\n";
+
+#[test]
+fn out_that_is_a_file_is_refused_before_the_scene_loads() {
+    let (dir, path) = write_script("scene.lua", BROKEN);
+    let file = dir.path().join("taken");
+    std::fs::write(&file, "not a folder").unwrap();
+    for out in [file.clone(), file.join("sub")] {
+        let (code, _, err) = refrakt(&["render", path.to_str().unwrap(), "--out", out.to_str().unwrap(), "--progress", "quiet"]);
+        assert_clean_failure(code, &err, &["--out", "taken is a file, not a folder"]);
+        assert!(!err.contains("unexpected symbol"), "checked before loading the scene: {err}");
+    }
+    // `watch` checks its preview's folder the same way, before the GPU starts.
+    let (code, _, err) = refrakt(&["watch", path.to_str().unwrap(), "--out", file.join("p.exr").to_str().unwrap()]);
+    assert_clean_failure(code, &err, &["taken is a file, not a folder"]);
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "not a folder");
+}
+
+#[test]
+fn names_with_folders_empty_or_hidden_are_refused() {
+    let (dir, path) = write_script("scene.lua", BROKEN);
+    let out = dir.path().join("out");
+    for (name, needle) in [
+        ("../escape", "is not a plain file name"),
+        ("a/b", "is not a plain file name"),
+        ("a\\b", "is not a plain file name"),
+        ("", "--name is empty"),
+        (".hidden", "starts with a dot"),
+    ] {
+        let (code, _, err) = refrakt(&["render", path.to_str().unwrap(), "--out", out.to_str().unwrap(), "--name", name]);
+        assert_clean_failure(code, &err, &[needle]);
+        assert!(!err.contains("unexpected symbol"), "checked before loading the scene: {err}");
+    }
+    assert!(!dir.path().join("escape.exr").exists());
+}
+
+fn options(frames: Option<&str>, time: f64) -> refrakt::render::RenderOptions {
+    let scene = refrakt::render::SceneOptions {
+        fps: 24.0,
+        eval: Default::default(),
+        allow_read: vec![],
+        limits: Default::default(),
+        gltf: Default::default(),
+    };
+    refrakt::render::RenderOptions {
+        frames: frames.map(|f| f.parse().unwrap()),
+        time,
+        out: "out".into(),
+        name: None,
+        formats: vec![refrakt::output::Format::Png],
+        png: refrakt::output::png::PngOptions { exposure: 0.0, tonemap: refrakt::output::png::ToneMap::Neutral, alpha: false },
+        skip_existing: false,
+        progress: refrakt::progress::ProgressMode::Quiet,
+        adapter: None,
+        scene,
+    }
+}
+
+fn file_name(opts: &refrakt::render::RenderOptions, frame: Option<i64>) -> String {
+    let paths = refrakt::render::frame_paths(opts, "shot", frame);
+    paths[0].1.file_name().unwrap().to_string_lossy().into()
+}
+
+#[test]
+fn frame_numbers_are_padded_to_the_range_and_timed_stills_named_apart() {
+    assert_eq!(file_name(&options(Some("1..48"), 0.0), Some(7)), "shot.0007.png");
+    assert_eq!(file_name(&options(Some("9990..12000"), 0.0), Some(9990)), "shot.09990.png");
+    assert_eq!(file_name(&options(Some("9990..12000"), 0.0), Some(12000)), "shot.12000.png");
+    // Names of one range sort in frame order.
+    let opts = options(Some("9998..10001"), 0.0);
+    let names: Vec<String> = (9998..=10001).map(|k| file_name(&opts, Some(k))).collect();
+    let mut sorted = names.clone();
+    sorted.sort();
+    assert_eq!(names, sorted);
+    assert_eq!(file_name(&options(None, 0.0), None), "shot.png");
+    assert_eq!(file_name(&options(None, 0.5), None), "shot.t0.5s.png");
+    assert_eq!(file_name(&options(None, 1.25), None), "shot.t1.25s.png");
+    assert_ne!(file_name(&options(None, 0.5), None), file_name(&options(None, 0.75), None));
+}
+
+#[test]
+fn count_options_say_what_they_take() {
+    let (code, _, err) = refrakt(&["render", "x.lua", "--photons", "-1"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("-1 is out of range: it must be a whole number from 0 to 1073741824"), "{err}");
+    assert!(!err.contains("'-- -1'"), "no tip to pass -1 as a positional argument: {err}");
+    let (code, _, err) = refrakt(&["render", "x.lua", "--size", "-5x10"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("width and height must be from 1 to 16384"), "{err}");
+    assert!(!err.contains("'-- "), "{err}");
+    let (code, _, err) = refrakt(&["render", "x.lua", "--samples", "1e9"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("1e9 is out of range: it must be a whole number from 1 to 256"), "{err}");
+    assert!(!err.contains("invalid digit"), "{err}");
+    let (code, _, err) = refrakt(&["render", "x.lua", "--volume", "big"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("\"big\" is not a whole number (from 8 to 2048)"), "{err}");
+    // 1e5 is a whole number; --photons 0 is what scene.photons = 0 is (the script is missing).
+    for photons in ["1e5", "0"] {
+        let (code, _, err) = refrakt(&["dump", "/nonexistent/x.lua", "--photons", photons]);
+        assert_eq!(code, 1, "{err}");
+        assert!(err.contains("cannot read the scene script"), "{err}");
+    }
+}
+
+#[test]
+fn a_volume_box_inside_out_is_refused_at_its_line() {
+    let src = "local r = require(\"refrakt\")\n\nlocal scene = r.scene{ volume = { resolution = 16, min = {1, -1, -1}, max = {-1, 1, 1} } }\nreturn scene\n";
+    let (code, _, err) = {
+        let (dir, path) = write_script("scene.lua", src);
+        let r = refrakt(&["dump", path.to_str().unwrap()]);
+        drop(dir);
+        r
+    };
+    assert_clean_failure(code, &err, &["scene.lua:3:", "volume.max", "must be greater than volume.min"]);
+    // Corners set one by one are checked when the frame is made, naming the last line that set one.
+    let src = "local r = require(\"refrakt\")\nlocal scene = r.scene{}\nscene.volume.min = {1, 1, 1}\nscene.volume.max = {0, 2, 2}\nreturn scene\n";
+    let (dir, path) = write_script("scene.lua", src);
+    let (code, _, err) = refrakt(&["dump", path.to_str().unwrap()]);
+    assert_clean_failure(code, &err, &["scene.lua:4:", "must be greater than volume.min"]);
+    drop(dir);
 }

@@ -9,6 +9,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use common::fuzz::{fuzz_config, mutate, mutation};
 use common::gltf_builder::{GltfBuilder, glb, sample_scene};
 use proptest::prelude::*;
 use refrakt::gltf::ImportOptions;
@@ -189,44 +190,6 @@ fn import_bytes(dir: &Path, name: &str, bytes: &[u8]) {
     }
 }
 
-/// A mutation of a file: flip a byte, overwrite a little-endian u32 (lengths, offsets, counts),
-/// or cut the file short.
-#[derive(Clone, Debug)]
-enum Mutation {
-    Flip(usize, u8),
-    Word(usize, u32),
-    Cut(usize),
-}
-
-fn mutation() -> impl Strategy<Value = Mutation> {
-    prop_oneof![
-        (any::<usize>(), 1..=255u8).prop_map(|(i, b)| Mutation::Flip(i, b)),
-        (any::<usize>(), prop_oneof![Just(0u32), Just(u32::MAX), Just(1 << 30), 0..4096u32]).prop_map(|(i, w)| Mutation::Word(i, w)),
-        any::<usize>().prop_map(Mutation::Cut),
-    ]
-}
-
-fn mutate(mut bytes: Vec<u8>, ms: &[Mutation]) -> Vec<u8> {
-    for m in ms {
-        let n = bytes.len().max(1);
-        match *m {
-            Mutation::Flip(i, b) => {
-                if let Some(x) = bytes.get_mut(i % n) {
-                    *x ^= b;
-                }
-            }
-            Mutation::Word(i, w) => {
-                let i = (i % n) & !3;
-                if i + 4 <= bytes.len() {
-                    bytes[i..i + 4].copy_from_slice(&w.to_le_bytes());
-                }
-            }
-            Mutation::Cut(i) => bytes.truncate(i % n),
-        }
-    }
-    bytes
-}
-
 /// Digits of the JSON text replaced: indices, counts and offsets move, the JSON stays JSON.
 fn mutate_numbers(text: &str, picks: &[(usize, u32)]) -> String {
     let mut bytes = text.as_bytes().to_vec();
@@ -237,20 +200,6 @@ fn mutate_numbers(text: &str, picks: &[(usize, u32)]) -> String {
         }
     }
     String::from_utf8(bytes).unwrap()
-}
-
-/// Bounded and reproducible for CI: 3 × 256 cases from a fixed seed take about a second. For a
-/// longer search, set PROPTEST_CASES and PROPTEST_RNG_SEED (e.g. `PROPTEST_CASES=20000
-/// PROPTEST_RNG_SEED=$RANDOM cargo test --release --test gltf_input mutated`).
-fn fuzz_config() -> ProptestConfig {
-    let from_env = ProptestConfig::default();
-    let set = |var: &str| std::env::var_os(var).is_some();
-    ProptestConfig {
-        cases: if set("PROPTEST_CASES") { from_env.cases } else { 256 },
-        rng_seed: if set("PROPTEST_RNG_SEED") { from_env.rng_seed } else { proptest::test_runner::RngSeed::Fixed(0x5eed_91f) },
-        failure_persistence: None,
-        ..from_env
-    }
 }
 
 proptest! {

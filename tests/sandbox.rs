@@ -149,8 +149,18 @@ fn an_endless_update_is_stopped_with_its_line() {
 fn a_table_that_grows_without_bound_hits_the_memory_limit() {
     let e = refused("local t = {}\nlocal i = 0\nwhile true do\n  i = i + 1\n  t[i] = {i}\nend");
     assert_contains(&e, &["scene.lua:", "more memory than allowed", "--script-memory"]);
+    // A one-line bomb (issue #16: it was reported at "?:"), as a function and as a method.
     let e = refused("local s = string.rep(\"x\", 1 << 30)");
-    assert_contains(&e, &["more memory than allowed"]);
+    assert_contains(&e, &["scene.lua:3:", "string.rep would make a string of 1024 MiB", "--script-memory"]);
+    let e = refused("local n = 40\nlocal s = (\"xy\"):rep(1 << n, \",\")");
+    assert_contains(&e, &["scene.lua:4:", "string.rep would make a string"]);
+    // Within the limit, string.rep is Lua's own.
+    let e = refused("assert(string.rep(\"ab\", 3, \"-\") == \"ab-ab-ab\" and (\"x\"):rep(0) == \"\")\nerror(\"fine\")");
+    assert_contains(&e, &["scene.lua:4:", "fine"]);
+    // A bomb the hook has not seen a line of yet names the script at least.
+    let e = refused("local big = table.concat({string.rep(\"x\", 40 << 20), string.rep(\"y\", 40 << 20)})");
+    assert_contains(&e, &["scene.lua", "more memory than allowed"]);
+    assert!(!e.contains("?:"), "{e}");
 }
 
 #[test]

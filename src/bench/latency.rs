@@ -54,7 +54,7 @@ impl Report for Relay {
         let _ = self.0.send(frame);
     }
 
-    fn error(&mut self, message: &str, _frame: Option<i64>) {
+    fn error(&mut self, message: &str, _frame: Option<i64>, _kept: bool) {
         let _ = self.0.send(Heard::Error(message.to_string()));
     }
 }

@@ -13,6 +13,7 @@ use glam::{Affine2, Vec2, Vec3};
 
 use super::buffers::{self, Location};
 use super::extras;
+use crate::scene::image_header;
 use crate::scene::material::srgb_to_linear;
 use crate::scene::{Diffuse, Glass, Material, Texture2d};
 
@@ -155,15 +156,15 @@ fn attenuation(m: &gltf::Material, file: &str, what: &str) -> Result<Vec3> {
         .ok_or_else(|| anyhow!("{file}: {what}: KHR_materials_volume attenuationColor {c} must have components in (0, 1]"))
 }
 
-/// Largest texture side refrakt decodes (larger claims in an image header are refused before
-/// any pixel memory is allocated).
-const MAX_TEXTURE_SIDE: u32 = 8192;
-
+/// Decodes a PNG or JPEG texture, its header checked against [`image_header::TEXTURE`] first
+/// (larger claims are refused before any pixel memory is allocated).
 fn decode_image(bytes: &[u8]) -> Result<Texture2d> {
+    let caps = image_header::TEXTURE;
+    image_header::check_encoded(bytes, &caps)?;
     let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format()?;
     let mut limits = image::Limits::default();
-    limits.max_image_width = Some(MAX_TEXTURE_SIDE);
-    limits.max_image_height = Some(MAX_TEXTURE_SIDE);
+    limits.max_image_width = Some(caps.max_side as u32);
+    limits.max_image_height = Some(caps.max_side as u32);
     reader.limits(limits);
     let rgba = reader.decode()?.into_rgba8();
     let linear = |c: u8| srgb_to_linear(c as f32 / 255.0);

@@ -56,14 +56,18 @@ impl Composed {
 pub const SHADER_DIR_ENV: &str = "REFRAKT_SHADERS";
 
 impl ShaderLibrary {
-    /// The folder in `$REFRAKT_SHADERS` if set, else the source tree's `shaders/` when it exists
-    /// (a development checkout), else the embedded sources.
+    /// The folder in `$REFRAKT_SHADERS` if set, else the source tree's `shaders/` when this
+    /// binary runs from inside that tree (a development build: `target/…/refrakt`), else the
+    /// embedded sources. A binary copied elsewhere uses what is embedded in it, even on the
+    /// machine it was built on: its `watch` and its `render` must draw with the same shaders.
     pub fn for_development() -> Self {
         if let Some(dir) = std::env::var_os(SHADER_DIR_ENV).filter(|d| !d.is_empty()) {
             return ShaderLibrary::Dir(PathBuf::from(dir));
         }
-        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
-        if dir.is_dir() { ShaderLibrary::Dir(dir) } else { ShaderLibrary::Embedded }
+        let tree = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let exe = std::env::current_exe().unwrap_or_default();
+        let dir = tree.join("shaders");
+        if runs_from(&exe, tree) && dir.is_dir() { ShaderLibrary::Dir(dir) } else { ShaderLibrary::Embedded }
     }
 
     /// The folder to watch for shader edits, if any.
@@ -156,7 +160,39 @@ pub fn validate(c: &Composed) -> Result<naga::Module> {
     Ok(module)
 }
 
+/// Whether the executable `exe` lies inside the source tree `tree` (both made canonical, so a
+/// link or a relative path does not fool it).
+pub fn runs_from(exe: &Path, tree: &Path) -> bool {
+    match (exe.canonicalize(), tree.canonicalize()) {
+        (Ok(exe), Ok(tree)) => exe.starts_with(tree),
+        _ => false,
+    }
+}
+
 /// Names of all stages with a WGSL file (the embedded files that are not under `shared/`).
 pub fn stage_names() -> impl Iterator<Item = &'static str> {
     EMBEDDED.iter().filter(|(n, _)| !n.starts_with("shared/")).map(|(n, _)| n.trim_end_matches(".wgsl"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_a_binary_inside_the_tree_runs_from_it() {
+        let tree = tempfile::tempdir().unwrap();
+        let bin = tree.path().join("target/debug");
+        std::fs::create_dir_all(&bin).unwrap();
+        std::fs::write(bin.join("refrakt"), b"").unwrap();
+        assert!(runs_from(&bin.join("refrakt"), tree.path()));
+        let elsewhere = tempfile::tempdir().unwrap();
+        std::fs::write(elsewhere.path().join("refrakt"), b"").unwrap();
+        assert!(!runs_from(&elsewhere.path().join("refrakt"), tree.path()));
+        // A sibling folder whose name starts like the tree's is not inside it.
+        let sibling = PathBuf::from(format!("{}-copy", tree.path().display()));
+        std::fs::create_dir_all(&sibling).unwrap();
+        std::fs::write(sibling.join("refrakt"), b"").unwrap();
+        assert!(!runs_from(&sibling.join("refrakt"), tree.path()));
+        std::fs::remove_dir_all(&sibling).unwrap();
+    }
 }

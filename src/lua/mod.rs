@@ -78,6 +78,7 @@ impl ScriptHost {
             .map_err(|e| anyhow!("cannot open the scene's folder {}: {e}", base.display()))?;
         access.record(&path.canonicalize().unwrap_or_else(|_| path.to_path_buf()));
         let lua = sandbox::new_state(access, limits).map_err(|e| anyhow!("cannot start Lua: {e}"))?;
+        lua.set_app_data(sandbox::ScriptName(shown.clone()));
         install_require(&lua).map_err(|e| anyhow!("cannot start Lua: {e}"))?;
         match Self::scene_of(&lua, &shown, source) {
             Ok((scene, update)) => Ok(Self { lua, scene, update, path: path.to_path_buf() }),
@@ -157,7 +158,11 @@ pub(crate) fn script_error(lua: &Lua, e: &mlua::Error) -> anyhow::Error {
     let is_memory = matches!(e, mlua::Error::MemoryError(_))
         || matches!(e, mlua::Error::CallbackError { cause, .. } if matches!(**cause, mlua::Error::MemoryError(_)));
     if is_memory {
-        let at = sandbox::last_line(lua).unwrap_or_else(|| "?".into());
+        // The line the instruction hook saw last, else (a bomb in the call's first
+        // instructions) at least the script.
+        let at = sandbox::last_line(lua)
+            .or_else(|| lua.app_data_ref::<sandbox::ScriptName>().map(|n| n.0.clone()))
+            .unwrap_or_else(|| "the script".into());
         return anyhow!(
             "{at}: the script used more memory than allowed (a table that grows without bound?); \
              the limit is set with --script-memory"

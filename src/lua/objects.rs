@@ -206,7 +206,16 @@ impl LuaObject for Scene {
             }
             "volume" => {
                 self.volume = match &value {
-                    Value::Table(t) => construct(lua, VolumeSettings::default(), Some(t.clone()), &[])?.0,
+                    Value::Table(t) => {
+                        // A box given whole is checked here, where the line is known; corners
+                        // set one by one are checked when the frame is evaluated (a box may
+                        // pass through a state that is not one while being moved).
+                        let volume = construct(lua, VolumeSettings::default(), Some(t.clone()), &[])?.0;
+                        if let Some((lo, hi)) = volume.borrow().bounds {
+                            volume.borrow().check_bounds(lo, hi).map_err(|e| error_at(lua, e))?;
+                        }
+                        volume
+                    }
                     _ => expect_obj(lua, name, &value, "a volume table {resolution = …, margin = …}")?,
                 }
             }
@@ -813,6 +822,7 @@ impl LuaObject for VolumeSettings {
                 let (mut lo, mut hi) = self.bounds.unwrap_or((Vec3::NAN, Vec3::NAN));
                 if key == "min" { lo = p } else { hi = p }
                 self.bounds = Some((lo, hi));
+                self.bounds_origin = Some(cv::location(lua));
             }
             "boundary" => {
                 self.boundary =

@@ -99,6 +99,8 @@ impl FileAccess {
 struct Budget {
     started: Cell<Instant>,
     limit: Duration,
+    /// The heap limit, for checks that refuse an allocation before it is tried.
+    memory_bytes: usize,
     /// Last `file:line` the hook saw, for errors (such as out-of-memory) that carry none.
     last_line: RefCell<String>,
 }
@@ -109,12 +111,18 @@ impl Budget {
     }
 }
 
-/// Starts the time budget of a new top-level call (loading, or one `update`).
+/// Starts the time budget of a new top-level call (loading, or one `update`). The last line
+/// seen is forgotten: a line of an earlier call would name the wrong place.
 pub fn start_budget(lua: &Lua) {
     if let Some(b) = lua.app_data_ref::<Budget>() {
         b.started.set(Instant::now());
+        b.last_line.borrow_mut().clear();
     }
 }
+
+/// The script's name as messages show it, for errors that happen before the instruction hook
+/// has seen a line (a one-line memory bomb).
+pub struct ScriptName(pub String);
 
 /// The last line the instruction hook saw running.
 pub fn last_line(lua: &Lua) -> Option<String> {
@@ -129,6 +137,7 @@ pub fn new_state(access: FileAccess, limits: &Limits) -> mlua::Result<Lua> {
     lua.set_app_data(Budget {
         started: Cell::new(Instant::now()),
         limit: limits.time_budget,
+        memory_bytes: limits.memory_bytes,
         last_line: RefCell::new(String::new()),
     });
     lua.set_memory_limit(limits.memory_bytes)?;
@@ -180,6 +189,7 @@ fn restrict_globals(lua: &Lua) -> mlua::Result<()> {
     g.raw_set("os", refusing_table(lua, "os", "scene scripts may use os.clock, os.date, os.difftime and os.time only", os)?)?;
     let string: Table = g.get("string")?;
     string.raw_set("dump", refusing_function(lua, "string.dump", "precompiled bytecode can break the interpreter's safety")?)?;
+    string.raw_set("rep", bounded_rep(lua, string.get("rep")?)?)?;
     g.raw_set("dofile", refusing_function(lua, "dofile", "load modules with require(\"name\"), from the scene's folder")?)?;
     g.raw_set("loadfile", refusing_function(lua, "loadfile", "load modules with require(\"name\"), from the scene's folder")?)?;
     g.raw_set("collectgarbage", refusing_function(lua, "collectgarbage", "the memory limit (--script-memory) governs memory")?)?;
@@ -194,6 +204,39 @@ fn restrict_globals(lua: &Lua) -> mlua::Result<()> {
         })?,
     )?;
     keep_budget_errors(lua)
+}
+
+/// `string.rep` that refuses, naming file:line, a string larger than the memory limit before
+/// trying to allocate it. (The allocation itself would fail too, but inside one instruction:
+/// before the instruction hook has seen the line, so the message could not say where.)
+fn bounded_rep(lua: &Lua, rep: mlua::Function) -> mlua::Result<mlua::Function> {
+    lua.create_function(move |lua, args: mlua::MultiValue| {
+        let len = |v: Option<&Value>| match v {
+            Some(Value::String(s)) => s.as_bytes().len() as f64,
+            Some(Value::Integer(i)) => i.to_string().len() as f64,
+            Some(Value::Number(x)) => x.to_string().len() as f64,
+            _ => 0.0,
+        };
+        let count = match args.get(1) {
+            Some(Value::Integer(n)) => *n as f64,
+            Some(Value::Number(x)) => *x,
+            _ => 0.0,
+        };
+        let bytes = count.max(0.0) * (len(args.front()) + len(args.get(2)));
+        let limit = lua.app_data_ref::<Budget>().map_or(usize::MAX, |b| b.memory_bytes) as f64;
+        if bytes > limit {
+            return Err(error_at(
+                lua,
+                format!(
+                    "string.rep would make a string of {:.0} MiB, more memory than the script is allowed ({:.0} MiB); \
+                     the limit is set with --script-memory",
+                    bytes / 1048576.0,
+                    limit / 1048576.0
+                ),
+            ));
+        }
+        rep.call::<mlua::MultiValue>(args)
+    })
 }
 
 fn refused(lua: &Lua, what: &str, reason: &str) -> mlua::Error {

@@ -86,6 +86,29 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) ->
     result
 }
 
+/// Checks, before any work, that frames can be written into the folder `dir`: it is a folder
+/// (or can be made, below the nearest one that exists), and a file can be created in it. Only a
+/// probe file is written (and removed at once); missing folders are made when the first frame
+/// is written.
+pub fn check_writable_folder(dir: &Path) -> Result<()> {
+    let mut existing = dir;
+    while !existing.as_os_str().is_empty() && !existing.exists() {
+        existing = existing.parent().unwrap_or(Path::new(""));
+    }
+    let existing = if existing.as_os_str().is_empty() { Path::new(".") } else { existing };
+    if !existing.is_dir() {
+        anyhow::bail!(
+            "{} is a file, not a folder; frames need a folder (choose another --out, or move the file)",
+            existing.display()
+        );
+    }
+    let probe = temporary_name(&existing.join("refrakt-write-probe"));
+    std::fs::write(&probe, b"")
+        .with_context(|| format!("cannot write in {} (check its permissions, or choose another --out)", existing.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
 /// Temporary files being written now, so that a forced exit can remove them.
 static IN_FLIGHT: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
 
@@ -126,6 +149,53 @@ pub fn is_temporary(name: &str) -> bool {
     name.starts_with('.') && name.contains(".tmp-")
 }
 
+/// The process id in the name of one of our temporaries, `.<stem>.tmp-<pid>.<ext>` with an
+/// extension refrakt writes (exr, png, json); `None` for any other name.
+pub fn temporary_owner(name: &str) -> Option<u32> {
+    let rest = name.strip_prefix('.')?;
+    let (stem, tail) = rest.rsplit_once(".tmp-")?;
+    let (pid, ext) = tail.split_once('.')?;
+    let ours = !stem.is_empty() && matches!(ext, "exr" | "png" | "json") && !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit());
+    if ours { pid.parse().ok() } else { None }
+}
+
+/// A temporary younger than this may belong to a write in progress (of a process whose id
+/// was reused) and is left alone.
+const STALE_AFTER: std::time::Duration = std::time::Duration::from_secs(60);
+
+/// Whether a file is a temporary that a refrakt process left behind when it was killed (`kill
+/// -9`, a crash): our name pattern, its writer no longer running (`alive`), and older than a
+/// write takes.
+pub fn is_stale_temporary(name: &str, age: std::time::Duration, alive: impl Fn(u32) -> bool) -> bool {
+    temporary_owner(name).is_some_and(|pid| pid != std::process::id() && !alive(pid) && age >= STALE_AFTER)
+}
+
+/// Whether process `pid` is running (Linux: /proc; elsewhere assumed running, so nothing is
+/// removed).
+fn process_alive(pid: u32) -> bool {
+    if cfg!(target_os = "linux") { Path::new(&format!("/proc/{pid}")).exists() } else { true }
+}
+
+/// Removes, from the folder `dir`, the temporaries that killed refrakt processes left behind
+/// ([`is_stale_temporary`]); returns how many. Whole frames are never touched.
+pub fn remove_stale_temporaries(dir: &Path) -> usize {
+    let Ok(entries) = std::fs::read_dir(dir) else { return 0 };
+    let now = std::time::SystemTime::now();
+    let mut removed = 0;
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().to_string();
+        let Ok(meta) = entry.metadata() else { continue };
+        let age = meta.modified().ok().and_then(|m| now.duration_since(m).ok()).unwrap_or_default();
+        if meta.is_file() && is_stale_temporary(&name, age, process_alive) && std::fs::remove_file(entry.path()).is_ok() {
+            removed += 1;
+        }
+    }
+    if removed > 0 {
+        tracing::warn!("removed {removed} temporary file(s) that an interrupted refrakt left in {}", dir.display());
+    }
+    removed
+}
+
 /// How EXR files are stored.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum ExrCompression {
@@ -151,4 +221,30 @@ pub fn write_with(image: &Image, format: Format, path: &Path, png: &png::PngOpti
         Format::Png => png::write(image, tmp, png),
     })
     .with_context(|| format!("writing {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    #[test]
+    fn only_our_temporaries_of_dead_writers_are_stale() {
+        let old = Duration::from_secs(3600);
+        let dead = |_| false;
+        assert_eq!(temporary_owner(".lens.0001.tmp-4242.exr"), Some(4242));
+        assert!(is_stale_temporary(".lens.0001.tmp-4242.exr", old, dead));
+        assert!(is_stale_temporary(".a.b.tmp-7.png", old, dead));
+        // Someone else's hidden files, whole frames, and other extensions stay.
+        for name in [".lens.tmp-notes.exr", "lens.0001.exr", ".lens.tmp-4242.blend", ".tmp-4242.exr", ".x.tmp-.exr", ".x.tmp-12a.png"] {
+            assert!(!is_stale_temporary(name, old, dead), "{name}");
+        }
+        // A running writer's, a young one's, and this process's own stay.
+        assert!(!is_stale_temporary(".lens.tmp-4242.exr", old, |_| true));
+        assert!(!is_stale_temporary(".lens.tmp-4242.exr", Duration::from_secs(5), dead));
+        assert!(!is_stale_temporary(&format!(".lens.tmp-{}.exr", std::process::id()), old, dead));
+        // The names refrakt gives its temporaries follow the pattern.
+        let tmp = temporary_name(Path::new("out/lens.0001.exr"));
+        assert_eq!(temporary_owner(&tmp.file_name().unwrap().to_string_lossy()), Some(std::process::id()));
+    }
 }

@@ -12,6 +12,7 @@ pub mod interfaces;
 pub mod lights;
 pub mod march;
 pub mod octree;
+pub mod parts;
 pub mod photons;
 pub mod probe;
 pub mod receivers;
@@ -33,6 +34,7 @@ use crate::output::{Image, Layers};
 use caustics::CausticFilter;
 use lights::LightBuffers;
 use march::PhotonStats;
+use parts::{FrameProgress, Part};
 use receivers::Receivers;
 use resources::{EnvironmentTexture, FrameTarget, Grids, RadianceGrid};
 use reuse::{PhotonKey, Reuse, StageCache, VolumeKey};
@@ -146,6 +148,8 @@ pub struct Ticket {
     /// The layers its readback brings back.
     layers: Layers,
     pub reused: Reuse,
+    /// Its parts' submissions, to wait for them one by one ([`Renderer::wait`]).
+    submitted: parts::Submitted,
 }
 
 /// Every stage's pipeline, built from one shader library.
@@ -182,11 +186,26 @@ impl Renderer {
 
     pub fn with_shaders(ctx: GpuContext, shaders: ShaderLibrary) -> Result<Self> {
         let s = Stages::new(&ctx.device, &shaders)?;
+        Ok(Self::with_stages(ctx, shaders, s))
+    }
+
+    /// A renderer on `shaders`, or, when they do not compile, on the embedded ones (returned
+    /// with the error): `refrakt watch` starts anyway, and `shaders` stay the library that
+    /// [`reload_shaders`](Self::reload_shaders) reads, so saving a fix switches to them.
+    pub fn with_shaders_or_embedded(ctx: GpuContext, shaders: ShaderLibrary) -> Result<(Self, Option<anyhow::Error>)> {
+        let (s, failed) = match Stages::new(&ctx.device, &shaders) {
+            Ok(s) => (s, None),
+            Err(e) => (Stages::new(&ctx.device, &ShaderLibrary::Embedded)?, Some(e)),
+        };
+        Ok((Self::with_stages(ctx, shaders, s), failed))
+    }
+
+    fn with_stages(ctx: GpuContext, shaders: ShaderLibrary, s: Stages) -> Self {
         let environment = EnvironmentTexture::new(&ctx);
         let profiler = Profiler::new(&ctx);
         let lights = LightBuffers::new(&ctx.device);
         let receivers = Receivers::new(&ctx.device);
-        Ok(Self {
+        Self {
             voxelize: s.voxelize,
             gradient: s.gradient,
             octree: s.octree,
@@ -212,7 +231,7 @@ impl Renderer {
             cache: StageCache::default(),
             next_slot: 0,
             pending: [false; 2],
-        })
+        }
     }
 
     /// Rebuilds every stage's pipeline from the shader library (for live shader edits). On a
@@ -426,6 +445,8 @@ impl Renderer {
         let mut reused = self.reuse_of(&volume_key, &photon_key);
         reused.photons &= photons;
         self.profiler.begin_frame();
+        let submitted_at = std::time::Instant::now();
+        let mut parts = Vec::new();
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         if !reused.volume {
             let work = self.voxelize.encode(&self.ctx, &mut enc, &mut self.profiler, desc, grids)?; // fields, meshes → index_field, extinction_grid, scattering_grid
@@ -433,6 +454,7 @@ impl Renderer {
             self.octree.encode(&self.ctx, &mut enc, &mut self.profiler, grids); // index_field, extinction_grid → octree
             self.counters.volume_builds += 1;
             self.counters.add_mesh_work(work);
+            parts.push((Part::Volume, self.submit_part(&mut enc)));
         }
         let trace = photons && !reused.photons;
         if trace {
@@ -443,6 +465,7 @@ impl Renderer {
             self.caustics.encode(&self.ctx, &mut enc, &mut self.profiler, receivers, self.settings.caustic_filter, filter_unit); // caustic atlas → caustic irradiance
             self.march.encode_stats_readback(&mut enc, slot);
             self.counters.photon_traces += 1;
+            parts.push((Part::Photons, self.submit_part(&mut enc)));
         }
         let inputs = view::ViewInputs {
             grids,
@@ -458,7 +481,7 @@ impl Renderer {
         target.encode_readback(&mut enc, slot, self.layers);
         self.view.encode_steps_readback(&mut enc, slot);
         self.profiler.resolve(&mut enc, slot);
-        self.ctx.queue.submit([enc.finish()]);
+        parts.push((Part::View, self.ctx.queue.submit([enc.finish()])));
         self.counters.volumes_reused += reused.volume as u64;
         self.counters.photons_reused += reused.photons as u64;
         self.counters.frames += 1;
@@ -470,7 +493,20 @@ impl Renderer {
         }
         self.pending[slot] = true;
         self.next_slot = 1 - slot;
-        Ok(Ticket { slot, photons: trace.then_some(march_params), layers: self.layers, reused })
+        let submitted = parts::Submitted { parts, photons: if trace { desc.photons } else { 0 }, at: submitted_at };
+        Ok(Ticket { slot, photons: trace.then_some(march_params), layers: self.layers, reused, submitted })
+    }
+
+    /// Submits what `enc` holds as one part of the frame and starts a new encoder for the next.
+    fn submit_part(&self, enc: &mut wgpu::CommandEncoder) -> wgpu::SubmissionIndex {
+        let full = std::mem::replace(enc, self.ctx.device.create_command_encoder(&Default::default()));
+        self.ctx.queue.submit([full.finish()])
+    }
+
+    /// Waits for a submitted frame part by part, telling `report` which part the GPU is on
+    /// (progress within a frame); [`finish`](Self::finish) then reads it back at once.
+    pub fn wait(&self, ticket: &Ticket, report: &mut dyn FnMut(&FrameProgress)) -> Result<()> {
+        ticket.submitted.wait(&self.ctx.device, report)
     }
 
     /// The keys of this frame's volume and photon results, as the resources stand now.

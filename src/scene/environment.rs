@@ -12,6 +12,8 @@ use std::sync::{Arc, Mutex, OnceLock};
 use anyhow::{Context, Result, bail};
 use glam::{Vec2, Vec3};
 
+use super::image_header;
+
 /// A linear-light equirectangular image, row 0 at the top.
 #[derive(Debug, PartialEq)]
 pub struct EnvImage {
@@ -132,11 +134,14 @@ impl Environment {
     }
 }
 
-/// Loads an equirectangular `.exr` or `.hdr` file as linear RGB.
+/// Loads an equirectangular `.exr` or `.hdr` file as linear RGB. Its header is checked against
+/// [`image_header::ENVIRONMENT`] before any pixel memory is allocated.
 pub fn load_image(path: &Path) -> Result<EnvImage> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
+    let caps = image_header::ENVIRONMENT;
     let image = match ext.as_str() {
         "exr" => {
+            image_header::check_exr(path, &caps)?;
             let img = exr::prelude::read_first_rgba_layer_from_file(
                 path,
                 |res, _| EnvImage {
@@ -153,7 +158,15 @@ pub fn load_image(path: &Path) -> Result<EnvImage> {
             img.layer_data.channel_data.pixels
         }
         "hdr" => {
-            let img = image::open(path)
+            image_header::check_hdr(path, &caps)?;
+            let mut reader = image::ImageReader::open(path)
+                .with_context(|| format!("cannot read the environment image {}", path.display()))?;
+            reader.set_format(image::ImageFormat::Hdr);
+            let mut limits = image::Limits::default();
+            limits.max_alloc = Some(caps.max_texels() * 16);
+            reader.limits(limits);
+            let img = reader
+                .decode()
                 .with_context(|| format!("cannot read the environment image {}", path.display()))?
                 .into_rgb32f();
             EnvImage {

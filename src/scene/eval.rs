@@ -310,12 +310,10 @@ fn fit_volume(objects: &[(Vec3, Vec3, Option<f32>)], s: &super::VolumeSettings, 
     let max_boundary = objects.iter().filter_map(|o| o.2).fold(s.boundary, f32::max);
     let (lo, hi) = match s.bounds {
         Some((lo, hi)) => {
-            if !lo.is_finite() || !hi.is_finite() {
-                bail!("volume.min and volume.max must be given together");
-            }
-            if hi.cmple(lo).any() {
-                bail!("volume.max {hi} must be greater than volume.min {lo} on every axis");
-            }
+            s.check_bounds(lo, hi).map_err(|e| match &s.bounds_origin {
+                Some(at) => anyhow::anyhow!("{at}: {e}"),
+                None => anyhow::anyhow!(e),
+            })?;
             (lo, hi)
         }
         None if objects.is_empty() => (Vec3::splat(-0.5), Vec3::splat(0.5)),

@@ -11,6 +11,7 @@
 
 pub mod environment;
 pub mod eval;
+pub mod image_header;
 pub mod index_fn;
 pub mod light;
 pub mod material;
@@ -122,6 +123,8 @@ pub struct VolumeSettings {
     pub margin: f32,
     /// Fixed world box (min, max); fitted to the refractive objects when `None`.
     pub bounds: Option<(Vec3, Vec3)>,
+    /// Where `bounds` were last set (`scene.lua:12`), for the error when they are not a box.
+    pub bounds_origin: Option<String>,
     /// Default smooth boundary width of solids, voxels.
     pub boundary: f32,
     /// Ray-equation step of the viewing pass, voxels.
@@ -130,7 +133,20 @@ pub struct VolumeSettings {
 
 impl Default for VolumeSettings {
     fn default() -> Self {
-        Self { resolution: 128, margin: 0.05, bounds: None, boundary: 3.0, step: 0.5 }
+        Self { resolution: 128, margin: 0.05, bounds: None, bounds_origin: None, boundary: 3.0, step: 0.5 }
+    }
+}
+
+impl VolumeSettings {
+    /// Checks a fixed box: both corners given, and `max` above `min` on every axis.
+    pub fn check_bounds(&self, lo: Vec3, hi: Vec3) -> Result<(), String> {
+        if !lo.is_finite() || !hi.is_finite() {
+            return Err("volume.min and volume.max must be given together".into());
+        }
+        if hi.cmple(lo).any() {
+            return Err(format!("volume.max {hi} must be greater than volume.min {lo} on every axis"));
+        }
+        Ok(())
     }
 }
 

@@ -37,8 +37,16 @@ impl Change {
 const STOP_POLL: Duration = Duration::from_millis(50);
 /// The debouncer's window for merging one path's raw events, and how often it looks: short,
 /// since the quiet time on top of it is what waits for a burst to end.
-const MERGE_WINDOW: Duration = Duration::from_millis(10);
-const MERGE_TICK: Duration = Duration::from_millis(5);
+const MERGE_MS: u64 = 5;
+const TICK_MS: u64 = 2;
+const MERGE_WINDOW: Duration = Duration::from_millis(MERGE_MS);
+const MERGE_TICK: Duration = Duration::from_millis(TICK_MS);
+/// The longest the debouncer holds a raw event before passing it on. Events carry the time
+/// they happened, so a change is taken only once this much more than the quiet time has passed
+/// since the newest one: any later event of the same burst has arrived by then. (Taking it at
+/// `newest + quiet` took a burst of saves 1 ms apart as two or three changes: its later events
+/// were still inside the debouncer.)
+const DELIVERY: Duration = Duration::from_millis(MERGE_MS + TICK_MS + 1);
 
 pub struct SceneFiles {
     debouncer: Debouncer<RecommendedWatcher, RecommendedCache>,
@@ -121,7 +129,7 @@ impl SceneFiles {
                 return None;
             }
             self.take_arrived();
-            let settled = self.newest.map(|t| t + self.quiet);
+            let settled = self.newest.map(|t| t + self.quiet + DELIVERY);
             if settled.is_some_and(|t| t <= Instant::now()) {
                 self.newest = None;
                 return Some(std::mem::take(&mut self.held));
@@ -140,6 +148,26 @@ impl SceneFiles {
     pub fn changed(&mut self) -> bool {
         self.take_arrived();
         !self.held.is_empty()
+    }
+
+    /// Waits up to `time` for a watched file to change; returns whether one did (the change
+    /// is kept for the next wait).
+    pub fn settle(&mut self, time: Duration) -> bool {
+        let until = Instant::now() + time;
+        loop {
+            if self.changed() {
+                return true;
+            }
+            let left = until.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return false;
+            }
+            match self.notices.recv_timeout(left.min(MERGE_TICK)) {
+                Ok(notice) => self.hold(notice),
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => return false,
+            }
+        }
     }
 
     fn take_arrived(&mut self) {

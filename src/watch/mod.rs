@@ -70,6 +70,9 @@ pub struct WatchOptions {
 /// about as soon as a fast one would be, so the fast frame would only delay it.
 pub const DEFAULT_FAST_FRAME_OVER: Duration = Duration::from_millis(100);
 
+/// How long a failed load waits for a save still under way before reporting its error.
+const SETTLE: Duration = Duration::from_millis(60);
+
 /// The default debounce: longer than the gaps within one save (an editor's write-then-rename,
 /// an exporter's stream of writes: well under a millisecond), short enough not to be felt — it
 /// is part of every edit's latency. A tool that writes a file in pieces over longer than this
@@ -154,8 +157,9 @@ pub struct Stats {
 pub trait Report {
     fn watching(&mut self, files: &[PathBuf], shaders: Option<&Path>);
     fn frame(&mut self, frame: &FrameEvent);
-    /// An error the session survives: the preview keeps the last good frame.
-    fn error(&mut self, message: &str, frame: Option<i64>);
+    /// An error the session survives: the preview keeps the last good frame when `kept` (there
+    /// is none before the first frame).
+    fn error(&mut self, message: &str, frame: Option<i64>, kept: bool);
 }
 
 impl Report for Progress {
@@ -184,8 +188,13 @@ impl Report for Progress {
         self.frame_note(event, &line);
     }
 
-    fn error(&mut self, message: &str, frame: Option<i64>) {
-        eprintln!("error: {message}\n(the preview keeps the last good frame; refrakt renders again on the next save)");
+    fn error(&mut self, message: &str, frame: Option<i64>, kept: bool) {
+        let after = if kept {
+            "the preview keeps the last good frame; refrakt renders again on the next save"
+        } else {
+            "no frame is shown yet; refrakt renders as soon as a save fixes this"
+        };
+        eprintln!("error: {message}\n({after})");
         Progress::error(self, message, frame);
     }
 }
@@ -215,6 +224,12 @@ pub fn fast_options(eval: &EvalOptions, full: &FrameDesc, cached: Reuse) -> Opti
 /// it (exit code 130).
 pub fn run(scene: &Path, opts: &WatchOptions) -> Result<()> {
     opts.format()?; // before the slow start of the GPU
+    let folder = opts.out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    output::check_writable_folder(folder).map_err(|e| anyhow!("--out {}: {e:#}", opts.out.display()))?;
+    if opts.out.is_dir() {
+        bail!("--out {} is a folder; the preview is a file (e.g. --out {}/preview.exr)", opts.out.display(), opts.out.display());
+    }
+    output::remove_stale_temporaries(folder);
     // A bar makes no sense for a process that never ends: lines on a terminal.
     let mode = match opts.progress {
         ProgressMode::Auto | ProgressMode::Bar => ProgressMode::Lines,
@@ -225,9 +240,18 @@ pub fn run(scene: &Path, opts: &WatchOptions) -> Result<()> {
     let result = (|| {
         let ctx = crate::gpu::GpuContext::new(opts.adapter.as_deref())?;
         tracing::info!("adapter: {}", ctx.adapter_name());
-        let renderer = Renderer::with_shaders(ctx, ShaderLibrary::for_development())?;
+        let library = ShaderLibrary::for_development();
+        let (renderer, failed) = Renderer::with_shaders_or_embedded(ctx, library.clone())?;
         let points = opts.moment.points(opts.scene.fps);
         progress.start(points[0].frame.unwrap_or(0), points[points.len() - 1].frame.unwrap_or(0));
+        if let (Some(e), Some(dir)) = (failed, library.dir()) {
+            let message = format!(
+                "{e:#} — refrakt watch starts with the shaders built into it instead, and switches to the ones in {} \
+                 once a save makes them compile",
+                dir.display()
+            );
+            Report::error(&mut progress, &message, None, false);
+        }
         watch(scene, opts, renderer, &mut progress, &INTERRUPTED)
     })();
     if let Err(e) = &result {
@@ -355,6 +379,14 @@ impl<'a> Session<'a> {
             Err(e) => {
                 self.candidate = None;
                 self.failed_files = crate::lua::files_read_before(&e).to_vec();
+                // A save may still be under way (an editor that truncates the file, then writes
+                // it): if a file changes again within a moment, the error was about a
+                // half-written file, and the next load is the one to report.
+                if self.files.settle(SETTLE) {
+                    tracing::debug!("a file changed while the scene loaded; not reporting: {e:#}");
+                    self.rewatch();
+                    return false;
+                }
                 self.fail(&format!("{e:#}"), None);
                 false
             }
@@ -394,6 +426,9 @@ impl<'a> Session<'a> {
     fn try_render(&mut self, shown: Shown) -> Result<()> {
         let source = self.candidate.as_mut().or(self.current.as_mut()).ok_or_else(|| anyhow!("no scene is loaded"))?;
         let full = frame_at(source, shown.at, &self.opts.scene.eval, self.last.as_ref())?;
+        // Limits are checked on the full frame first, so that an error names the size the
+        // scene asks for, not the fast frame's smaller one.
+        self.renderer.check_limits(&full)?;
         // A range shows its frames at the full settings; a still shows a fast frame first only
         // when full frames take long enough for it to be seen sooner.
         let slow = self.last_full.is_none_or(|d| d > self.opts.fast_frame_over);
@@ -454,7 +489,8 @@ impl<'a> Session<'a> {
     /// that a fix saved the moment the error is seen is not missed).
     fn fail(&mut self, message: &str, frame: Option<i64>) {
         self.rewatch();
-        self.report.error(message, frame);
+        let kept = self.last.is_some();
+        self.report.error(message, frame, kept);
     }
 
     /// Watches the files of the current scene, of the candidate, and of the last failure.
@@ -467,7 +503,10 @@ impl<'a> Session<'a> {
         match self.files.watch(&list) {
             Ok(true) => self.report.watching(&self.files.watched(), self.files.shaders()),
             Ok(false) => {}
-            Err(e) => self.report.error(&format!("{e:#}"), None),
+            Err(e) => {
+                let kept = self.last.is_some();
+                self.report.error(&format!("{e:#}"), None, kept)
+            }
         }
     }
 }

@@ -4,7 +4,9 @@
 
 use std::path::{Path, PathBuf};
 
+pub mod fuzz;
 pub mod gltf_builder;
+pub mod watch;
 
 use refrakt::frame::FrameDesc;
 use refrakt::gpu::GpuContext;

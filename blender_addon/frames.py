@@ -39,7 +39,8 @@ def load_sequence(directory, name):
     numbering are allowed: Blender shows the nearest frame before a missing one."""
     frames = find_frames(directory, name)
     first, last = frames[0], frames[-1]
-    path = os.path.join(directory, f"{name}.{first:04d}.exr")
+    # refrakt pads frame numbers to the digits of the range's last frame (at least 4).
+    path = os.path.join(directory, f"{name}.{first:0{max(4, len(str(last)))}d}.exr")
     label = f"{NODE_PREFIX}{name}"
     image = bpy.data.images.get(label)
     if image is None or bpy.path.abspath(image.filepath) != path:

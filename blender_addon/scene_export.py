@@ -39,8 +39,11 @@ class Paths:
     def preview(self):
         return os.path.join(self.directory, self.name + ".preview.exr")
 
-    def frame(self, k):
-        return os.path.join(self.frames, f"{self.name}.{k:04d}.exr")
+    def frame(self, k, last=None):
+        """Frame k of a range ending at `last` (refrakt pads to the digits of the range's last
+        frame, at least 4)."""
+        width = max(4, len(str(last if last is not None else k)))
+        return os.path.join(self.frames, f"{self.name}.{k:0{width}d}.exr")
 
 
 def paths(scene):

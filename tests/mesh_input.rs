@@ -157,12 +157,19 @@ fn meshes_take_the_volume_default_or_their_own_boundary() {
     let desc = frame_from_lua(
         r#"local r = require("refrakt")
         local scene = r.scene{ volume = { resolution = 32, boundary = 2 } }
-        scene:add(r.node{ shape = r.icosphere{ radius = 0.3 }, material = r.glass{} })
+        scene:add(r.node{ shape = r.icosphere{ radius = 0.3 }, material = r.glass{ ior = 1, absorption = {1, 1, 1} } })
         scene:add(r.node{ translation = {1, 0, 0}, shape = r.icosphere{ radius = 0.3, boundary = 0 }, material = r.glass{} })
+        scene:add(r.node{ translation = {-1, 0, 0}, shape = r.icosphere{ radius = 0.3 }, material = r.glass{} })
         return scene"#,
     );
     let h = desc.volume.voxel_size;
-    assert!((desc.meshes[0].boundary - 2.0 * h).abs() < 1e-6 && desc.meshes[1].boundary == 0.0);
+    // A medium that does not refract takes the volume's default; a boundary set by the script
+    // keeps the smooth step; refracting glass with neither is a sharp interface, voxelized only
+    // to mark where it is.
+    assert!((desc.meshes[0].boundary - 2.0 * h).abs() < 1e-6 && !desc.meshes[0].sharp);
+    assert!(desc.meshes[1].boundary == 0.0 && !desc.meshes[1].sharp);
+    let mark = refrakt::pipeline::interfaces::MARK_WIDTH_VOXELS * h;
+    assert!((desc.meshes[2].boundary - mark).abs() < 1e-6 && desc.meshes[2].sharp);
 }
 
 #[test]

@@ -87,10 +87,11 @@ impl MeshData {
 
     /// Whether the surface is closed: every edge (corners welded by position) is shared by an
     /// even number of triangles, so a line crossing the surface alternates outside and inside —
-    /// what a sharp interface needs to know which medium a ray is in.
+    /// what a sharp interface needs to know which medium a ray is in. Triangles without area
+    /// (collinear corners) bound nothing and are left out.
     pub fn is_closed(&self) -> bool {
         let mut edges: std::collections::HashMap<[[u32; 3]; 2], u32> = std::collections::HashMap::new();
-        for t in self.solid_triangles() {
+        for t in self.solid_triangles().iter().filter(|t| self.triangle_area2(t) > 0.0) {
             let c = t.map(|i| self.positions[i as usize].to_array().map(f32::to_bits));
             for (a, b) in [(c[0], c[1]), (c[1], c[2]), (c[2], c[0])] {
                 *edges.entry(if a < b { [a, b] } else { [b, a] }).or_default() += 1;

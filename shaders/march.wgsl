@@ -195,7 +195,7 @@ const MAX_EVENTS: u32 = 64u;
 // Extinction over a segment: the grid's media at its midpoint and the interface medium the
 // photon is inside.
 fn segment_extinction(a: vec3<f32>, b: vec3<f32>, media: Media) -> vec3<f32> {
-    return sample_grid(extinction_grid, grid_sampler, params.grid, 0.5 * (a + b)).rgb + media_absorption(media);
+    return sample_grid(extinction_grid, grid_sampler, params.grid, 0.5 * (a + b)).rgb + media.absorption;
 }
 
 // One photon (the index-th of the frame) from its light to where it ends; returns the steps it

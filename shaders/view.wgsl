@@ -370,7 +370,7 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
             let len = distance(x0, s.x);
             path += len;
             let mid = 0.5 * (x0 + s.x);
-            var extinction = media_absorption(b.media);
+            var extinction = b.media.absorption;
             if has(VIEW_FLAG_MEDIA) {
                 // Beer–Lambert over the step, with the in-scattered light of its midpoint.
                 extinction += sample_grid(extinction_grid, grid_sampler, grid, mid).rgb;

@@ -249,22 +249,6 @@ pub struct LightDesc {
     pub radius: f32,
 }
 
-/// Whether `p` is inside the closed surface of receiver `r`: an odd number of crossings along a
-/// ray (slightly off-axis, so it does not run along edges of axis-aligned meshes).
-fn encloses(r: &Receiver, p: Vec3) -> bool {
-    let dir = Vec3::new(1.0, 0.0123, 0.0071).normalize();
-    let crossings = r
-        .mesh
-        .triangles
-        .iter()
-        .filter(|t| t.iter().all(|&i| (i as usize) < r.mesh.positions.len()))
-        .filter(|t| {
-            let v = t.map(|i| r.world.transform_point3(r.mesh.positions[i as usize]));
-            crate::bvh::moller_trumbore(&crate::bvh::Triangle { v, receiver: 0, index: 0 }, p, dir).is_some_and(|h| h.0 > 0.0)
-        })
-        .count();
-    crossings % 2 == 1
-}
 
 /// A homogeneous scattering medium filling the volume box.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -302,7 +286,7 @@ impl FrameDesc {
     pub fn warnings(&self) -> Vec<String> {
         let mut out = Vec::new();
         for l in self.lights.iter().filter(|l| !matches!(l.shape, LightShape::Sun { .. })) {
-            for r in self.receivers.iter().filter(|r| encloses(r, l.position)) {
+            for r in self.receivers.iter().filter(|r| r.mesh.encloses(r.world, l.position)) {
                 out.push(format!(
                     "light \"{}\" is inside receiver \"{}\": only the inside of its surfaces is lit (right for a \
                      room; move the light out if \"{}\" is a solid object)",

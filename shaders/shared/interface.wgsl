@@ -183,15 +183,6 @@ fn media_unpacked(ids: vec2<u32>) -> Media {
     return media_top(Media(ids, depth, 1.0, vec3<f32>(0.0)));
 }
 
-// The index of the medium a path is in (air outside every interface).
-fn media_ior(m: Media) -> f32 {
-    return m.ior;
-}
-
-fn media_absorption(m: Media) -> vec3<f32> {
-    return m.absorption;
-}
-
 // The media after crossing interface i: leaving it if it is the innermost, else entering it.
 fn media_crossed(m: Media, i: u32) -> Media {
     var out = m;
@@ -236,7 +227,7 @@ struct Crossing {
 
 fn cross_interface(d: vec3<f32>, hit: SurfaceHit, media: Media) -> Crossing {
     let beyond = media_crossed(media, hit.interface_id);
-    let eta = media_ior(beyond) / media_ior(media);
+    let eta = beyond.ior / media.ior;
     var n = select(hit.normal, -hit.normal, dot(hit.normal, d) > 0.0);
     let cos_i = -dot(d, n);
     let reflectance = fresnel_dielectric(cos_i, eta);

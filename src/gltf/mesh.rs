@@ -130,22 +130,7 @@ fn triangles(mode: Mode, v: &[u32]) -> Result<Vec<[u32; 3]>, String> {
 /// them) or a closed one with no thickness (a sheet modelled double-sided). refrakt voxelizes
 /// the solid a transmissive mesh encloses, so such glass shows nothing.
 pub fn encloses_no_volume(mesh: &MeshData) -> Option<String> {
-    let mut welded = std::collections::HashMap::new();
-    let ids: Vec<usize> = mesh.positions.iter().map(|p| {
-        let next = welded.len();
-        *welded.entry(p.to_array().map(f32::to_bits)).or_insert(next)
-    }).collect();
-    let mut edges: std::collections::HashMap<(usize, usize), u32> = std::collections::HashMap::new();
-    for t in &mesh.triangles {
-        let [a, b, c] = t.map(|i| ids[i as usize]);
-        if a == b || b == c || c == a {
-            continue;
-        }
-        for (u, v) in [(a, b), (b, c), (c, a)] {
-            *edges.entry((u.min(v), u.max(v))).or_default() += 1;
-        }
-    }
-    let open = edges.values().filter(|&&n| n == 1).count();
+    let open = mesh.welded_edge_counts(&mesh.triangles).values().filter(|&&n| n == 1).count();
     if open > 0 {
         return Some(format!("it is an open surface ({open} edges belong to one triangle only)"));
     }

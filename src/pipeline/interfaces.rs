@@ -87,7 +87,7 @@ pub fn triangles(desc: &FrameDesc) -> (Vec<Triangle>, Vec<[Vec3; 3]>) {
 /// two to a word, at most four. Lights and the camera inside glass start their paths with it.
 pub fn media_at(desc: &FrameDesc, p: Vec3) -> [u32; 2] {
     let analytic = desc.fields.iter().filter(|f| f.sharp).map(|f| (f.bounds, field_contains(f, p)));
-    let meshes = sharp_meshes(desc).map(|m| (m.bounds, mesh_contains(m, p)));
+    let meshes = sharp_meshes(desc).map(|m| (m.bounds, m.mesh.encloses(m.world, p)));
     let mut around: Vec<(f32, u32)> = analytic
         .chain(meshes)
         .enumerate()
@@ -110,21 +110,6 @@ fn field_contains(f: &FieldDesc, p: Vec3) -> bool {
     }
 }
 
-/// Inside a closed mesh: an odd number of crossings along a ray (slightly off-axis, so it does
-/// not run along the edges of axis-aligned meshes).
-fn mesh_contains(m: &MeshInstance, p: Vec3) -> bool {
-    let dir = Vec3::new(1.0, 0.0123, 0.0071).normalize();
-    let crossings = m
-        .mesh
-        .triangles
-        .iter()
-        .filter(|t| {
-            let v = t.map(|i| m.world.transform_point3(m.mesh.positions[i as usize]));
-            crate::bvh::moller_trumbore(&Triangle { v, receiver: 0, index: 0 }, p, dir).is_some_and(|h| h.0 > 0.0)
-        })
-        .count();
-    crossings % 2 == 1
-}
 
 /// What identifies the sharp meshes' triangles (so the BVH is rebuilt when one moves).
 pub fn mesh_key(desc: &FrameDesc) -> Vec<(usize, glam::Mat4)> {

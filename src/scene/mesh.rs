@@ -1,5 +1,7 @@
 //! Triangle meshes, in the local space of the node that carries them.
 
+use std::collections::HashMap;
+
 use glam::{Vec2, Vec3};
 
 /// An indexed triangle mesh. Shared (`Arc`) between nodes and frames; a changed mesh is a new
@@ -90,14 +92,43 @@ impl MeshData {
     /// what a sharp interface needs to know which medium a ray is in. Triangles without area
     /// (collinear corners) bound nothing and are left out.
     pub fn is_closed(&self) -> bool {
-        let mut edges: std::collections::HashMap<[[u32; 3]; 2], u32> = std::collections::HashMap::new();
-        for t in self.solid_triangles().iter().filter(|t| self.triangle_area2(t) > 0.0) {
+        let solid: Vec<[u32; 3]> = self.solid_triangles().into_iter().filter(|t| self.triangle_area2(t) > 0.0).collect();
+        let edges = self.welded_edge_counts(&solid);
+        !edges.is_empty() && edges.values().all(|&n| n % 2 == 0)
+    }
+
+    /// How many of `triangles` share each edge, with corners welded by position (UV seams and
+    /// hard edges split vertices that are one point of the surface); triangles with two corners
+    /// at one position have no edges.
+    pub fn welded_edge_counts<'a>(&self, triangles: impl IntoIterator<Item = &'a [u32; 3]>) -> HashMap<[[u32; 3]; 2], u32> {
+        let mut edges = HashMap::new();
+        for t in triangles {
             let c = t.map(|i| self.positions[i as usize].to_array().map(f32::to_bits));
+            if c[0] == c[1] || c[1] == c[2] || c[2] == c[0] {
+                continue;
+            }
             for (a, b) in [(c[0], c[1]), (c[1], c[2]), (c[2], c[0])] {
                 *edges.entry(if a < b { [a, b] } else { [b, a] }).or_default() += 1;
             }
         }
-        !edges.is_empty() && edges.values().all(|&n| n % 2 == 0)
+        edges
+    }
+
+    /// Whether `p` is inside the closed surface this mesh makes under `world`: an odd number of
+    /// crossings along a ray (slightly off-axis, so it does not run along the edges of
+    /// axis-aligned meshes). Triangles naming a missing vertex are skipped.
+    pub fn encloses(&self, world: glam::Mat4, p: Vec3) -> bool {
+        let dir = Vec3::new(1.0, 0.0123, 0.0071).normalize();
+        let crossings = self
+            .triangles
+            .iter()
+            .filter(|t| t.iter().all(|&i| (i as usize) < self.positions.len()))
+            .filter(|t| {
+                let v = t.map(|i| world.transform_point3(self.positions[i as usize]));
+                crate::bvh::moller_trumbore(&crate::bvh::Triangle { v, receiver: 0, index: 0 }, p, dir).is_some_and(|h| h.0 > 0.0)
+            })
+            .count();
+        crossings % 2 == 1
     }
 
     /// Shading normals at each corner of each triangle (unit, oriented like the triangle's own

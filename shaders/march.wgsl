@@ -241,12 +241,14 @@ fn march_photon(photon: Photon, index: u32) -> u32 {
             // beyond. Either way the photon is now a caustic photon.
             flux = after;
             events++;
-            let c = cross_interface(d, hit, media);
+            let facet = vec2<f32>(random01(params.seed, index, 96u + 2u * events), random01(params.seed, index, 97u + 2u * events));
+            let c = cross_interface(d, hit, media, facet);
             if random01(params.seed, index, 16u + events) < c.reflectance {
                 d = c.reflected;
+                flux *= c.reflected_share;
             } else {
                 d = c.transmitted;
-                flux *= c.tint;
+                flux *= c.tint * c.transmitted_share;
                 media = c.beyond;
             }
             refracted = true;

@@ -45,7 +45,8 @@ fn step_length(s: RayState) -> f32 {
 fn cross_surface(s: ptr<function, RayState>, media: ptr<function, Media>, hit: SurfaceHit) {
     let d = normalize((*s).v);
     let p = (*s).x + d * hit.t;
-    let c = cross_interface(d, hit, *media);
+    // (On a rough surface the probe follows the microfacet its first pair of numbers picks.)
+    let c = cross_interface(d, hit, *media, vec2<f32>(0.0));
     var w = c.reflected;
     if c.reflectance < 1.0 {
         w = c.transmitted;

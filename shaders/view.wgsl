@@ -31,6 +31,7 @@
 #import shared/receivers.wgsl
 #import shared/lights.wgsl
 #import shared/environment.wgsl
+#import shared/hash.wgsl
 
 @group(0) @binding(0) var<uniform> params: ViewParams;
 @group(0) @binding(1) var ior_grid: texture_3d<f32>;
@@ -289,6 +290,17 @@ struct Branch {
     weight: vec3<f32>,
     media: Media,
     events: u32,
+    // Which branch this is: 1 for the camera's, then 2p at each event for the path going on
+    // and 2p + 1 for the reflection it leaves — the counter its random numbers hash.
+    path: u32,
+}
+
+// The two uniform numbers that pick a rough surface's microfacet for camera sample k on branch
+// `path` of this pixel: a counter-based hash (shared/hash.wgsl), so a pixel renders the same
+// every frame and rough glass converges with `samples`.
+fn facet_numbers(k: u32, path: u32) -> vec2<f32> {
+    let key = pcg_hash(pixel_key ^ (k * 0x9e3779b9u));
+    return vec2<f32>(random01(key, path, 0u), random01(key, path, 1u));
 }
 
 // Radiance of the lights a path that met glass sees along o + t·d, t < t_max: the sun's disc
@@ -389,22 +401,24 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                     return;
                 }
                 first_depth(out, s.x);
-                let c = cross_interface(b.d, hit, b.media);
+                let c = cross_interface(b.d, hit, b.media, facet_numbers(k, b.path));
                 b.events++;
                 var next = b.d;
                 if c.reflectance < 1.0 {
-                    var reflected = Branch(s.x, c.reflected, b.weight * c.reflectance, b.media, b.events);
+                    var reflected = Branch(s.x, c.reflected, b.weight * (c.reflectance * c.reflected_share), b.media, b.events, 2u * b.path + 1u);
                     if max(reflected.weight.r, max(reflected.weight.g, reflected.weight.b)) > MIN_WEIGHT && *top < BRANCH_STACK {
                         reflected.x = leave_surface(s.x, c.facing, c.reflected, 1e-3 * grid.voxel_size);
                         (*stack)[*top] = reflected;
                         *top += 1u;
                     }
-                    b.weight *= (1.0 - c.reflectance) * c.tint;
+                    b.weight *= (1.0 - c.reflectance) * c.tint * c.transmitted_share;
                     b.media = c.beyond;
                     next = c.transmitted;
                 } else {
+                    b.weight *= c.reflected_share;
                     next = c.reflected;
                 }
+                b.path = 2u * b.path;
                 if b.events >= MAX_EVENTS || max(b.weight.r, max(b.weight.g, b.weight.b)) < MIN_WEIGHT {
                     return;
                 }
@@ -442,7 +456,7 @@ fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
     var out = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
     var stack: array<Branch, BRANCH_STACK>;
     var top = 0u;
-    var branch = Branch(params.camera.position, dir0, vec3<f32>(1.0), media_unpacked(vec2<u32>(params.camera_media_lo, params.camera_media_hi)), 0u);
+    var branch = Branch(params.camera.position, dir0, vec3<f32>(1.0), media_unpacked(vec2<u32>(params.camera_media_lo, params.camera_media_hi)), 0u, 1u);
     // (One call site: the branch tracer is the pass's largest function.)
     loop {
         trace_branch(&out, branch, &stack, &top, k);
@@ -481,9 +495,13 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
     }
 }
 
+// The pixel being shaded (its index), which keys its random numbers.
+var<private> pixel_key: u32;
+
 // Traces pixel `p`'s camera rays and writes its five planes; returns the steps they took.
 fn shade_pixel(p: vec2<u32>) -> u32 {
     let id = vec3<u32>(p, 0u);
+    pixel_key = p.x + p.y * params.width;
     var sum = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
     var coverage = 0.0;
     for (var k = 0u; k < params.samples; k++) {

@@ -154,6 +154,10 @@ pub struct FieldDesc {
     pub sharp: bool,
     /// Transmission tint per crossing of a sharp surface (`Glass::tint`).
     pub tint: Vec3,
+    /// GGX roughness of a sharp surface (`Glass::roughness`).
+    pub roughness: f32,
+    /// A sharp surface that is a thin shell with no inside (a bubble: `Glass::thin`).
+    pub thin: bool,
 }
 
 impl FieldDesc {
@@ -205,9 +209,14 @@ pub struct MeshInstance {
     pub boundary: f32,
     /// World-space bounding box.
     pub bounds: (Vec3, Vec3),
-    /// A sharp interface (a closed glass mesh): rays refract at its triangles, and the grid
-    /// holds only its medium.
+    /// A sharp interface (a closed glass mesh, or a thin sheet): rays refract at its
+    /// triangles, and the grid holds only its medium.
     pub sharp: bool,
+    /// A thin sheet (`Glass::thin`, or an open flat mesh): a sharp surface with no inside.
+    pub thin: bool,
+    /// How the mesh is read was guessed from its shape (`Glass::thin` unset on an open
+    /// mesh): the frame warns, saying how to choose.
+    pub guessed: bool,
 }
 
 /// An opaque diffuse surface placed in the world (planes, boxes and spheres arrive here as
@@ -293,6 +302,21 @@ impl FrameDesc {
                     l.name, r.name, r.name
                 ));
             }
+        }
+        for m in self.meshes.iter().filter(|m| m.guessed) {
+            out.push(if m.thin {
+                format!(
+                    "{}: glass mesh \"{}\" is flat: rendered as a thin sheet (set thin = true on its glass to say so, \
+                     or thin = false to voxelize it as a solid)",
+                    m.origin, m.name
+                )
+            } else {
+                format!(
+                    "{}: glass mesh \"{}\" is open: rendered as the solid its surface voxelizes to (set thin = true on \
+                     its glass for a thin sheet, thin = false to say it is a solid, or close the mesh for a sharp surface)",
+                    m.origin, m.name
+                )
+            });
         }
         if self.photons == 0 && !self.lights.is_empty() && (!self.receivers.is_empty() || self.fog.is_some()) {
             out.push("photons = 0: no caustics or light shafts are traced (set scene.photons or --photons)".into());

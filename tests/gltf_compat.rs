@@ -359,27 +359,49 @@ fn a_file_without_a_camera_is_framed_over_its_whole_animation_in_a_studio() {
 }
 
 // -------------------------------------------------------------------------------------------
-// 5. Glass that encloses no volume.
+// 5. Thin-walled and volumetric glass.
 
+/// Transmission without KHR_materials_volume is thin-walled (the extension's definition): a pane
+/// made of one sheet renders as a sheet, without a word; a closed solid with such a material is
+/// named in a warning (it renders as a thin shell); with a thickness, the mesh decides.
 #[test]
-fn transmissive_sheets_are_named_in_a_warning_and_solids_are_not() {
+fn thin_walled_glass_is_a_sheet_and_a_solid_with_it_is_named_in_a_warning() {
     let mut g = GltfBuilder::new();
     g.uses("KHR_materials_transmission", false);
-    let glass = g.push("materials", json!({ "name": "Glass", "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } } }));
-    let pane = g.mesh(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2], [0, 2, 3]], Some(glass));
-    g.json["meshes"][pane]["name"] = json!("PaneMesh");
-    let solid = g.mesh(&TETRA, &TETRA_TRIS, Some(glass));
-    let window = g.push("nodes", json!({ "name": "Window", "mesh": pane }));
-    let again = g.push("nodes", json!({ "name": "Window2", "mesh": pane }));
-    let gem = g.push("nodes", json!({ "name": "Gem", "mesh": solid }));
-    g.scene("S", &[window, again, gem]);
+    g.uses("KHR_materials_volume", false);
+    let thin = g.push(
+        "materials",
+        json!({ "name": "Pane", "pbrMetallicRoughness": { "roughnessFactor": 0.25 }, "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } } }),
+    );
+    let thick = g.push(
+        "materials",
+        json!({ "name": "Solid", "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 }, "KHR_materials_volume": { "thicknessFactor": 0.1 } } }),
+    );
+    let pane = g.mesh(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2], [0, 2, 3]], Some(thin));
+    let shell = g.mesh(&TETRA, &TETRA_TRIS, Some(thin));
+    g.json["meshes"][shell]["name"] = json!("ShellMesh");
+    let solid = g.mesh(&TETRA, &TETRA_TRIS, Some(thick));
+    let nodes: Vec<usize> = [("Window", pane), ("Window2", pane), ("Bubble", shell), ("Gem", solid)]
+        .iter()
+        .map(|(name, mesh)| g.push("nodes", json!({ "name": name, "mesh": mesh })))
+        .collect();
+    g.scene("S", &nodes);
     let dir = tempfile::tempdir().unwrap();
-    let w = warnings(&g.write_glb(&dir.path().join("window.glb")));
-    let sheets: Vec<&String> = w.iter().filter(|w| w.contains("transmissive")).collect();
-    assert_eq!(sheets.len(), 1, "once per mesh: {w:?}");
-    for needle in ["window.glb: meshes[0] \"PaneMesh\" primitives[0] (on nodes[0] \"Window\")", "open surface", "will not show"] {
-        assert!(sheets[0].contains(needle), "{needle:?} in {}", sheets[0]);
+    let path = g.write_glb(&dir.path().join("window.glb"));
+    let w = warnings(&path);
+    let shells: Vec<&String> = w.iter().filter(|w| w.contains("thin-walled")).collect();
+    assert_eq!(shells.len(), 1, "the closed thin-walled solid only, once: {w:?}");
+    for needle in ["window.glb: meshes[1] \"ShellMesh\" primitives[0] (on nodes[2] \"Bubble\")", "thin shell", "thicknessFactor > 0"] {
+        assert!(shells[0].contains(needle), "{needle:?} in {}", shells[0]);
     }
+    let s = load(&path, &ImportOptions::default()).unwrap();
+    let desc = evaluate(&s.scene, 0.0, &EvalOptions::default()).unwrap();
+    let mesh = |name: &str| desc.meshes.iter().find(|m| m.name == name).unwrap_or_else(|| panic!("{name} in {:?}", desc.meshes));
+    let (window, bubble, gem) = (mesh("Window"), mesh("Bubble"), mesh("Gem"));
+    assert_eq!((window.glass.thin, window.thin, window.sharp, window.glass.roughness), (Some(true), true, true, 0.25));
+    assert!(bubble.thin && bubble.sharp);
+    assert_eq!((gem.glass.thin, gem.thin, gem.sharp, gem.glass.roughness), (None, false, true, 1.0), "a solid; glTF's default roughness is 1");
+    assert!(desc.warnings().iter().all(|w| !w.contains("glass mesh")), "nothing was guessed: {:?}", desc.warnings());
 }
 
 // -------------------------------------------------------------------------------------------

@@ -47,7 +47,7 @@ fn write_ball(dir: &std::path::Path) {
     for ext in ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume"] {
         g.uses(ext, false);
     }
-    let m = g.push("materials", json!({ "extensions": {
+    let m = g.push("materials", json!({ "pbrMetallicRoughness": { "roughnessFactor": 0.0 }, "extensions": {
         "KHR_materials_transmission": { "transmissionFactor": 1.0 },
         "KHR_materials_ior": { "ior": IOR },
         "KHR_materials_volume": { "thicknessFactor": 0.8, "attenuationColor": COLOR, "attenuationDistance": DISTANCE } } }));

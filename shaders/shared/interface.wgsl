@@ -79,7 +79,7 @@ fn box_span(o: vec3<f32>, d: vec3<f32>, h: vec3<f32>) -> Span {
 fn analytic_span(f: Interface, o: vec3<f32>, d: vec3<f32>) -> Span {
     let lo = (f.world_to_local * vec4<f32>(o, 1.0)).xyz;
     let ld = (f.world_to_local * vec4<f32>(d, 0.0)).xyz;
-    if f.kind == INTERFACE_SPHERE {
+    if (f.kind & INTERFACE_SHAPE) == INTERFACE_SPHERE {
         return sphere_span(lo, ld, f.half_size.x);
     }
     return box_span(lo, ld, f.half_size);
@@ -98,7 +98,8 @@ fn analytic_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, best: SurfaceHit) -> Sur
     let count = arrayLength(&interfaces);
     for (var i = 0u; i < count; i++) {
         let f = interfaces[i];
-        if f.kind == INTERFACE_NONE || f.kind == INTERFACE_MESH {
+        let shape = f.kind & INTERFACE_SHAPE;
+        if shape == INTERFACE_NONE || shape == INTERFACE_MESH {
             break;
         }
         let s = analytic_span(f, o, d);
@@ -213,8 +214,10 @@ fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
 }
 
 // What happens at one crossing: both outgoing directions, the reflectance R (1 under total
-// internal reflection, when `transmitted` is meaningless), the transmitted branch's tint and the
-// media on the far side.
+// internal reflection, when `transmitted` is meaningless), the transmitted branch's tint, the
+// media on the far side, and the share of each branch a rough surface's microfacets let through
+// (Smith's masking G₁ of the outgoing direction; 1 on a polished surface, 0 where the sampled
+// microfacet sent the light back into the surface).
 struct Crossing {
     reflected: vec3<f32>,
     transmitted: vec3<f32>,
@@ -223,21 +226,87 @@ struct Crossing {
     beyond: Media,
     // The surface normal facing the incident side.
     facing: vec3<f32>,
+    reflected_share: f32,
+    transmitted_share: f32,
 }
 
-fn cross_interface(d: vec3<f32>, hit: SurfaceHit, media: Media) -> Crossing {
-    let beyond = media_crossed(media, hit.interface_id);
-    let eta = beyond.ior / media.ior;
-    var n = select(hit.normal, -hit.normal, dot(hit.normal, d) > 0.0);
-    let cos_i = -dot(d, n);
-    let reflectance = fresnel_dielectric(cos_i, eta);
-    let reflected = d + 2.0 * cos_i * n;
-    var transmitted = reflected;
-    if reflectance < 1.0 {
-        let cos_t = sqrt(1.0 - (1.0 - cos_i * cos_i) / (eta * eta));
-        transmitted = normalize(d / eta + (cos_i / eta - cos_t) * n);
+// An orthonormal basis (t, b, n) around unit n (Duff et al. 2017, "Building an Orthonormal
+// Basis, Revisited").
+fn basis_around(n: vec3<f32>) -> mat3x3<f32> {
+    let s = sign(n.z) + f32(n.z == 0.0);
+    let a = -1.0 / (s + n.z);
+    let b = n.x * n.y * a;
+    return mat3x3<f32>(vec3<f32>(1.0 + s * n.x * n.x * a, s * b, -s * n.x), vec3<f32>(b, s + n.y * n.y * a, -n.y), n);
+}
+
+// A microfacet normal of a GGX surface of roughness α seen from unit w (local frame, normal +z,
+// w.z > 0), drawn from the distribution of visible normals D_w(m) = G₁(w) max(0, w·m) D(m) / w.z
+// by two uniform numbers u (Heitz 2018, "Sampling the GGX Distribution of Visible Normals").
+fn ggx_visible_normal(w: vec3<f32>, alpha: f32, u: vec2<f32>) -> vec3<f32> {
+    // Stretch to the hemisphere configuration, sample the projected disc, unstretch.
+    let vh = normalize(vec3<f32>(alpha * w.x, alpha * w.y, w.z));
+    let len2 = vh.x * vh.x + vh.y * vh.y;
+    let t1 = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(-vh.y, vh.x, 0.0) * inverseSqrt(len2), len2 > 0.0);
+    let t2 = cross(vh, t1);
+    let r = sqrt(u.x);
+    let phi = 6.283185307 * u.y;
+    let p1 = r * cos(phi);
+    let s = 0.5 * (1.0 + vh.z);
+    let p2 = (1.0 - s) * sqrt(1.0 - p1 * p1) + s * r * sin(phi);
+    let nh = p1 * t1 + p2 * t2 + sqrt(max(0.0, 1.0 - p1 * p1 - p2 * p2)) * vh;
+    return normalize(vec3<f32>(alpha * nh.x, alpha * nh.y, max(1e-6, nh.z)));
+}
+
+// Smith's masking for GGX of a direction at cos θ = c from the normal (c > 0):
+// G₁ = 2 / (1 + √(1 + α² tan²θ)).
+fn smith_g1(c: f32, alpha: f32) -> f32 {
+    let c2 = max(c * c, 1e-12);
+    return 2.0 / (1.0 + sqrt(1.0 + alpha * alpha * (1.0 - c2) / c2));
+}
+
+// The crossing of interface `hit` by direction d from `media`, with two uniform numbers u that
+// pick a microfacet on a rough surface (unused on a polished one). A solid's surface refracts
+// into the medium beyond; a thin sheet reflects the Fresnel of a thin slab summed over its
+// inner reflections, R_thin = 2R / (1 + R), and passes the rest straight through — the light
+// refracted in and back out leaves parallel to how it came (on a rough sheet: the reflection
+// mirrored through the sheet, as glTF's thin-walled transmission has it).
+fn cross_interface(d: vec3<f32>, hit: SurfaceHit, media: Media, u: vec2<f32>) -> Crossing {
+    let f = interfaces[hit.interface_id];
+    let thin = (f.kind & INTERFACE_THIN) != 0u;
+    // A sheet's far side is the medium it stands in; its own glass sets the reflectance.
+    var beyond = media;
+    var eta = f.ior / media.ior;
+    if !thin {
+        beyond = media_crossed(media, hit.interface_id);
+        eta = beyond.ior / media.ior;
     }
-    return Crossing(reflected, transmitted, reflectance, interfaces[hit.interface_id].tint, beyond, n);
+    let n = select(hit.normal, -hit.normal, dot(hit.normal, d) > 0.0);
+    let alpha = f.roughness * f.roughness;
+    var m = n;
+    if alpha > 0.0 {
+        let frame = basis_around(n);
+        m = frame * ggx_visible_normal(-d * frame, alpha, u);
+    }
+    let cos_i = -dot(d, m);
+    var reflectance = fresnel_dielectric(cos_i, eta);
+    let reflected = d + 2.0 * cos_i * m;
+    var transmitted = reflected;
+    if thin {
+        transmitted = reflected - 2.0 * dot(reflected, n) * n;
+        reflectance = 2.0 * reflectance / (1.0 + reflectance);
+    } else if reflectance < 1.0 {
+        let cos_t = sqrt(1.0 - (1.0 - cos_i * cos_i) / (eta * eta));
+        transmitted = normalize(d / eta + (cos_i / eta - cos_t) * m);
+    }
+    var reflected_share = 1.0;
+    var transmitted_share = 1.0;
+    if alpha > 0.0 {
+        let cr = dot(reflected, n);
+        let ct = -dot(transmitted, n);
+        reflected_share = smith_g1(max(cr, 0.0), alpha) * step(0.0, cr);
+        transmitted_share = smith_g1(max(ct, 0.0), alpha) * step(0.0, ct);
+    }
+    return Crossing(reflected, transmitted, reflectance, f.tint, beyond, n, reflected_share, transmitted_share);
 }
 
 // A point just off the surface on the side a new direction w leaves to, so the next query

@@ -155,7 +155,7 @@ struct Interface {
     tint: vec3<f32>,
     ior: f32,
     absorption: vec3<f32>,
-    _pad0: u32,
+    roughness: f32,
 }
 
 struct ReceiverGpu {
@@ -272,6 +272,8 @@ const INTERFACE_NONE: u32 = 0u;
 const INTERFACE_SPHERE: u32 = 1u;
 const INTERFACE_BOX: u32 = 2u;
 const INTERFACE_MESH: u32 = 3u;
+const INTERFACE_SHAPE: u32 = 0xffu;
+const INTERFACE_THIN: u32 = 0x100u;
 const INTERFACE_BIT: u32 = 0x80000000u;
 
 const FIELD_SPHERE: u32 = 0u;

@@ -45,6 +45,52 @@ pub fn slab_transmittance(eta: f32) -> f32 {
     (1.0 - r) / (1.0 + r)
 }
 
+/// Reflectance of a thin sheet of clear glass whose surfaces reflect `r` each: the first
+/// reflection plus every one that leaves after bouncing inside, R + T²R / (1 − R²) = 2R / (1 + R)
+/// (incoherent sums: a pane, not a soap film's interference). What passes, 1 − 2R/(1 + R) =
+/// (1 − R)/(1 + R), goes on undeviated.
+pub fn thin_sheet_reflectance(r: f32) -> f32 {
+    2.0 * r / (1.0 + r)
+}
+
+/// GGX's distribution of microfacet normals (Trowbridge–Reitz; Walter et al. 2007, eq. 33) at
+/// cos θₘ = `cos_m` from the mean normal, for α = roughness²:
+/// D(m) = α² / (π cos⁴θₘ (α² + tan²θₘ)²), normalized so ∫ D(m) cos θₘ dω = 1.
+pub fn ggx_distribution(cos_m: f32, alpha: f32) -> f32 {
+    if cos_m <= 0.0 {
+        return 0.0;
+    }
+    let c2 = cos_m * cos_m;
+    let tan2 = (1.0 - c2) / c2;
+    let a2 = alpha * alpha;
+    a2 / (std::f32::consts::PI * c2 * c2 * (a2 + tan2).powi(2))
+}
+
+/// Smith's masking for GGX of a direction at cos θ = `c` (> 0) from the mean normal:
+/// G₁ = 2 / (1 + √(1 + α² tan²θ)) — the share of the microfacets facing that direction it sees.
+pub fn smith_g1(c: f32, alpha: f32) -> f32 {
+    let c2 = (c * c).max(1e-12);
+    2.0 / (1.0 + (1.0 + alpha * alpha * (1.0 - c2) / c2).sqrt())
+}
+
+/// A microfacet normal drawn from GGX's distribution of normals visible from `w` (local frame:
+/// mean normal +z, w.z > 0), D_w(m) = G₁(w) max(0, w·m) D(m) / w.z, by two uniform numbers `u`
+/// (Heitz 2018, "Sampling the GGX Distribution of Visible Normals", JCGT 7(4)).
+pub fn ggx_visible_normal(w: Vec3, alpha: f32, u: [f32; 2]) -> Vec3 {
+    // Stretch to the configuration of a hemisphere, sample its projected disc, unstretch.
+    let vh = Vec3::new(alpha * w.x, alpha * w.y, w.z).normalize();
+    let len2 = vh.x * vh.x + vh.y * vh.y;
+    let t1 = if len2 > 0.0 { Vec3::new(-vh.y, vh.x, 0.0) / len2.sqrt() } else { Vec3::X };
+    let t2 = vh.cross(t1);
+    let r = u[0].sqrt();
+    let phi = std::f32::consts::TAU * u[1];
+    let p1 = r * phi.cos();
+    let s = 0.5 * (1.0 + vh.z);
+    let p2 = (1.0 - s) * (1.0 - p1 * p1).sqrt() + s * r * phi.sin();
+    let nh = p1 * t1 + p2 * t2 + (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt() * vh;
+    Vec3::new(alpha * nh.x, alpha * nh.y, nh.z.max(1e-6)).normalize()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -84,5 +130,77 @@ mod tests {
         assert!((t.x - 30f32.to_radians().sin() / 1.5).abs() < 1e-6);
         assert!(refract(Vec3::new(0.8, -0.6, 0.0), n, 1.0 / 1.5).is_none());
         assert!((reflect(d, n) - Vec3::new(d.x, -d.y, 0.0)).length() < 1e-6);
+    }
+
+    /// A thin pane: reflected + transmitted = 1 for clear glass, and the transmitted fraction is
+    /// the thick slab's (1 − R)/(1 + R) — the same sum of inner reflections.
+    #[test]
+    fn a_thin_sheet_reflects_like_a_slab() {
+        for deg in [0.0f32, 30.0, 60.0, 85.0] {
+            let r = fresnel_dielectric(deg.to_radians().cos(), 1.5);
+            let sheet = thin_sheet_reflectance(r);
+            assert!((1.0 - sheet - (1.0 - r) / (1.0 + r)).abs() < 1e-6);
+            // The series summed term by term: R, then T²R, T²R³, … leaving after 2k inner bounces.
+            let series = r + (0..200).map(|k| (1.0 - r).powi(2) * r.powi(2 * k + 1)).sum::<f32>();
+            assert!((sheet - series).abs() < 1e-5, "{deg}°: {sheet} vs {series}");
+        }
+        assert!((thin_sheet_reflectance(0.04) - 0.076_923).abs() < 1e-5);
+    }
+
+    /// Seen head-on, the visible normals are D(m) cos θₘ itself, whose CDF in tan²θₘ is the
+    /// closed form x / (α² + x); the sampler must follow it (Kolmogorov–Smirnov distance).
+    #[test]
+    fn visible_normals_follow_ggx_head_on() {
+        for alpha in [0.05f32, 0.3, 0.8] {
+            let n = 4096;
+            let mut tan2: Vec<f32> = (0..n)
+                .map(|i| {
+                    // A stratified 64 × 64 grid of (u₀, u₁).
+                    let u = [((i / 64) as f32 + 0.5) / 64.0, ((i % 64) as f32 + 0.5) / 64.0];
+                    let m = ggx_visible_normal(Vec3::Z, alpha, u);
+                    (1.0 - m.z * m.z) / (m.z * m.z)
+                })
+                .collect();
+            tan2.sort_by(f32::total_cmp);
+            let ks = tan2
+                .iter()
+                .enumerate()
+                .map(|(i, &x)| (x / (alpha * alpha + x) - (i as f32 + 0.5) / n as f32).abs())
+                .fold(0.0f32, f32::max);
+            assert!(ks < 0.02, "α = {alpha}: KS distance {ks}");
+        }
+    }
+
+    /// Seen obliquely, the mean of m·z over the sampler's normals equals the integral of
+    /// D_w(m) (m·z) over the hemisphere, by quadrature of GGX's own D and G₁ (and D_w integrates
+    /// to 1, which checks D and G₁ against each other).
+    #[test]
+    fn visible_normals_follow_ggx_obliquely() {
+        let alpha = 0.4f32;
+        let w = Vec3::new(60f32.to_radians().sin(), 0.0, 60f32.to_radians().cos());
+        let g1 = smith_g1(w.z, alpha);
+        let (mut total, mut mean_z) = (0.0f64, 0.0f64);
+        let (nt, np) = (2000, 400);
+        for i in 0..nt {
+            let theta = (i as f32 + 0.5) / nt as f32 * std::f32::consts::FRAC_PI_2;
+            for j in 0..np {
+                let phi = (j as f32 + 0.5) / np as f32 * std::f32::consts::TAU;
+                let m = Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
+                let d_w = g1 * w.dot(m).max(0.0) * ggx_distribution(m.z, alpha) / w.z;
+                let d_omega = theta.sin() * (std::f32::consts::FRAC_PI_2 / nt as f32) * (std::f32::consts::TAU / np as f32);
+                total += (d_w * d_omega) as f64;
+                mean_z += (d_w * d_omega * m.z) as f64;
+            }
+        }
+        assert!((total - 1.0).abs() < 5e-3, "∫ D_w = {total}");
+        let n = 256;
+        let sampled: f64 = (0..n * n)
+            .map(|i| {
+                let u = [((i / n) as f32 + 0.5) / n as f32, ((i % n) as f32 + 0.5) / n as f32];
+                ggx_visible_normal(w, alpha, u).z as f64
+            })
+            .sum::<f64>()
+            / (n * n) as f64;
+        assert!((sampled - mean_z).abs() < 2e-3, "E[m·z] sampled {sampled} vs quadrature {mean_z}");
     }
 }

@@ -202,9 +202,11 @@ pub struct MediumExtras {
     pub scattering: Option<[f32; 3]>,
     pub g: Option<f32>,
     pub boundary: Option<f32>,
+    /// A thin sheet (true) or a solid (false), overriding what KHR_materials_volume says.
+    pub thin: Option<bool>,
 }
 
-const MATERIAL_KEYS: &[&str] = &["absorption", "scattering", "g", "boundary"];
+const MATERIAL_KEYS: &[&str] = &["absorption", "scattering", "g", "boundary", "thin"];
 
 pub fn medium(material: &gltf::Material, file: &str, what: &str, warnings: &mut Vec<String>) -> Result<Option<MediumExtras>> {
     let Some(m) = refrakt_object::<MediumExtras>(material.extras(), file, what, MATERIAL_KEYS, warnings)? else { return Ok(None) };

@@ -122,6 +122,10 @@ impl<'a> Materials<'a> {
         if let Some(g) = medium.g {
             glass.g = g;
         }
+        if transmission > 0.0 {
+            glass.roughness = transmission_roughness(m, file, what, warnings)?;
+            glass.thin = medium.thin.or(thin_walled(m));
+        }
         Ok(glass)
     }
 
@@ -141,6 +145,31 @@ impl<'a> Materials<'a> {
         let decoded = Arc::new(decoded);
         self.textures.insert(image, decoded.clone());
         Ok(decoded)
+    }
+}
+
+/// KHR_materials_transmission's roughness is the material's metallic-roughness roughness
+/// (GGX, α = roughness²).
+fn transmission_roughness(m: &gltf::Material, file: &str, what: &str, warnings: &mut Vec<String>) -> Result<f32> {
+    let pbr = m.pbr_metallic_roughness();
+    let roughness = pbr.roughness_factor();
+    if !(0.0..=1.0).contains(&roughness) {
+        bail!("{file}: {what}: roughnessFactor is {roughness}; it must be from 0 to 1");
+    }
+    if pbr.metallic_roughness_texture().is_some() {
+        warnings.push(format!("{file}: {what}: a metallic-roughness texture on glass is not used; its factor {roughness} is"));
+    }
+    Ok(roughness)
+}
+
+/// Transmission without KHR_materials_volume is thin-walled, by that extension's definition: a
+/// sheet with no inside. With a volume the mesh decides (`scene::eval`: closed meshes are
+/// solids) — also at thicknessFactor 0 when an attenuation is given, since only a volume can
+/// attenuate; a volume with neither is thin-walled again, as the extension says.
+fn thin_walled(m: &gltf::Material) -> Option<bool> {
+    match m.volume() {
+        Some(v) if v.thickness_factor() > 0.0 || v.attenuation_distance().is_finite() => None,
+        _ => Some(true),
     }
 }
 

@@ -212,8 +212,8 @@ impl<'a> Builder<'a, '_> {
         let single = parts.len() == 1;
         for part in parts {
             let MaterialEntry(material, boundary, _) = self.material(part.material)?;
-            if matches!(*material.borrow(), Material::Glass(_)) {
-                self.warn_if_no_volume(g, &m, &part);
+            if let Material::Glass(glass) = &*material.borrow() {
+                self.warn_if_no_volume(g, &m, &part, glass.thin);
             }
             let source = format!("{} meshes[{}]{}", self.file(), m.index(), mesh::quoted(m.name()));
             let shape = Shape::Mesh { mesh: part.rest.clone(), source, boundary };
@@ -244,23 +244,35 @@ impl<'a> Builder<'a, '_> {
         Ok(())
     }
 
-    /// Transmissive geometry that encloses no volume (a window pane modelled as one sheet)
-    /// would vanish from the voxel grid without a word: say so, once per mesh primitive.
-    fn warn_if_no_volume(&mut self, g: &gltf::Node, m: &gltf::Mesh, part: &Part) {
+    /// How a transmissive primitive will render when its material and its shape disagree, once
+    /// per mesh primitive: a closed solid whose material is thin-walled (transmission without
+    /// KHR_materials_volume) renders as a thin shell, and a closed but flat solid encloses
+    /// nothing to voxelize. (An open mesh with a thickness is a guess the frame warns of.)
+    fn warn_if_no_volume(&mut self, g: &gltf::Node, m: &gltf::Mesh, part: &Part, thin: Option<bool>) {
         if !self.sheets_warned.insert((m.index(), part.primitive)) {
             return;
         }
-        if let Some(why) = mesh::encloses_no_volume(&part.rest) {
+        let what = format!(
+            "{}: meshes[{}]{} primitives[{}] (on nodes[{}]{})",
+            self.file(),
+            m.index(),
+            mesh::quoted(m.name()),
+            part.primitive,
+            g.index(),
+            mesh::quoted(g.name())
+        );
+        let why = mesh::encloses_no_volume(&part.rest);
+        if thin == Some(true) && why.is_none() {
             self.warnings.push(format!(
-                "{}: meshes[{}]{} primitives[{}] (on nodes[{}]{}) has a transmissive material, but {why}; refrakt renders \
-                 glass as the solid a closed mesh encloses, so it will not show (give the sheet a thickness, e.g. Blender's \
-                 Solidify modifier, and re-export)",
-                self.file(),
-                m.index(),
-                mesh::quoted(m.name()),
-                part.primitive,
-                g.index(),
-                mesh::quoted(g.name())
+                "{what} is a closed solid, but its material is thin-walled (transmission without KHR_materials_volume, as \
+                 glTF defines it), so it renders as a thin shell that bends nothing; for solid glass give the material \
+                 KHR_materials_volume with thicknessFactor > 0, or extras.refrakt.thin = false"
+            ));
+        } else if let (Some(false), Some(why)) = (thin, why.filter(|w| w.contains("flat"))) {
+            self.warnings.push(format!(
+                "{what}: extras.refrakt.thin is false, but {why}; refrakt renders such glass as the solid a closed mesh \
+                 encloses, so it will not show (leave thin unset for a sheet, or give the sheet a thickness, e.g. \
+                 Blender's Solidify modifier, and re-export)"
             ));
         }
     }

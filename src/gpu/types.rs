@@ -261,7 +261,7 @@ gpu_struct! {
         pub world_to_local: [[f32; 4]; 4],
         /// Box half extents, sphere radius in x (local units).
         pub half_size: [f32; 3],
-        /// One of [`interface_kind`].
+        /// One of [`interface_kind`]'s shapes, with [`interface_kind::THIN`] set for a sheet.
         pub kind: u32,
         /// Transmission tint per crossing (KHR_materials_transmission's base colour), rgb.
         pub tint: [f32; 3],
@@ -269,7 +269,8 @@ gpu_struct! {
         pub ior: f32,
         /// Absorption coefficient inside, per metre, rgb (Beer–Lambert over the exact path).
         pub absorption: [f32; 3],
-        pub _pad0: u32,
+        /// GGX roughness (α = roughness²); 0 is a polished surface.
+        pub roughness: f32,
     }
 }
 
@@ -447,6 +448,10 @@ pub mod interface_kind {
     pub const SPHERE: u32 = 1;
     pub const BOX: u32 = 2;
     pub const MESH: u32 = 3;
+    /// The bits of `kind` that hold the shape.
+    pub const SHAPE: u32 = 0xff;
+    /// Set in `kind` for a thin sheet or shell: no inside, light passes undeviated or reflects.
+    pub const THIN: u32 = 0x100;
     /// Set in `BvhTriangle::receiver` of an interface's triangle (low bits: the interface).
     pub const BIT: u32 = 0x8000_0000;
 }

@@ -456,7 +456,7 @@ impl LuaObject for Shape {
 // ---------------------------------------------------------------------------------------------
 // Materials.
 
-const GLASS_FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g", "tint"];
+const GLASS_FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin"];
 const DIFFUSE_FIELDS: &[&str] = &["color"];
 
 impl LuaObject for Material {
@@ -479,6 +479,8 @@ impl LuaObject for Material {
             (Material::Glass(g), "scattering") => vec_value(lua, g.scattering),
             (Material::Glass(g), "g") => Ok(number_value(g.g)),
             (Material::Glass(g), "tint") => vec_value(lua, g.tint),
+            (Material::Glass(g), "roughness") => Ok(number_value(g.roughness)),
+            (Material::Glass(g), "thin") => Ok(g.thin.map_or(Value::Nil, Value::Boolean)),
             // Transmittance over one metre (the color a 1 m thick piece has).
             (Material::Glass(g), "color") => vec_value(lua, (-g.absorption).exp()),
             (Material::Glass(_), "distance") => Ok(Value::Number(1.0)),
@@ -502,6 +504,21 @@ impl LuaObject for Material {
                     return Err(error_at(lua, &format!("glass.tint is a fraction of the light passed per surface, each channel from 0 to 1 (got {c})")));
                 }
                 g.tint = c;
+            }
+            (Material::Glass(g), "roughness") => {
+                g.roughness = cv::number_in(lua, name, &value, Some(0.0), Some(1.0), "a number from 0 (polished) to 1")? as f32
+            }
+            (Material::Glass(g), "thin") => {
+                g.thin = match value {
+                    Value::Nil => None,
+                    Value::Boolean(b) => Some(b),
+                    other => {
+                        return Err(error_at(
+                            lua,
+                            &format!("glass.thin is true (a sheet), false (a solid) or nil (decided by the mesh), got {}", other.type_name()),
+                        ));
+                    }
+                }
             }
             (Material::Glass(g), "g") => {
                 g.g = cv::number_in(lua, name, &value, Some(-0.99), Some(0.99), "a number from −0.99 to 0.99")? as f32

@@ -30,10 +30,11 @@ pub fn table(desc: &FrameDesc) -> Vec<Interface> {
     let analytic = desc.fields.iter().filter(|f| f.sharp).map(analytic_record);
     let meshes = sharp_meshes(desc).map(|m| Interface {
         world_to_local: m.world.inverse().to_cols_array_2d(),
-        kind: interface_kind::MESH,
+        kind: interface_kind::MESH | thin_bit(m.thin),
         tint: m.glass.tint.into(),
         ior: m.glass.ior,
         absorption: m.glass.absorption.into(),
+        roughness: m.glass.roughness,
         ..Default::default()
     });
     analytic.chain(meshes).chain(std::iter::once(Interface::default())).collect()
@@ -48,12 +49,16 @@ fn analytic_record(f: &FieldDesc) -> Interface {
     Interface {
         world_to_local: f.world_to_local.to_cols_array_2d(),
         half_size: f.half_size.into(),
-        kind,
+        kind: kind | thin_bit(f.thin),
         tint: f.tint.into(),
         ior: f.ior,
         absorption: f.absorption.into(),
-        _pad0: 0,
+        roughness: f.roughness,
     }
+}
+
+fn thin_bit(thin: bool) -> u32 {
+    if thin { interface_kind::THIN } else { 0 }
 }
 
 fn sharp_meshes(desc: &FrameDesc) -> impl Iterator<Item = &MeshInstance> {
@@ -82,12 +87,12 @@ pub fn triangles(desc: &FrameDesc) -> (Vec<Triangle>, Vec<[Vec3; 3]>) {
     (triangles, normals)
 }
 
-/// The sharp interfaces whose solid contains `p`, outermost first (by the size of their boxes),
+/// The sharp interfaces whose solid contains `p` (thin sheets contain nothing), outermost first (by the size of their boxes),
 /// packed as the shaders' media stack (`shared/interface.wgsl`): interface index + 1 in 16 bits,
 /// two to a word, at most four. Lights and the camera inside glass start their paths with it.
 pub fn media_at(desc: &FrameDesc, p: Vec3) -> [u32; 2] {
-    let analytic = desc.fields.iter().filter(|f| f.sharp).map(|f| (f.bounds, field_contains(f, p)));
-    let meshes = sharp_meshes(desc).map(|m| (m.bounds, m.mesh.encloses(m.world, p)));
+    let analytic = desc.fields.iter().filter(|f| f.sharp).map(|f| (f.bounds, !f.thin && field_contains(f, p)));
+    let meshes = sharp_meshes(desc).map(|m| (m.bounds, !m.thin && m.mesh.encloses(m.world, p)));
     let mut around: Vec<(f32, u32)> = analytic
         .chain(meshes)
         .enumerate()

@@ -186,7 +186,21 @@ fn mesh_instance(node: &Node, mesh: &Arc<MeshData>, world: Mat4, glass: Glass, b
     let (lo, hi) = mesh.bounds().ok_or_else(|| anyhow!("{}: the mesh of node {} has no vertices", node.origin, display_name(node)))?;
     let h = 0.5 * (hi - lo);
     let centre = Mat4::from_translation(0.5 * (lo + hi));
-    let sharp = is_sharp(&glass, boundary) && mesh.is_closed();
+    // A glass mesh whose material does not say whether it is a sheet: a flat one is a pane,
+    // a closed one a solid, an open curved one is voxelized as the solid it bounds (robust to
+    // holes, as before sharp interfaces) — the first and last are guesses the frame warns of.
+    let refracts = is_sharp(&glass, boundary);
+    let closed = refracts && mesh.is_closed();
+    let flat = refracts && glass.thin.is_none() && mesh.is_flat();
+    let guessed = refracts && glass.thin.is_none() && (flat || !closed);
+    let thin = refracts && glass.thin.unwrap_or(flat);
+    let sharp = closed || thin;
+    let mut glass = glass;
+    if thin {
+        // A sheet has no inside to absorb or scatter in.
+        glass.absorption = Vec3::ZERO;
+        glass.scattering = Vec3::ZERO;
+    }
     Ok(MeshInstance {
         name: node.name.clone(),
         origin: node.origin.0.clone(),
@@ -196,6 +210,8 @@ fn mesh_instance(node: &Node, mesh: &Arc<MeshData>, world: Mat4, glass: Glass, b
         boundary: boundary.unwrap_or(-1.0),
         bounds: world_bounds(&(world * centre), h),
         sharp,
+        thin,
+        guessed,
     })
 }
 
@@ -227,6 +243,9 @@ fn field_of(node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) 
         Shape::Field { size, .. } => (FieldKind::Sampled(Arc::default()), *size * 0.5, 1.0, 0.0),
         Shape::Mesh { .. } | Shape::Plane { .. } => unreachable!("meshes and planes are not analytic fields"),
     };
+    let sharp = matches!(shape, Shape::Sphere { .. } | Shape::Box { .. }) && is_sharp(&glass, shape.boundary());
+    // A thin sphere or box is a shell (a soap bubble), sharp or nothing.
+    let thin = sharp && glass.thin == Some(true);
     FieldDesc {
         name: node.name.clone(),
         kind,
@@ -235,12 +254,14 @@ fn field_of(node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) 
         ior,
         gradient,
         boundary: shape.boundary().unwrap_or(-1.0),
-        sharp: matches!(shape, Shape::Sphere { .. } | Shape::Box { .. }) && is_sharp(&glass, shape.boundary()),
+        sharp,
         scale: uniform,
-        absorption: glass.absorption,
-        scattering: glass.scattering,
+        absorption: if thin { Vec3::ZERO } else { glass.absorption },
+        scattering: if thin { Vec3::ZERO } else { glass.scattering },
         g: glass.g,
         tint: glass.tint,
+        roughness: glass.roughness,
+        thin,
         bounds: world_bounds(&world, half_size),
     }
 }

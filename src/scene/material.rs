@@ -19,6 +19,14 @@ pub struct Glass {
     /// [0, 1] (KHR_materials_transmission's base colour: coloured glass whose colour does not
     /// deepen with thickness — that is `absorption`). Applies at sharp interfaces.
     pub tint: Vec3,
+    /// GGX roughness of the surface, 0 (polished) to 1 (KHR_materials_transmission's roughness,
+    /// α = roughness²): frosted glass blurs what it refracts and reflects. Sharp interfaces only.
+    pub roughness: f32,
+    /// A thin sheet (a window pane, a soap film): light crossing it is reflected by the Fresnel
+    /// of a thin slab or goes straight through, tinted; it has no inside. `None`: decided by the
+    /// mesh (closed: a solid; open and flat: a sheet; open and curved: a voxelized solid — the
+    /// last two with a warning that it was a guess).
+    pub thin: Option<bool>,
 }
 
 impl Glass {
@@ -32,7 +40,7 @@ impl Glass {
 
 impl Default for Glass {
     fn default() -> Self {
-        Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0, tint: Vec3::ONE }
+        Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0, tint: Vec3::ONE, roughness: 0.0, thin: None }
     }
 }
 

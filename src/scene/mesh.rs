@@ -87,6 +87,18 @@ impl MeshData {
             .collect()
     }
 
+    /// Whether every corner lies in one plane (to 10⁻⁴ of the mesh's size): a pane modelled as
+    /// a sheet. The plane is the one through the first triangle with area.
+    pub fn is_flat(&self) -> bool {
+        let Some((lo, hi)) = self.bounds() else { return false };
+        let tolerance = 1e-4 * (hi - lo).length();
+        let plane = self.triangles.iter().find_map(|t| {
+            let [a, b, c] = t.map(|i| self.positions[i as usize]);
+            (b - a).cross(c - a).try_normalize().map(|n| (n, a))
+        });
+        plane.is_some_and(|(n, a)| self.positions.iter().all(|p| (*p - a).dot(n).abs() <= tolerance))
+    }
+
     /// Whether the surface is closed: every edge (corners welded by position) is shared by an
     /// even number of triangles, so a line crossing the surface alternates outside and inside —
     /// what a sharp interface needs to know which medium a ray is in. Triangles without area

@@ -146,19 +146,22 @@ def material_extras(material, warnings):
         out = {"absorption": medium.absorption, "scattering": medium.scattering, "g": medium.g}
     if s.boundary > 0.0:
         out["boundary"] = s.boundary
+    if s.surface != "AUTO":
+        out["thin"] = s.surface == "THIN"
     return out or None
 
 
 def glass_surface(material):
-    """(ior, color) of a Glass or Refraction BSDF on the material's surface, which the glTF
-    exporter does not understand (it reads only the Principled BSDF); None otherwise."""
+    """(ior, color, roughness) of a Glass or Refraction BSDF on the material's surface, which the
+    glTF exporter does not understand (it reads only the Principled BSDF); None otherwise."""
     out = _output_node(material)
     if out is None or not out.inputs["Surface"].is_linked:
         return None
     node = out.inputs["Surface"].links[0].from_node
     if node.bl_idname not in ("ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction"):
         return None
-    return float(node.inputs["IOR"].default_value), list(node.inputs["Color"].default_value)[:3]
+    inputs = node.inputs
+    return float(inputs["IOR"].default_value), list(inputs["Color"].default_value)[:3], float(inputs["Roughness"].default_value)
 
 
 def attenuation(absorption):

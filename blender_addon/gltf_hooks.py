@@ -69,13 +69,19 @@ class RefraktGltfExtension:
         ext = gltf2_material.extensions
         glass = extras.glass_surface(blender_material)
         if glass is not None and not _has(ext, "KHR_materials_transmission"):
-            ior, color = glass
+            ior, color, roughness = glass
             self._add(ext, "KHR_materials_transmission", {"transmissionFactor": 1.0})
             self._add(ext, "KHR_materials_ior", {"ior": ior})
             pbr = gltf2_material.pbr_metallic_roughness
             if pbr is not None:
                 pbr.base_color_factor = color + [1.0]
                 pbr.metallic_factor = 0.0
+                pbr.roughness_factor = roughness
+        if _has(ext, "KHR_materials_transmission") and not _has(ext, "KHR_materials_volume") \
+                and blender_material.refrakt.surface != "THIN":
+            # Transmission alone is thin-walled in glTF; Cycles' glass is a solid, so say so (the
+            # thickness is a hint for rasterizers; refrakt traces the real geometry).
+            self._add(ext, "KHR_materials_volume", {"thicknessFactor": 1.0})
         if medium and any(medium.get("absorption", ())) and _has(ext, "KHR_materials_transmission"):
             color, distance = extras.attenuation(medium["absorption"])
             # Thickness matters only to rasterizers that fake refraction; without one a viewer

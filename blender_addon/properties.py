@@ -240,6 +240,17 @@ class RefraktMaterialSettings(bpy.types.PropertyGroup):
         min=0.0,
         max=16.0,
     )
+    surface: EnumProperty(
+        name="Glass",
+        description="Whether glass with this material is a solid or a thin sheet",
+        items=(
+            ("AUTO", "From the Mesh", "Closed meshes are solids (as Cycles renders glass), flat ones thin sheets; "
+             "refrakt warns where it guesses"),
+            ("SOLID", "Solid", "The solid the mesh encloses: it refracts as it enters and leaves"),
+            ("THIN", "Thin Sheet", "A window pane or a bubble: a thin slab's reflection, light passes undeviated"),
+        ),
+        default="AUTO",
+    )
 
 
 class RefraktJobState(bpy.types.PropertyGroup):

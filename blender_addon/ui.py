@@ -182,6 +182,7 @@ class MATERIAL_PT_refrakt(PropertiesPanel, bpy.types.Panel):
             for w in warnings:
                 layout.label(text=w, icon="ERROR")
         layout.prop(s, "boundary")
+        layout.prop(s, "surface")
 
 
 def _show_medium(layout, medium):

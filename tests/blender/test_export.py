@@ -162,6 +162,30 @@ def test_glass_bsdf_becomes_khr_transmission(addon, saved_blend):
     assert water["extensions"]["KHR_materials_transmission"]["transmissionFactor"] == 1.0
     assert water["extensions"]["KHR_materials_ior"]["ior"] == pytest.approx(1.33, rel=1e-6)
     assert water["pbrMetallicRoughness"]["baseColorFactor"] == pytest.approx([0.9, 0.95, 1.0, 1.0])
+    assert water["pbrMetallicRoughness"]["roughnessFactor"] == pytest.approx(0.0)
+    # Glass in Blender is a solid: the export says so, or glTF would make it thin-walled.
+    assert water["extensions"]["KHR_materials_volume"]["thicknessFactor"] > 0
+
+
+def test_roughness_and_thin_glass_reach_the_gltf(addon, saved_blend):
+    scenes.round_trip_scene()
+    frosted = bpy.data.materials["Glass"]
+    frosted.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 0.35
+    pane = bpy.data.materials.new("Pane")
+    pane.use_nodes = True
+    bsdf = pane.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Transmission Weight" if "Transmission Weight" in bsdf.inputs else "Transmission"].default_value = 1.0
+    bsdf.inputs["Roughness"].default_value = 0.0
+    pane.refrakt.surface = "THIN"
+    bpy.ops.mesh.primitive_plane_add(size=1.0, location=(0.0, 0.0, 2.0))
+    bpy.context.object.data.materials.append(pane)
+    _, gltf = export(saved_blend)
+    glass = gltf.material("Glass")
+    assert glass["pbrMetallicRoughness"]["roughnessFactor"] == pytest.approx(0.35, rel=1e-6)
+    thin = gltf.material("Pane")
+    assert thin["extras"]["refrakt"]["thin"] is True
+    assert "KHR_materials_volume" not in thin.get("extensions", {})
+    assert "KHR_materials_transmission" in thin["extensions"]
 
 
 def test_unreadable_volume_node_warns(addon, saved_blend):

@@ -17,7 +17,7 @@ local looks = require("lib.looks")
 local scene = r.scene{{
   camera = r.camera{{ position = {{0, 0.2, 2.5}}, target = {{0, 0, 0}}, fov = 35, size = {{32, 18}} }},
   volume = {{ resolution = 16 }},
-  photons = 4000,
+  photons = 0,
   samples = 1,
 }}
 local gem = r.node{{ name = "gem", shape = r.mesh{{ file = "{mesh}" }}, material = looks.glass }}

@@ -1,0 +1,188 @@
+"""The driver: pack, skip what is done, submit chunks, retry failures, write frames, report."""
+
+from __future__ import annotations
+
+import logging
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from refrakt_farm.frames import Chunk, chunks, frame_digits, frame_file, missing_frames, write_atomically
+from refrakt_farm.task import ChunkResult, ChunkSpec, render_chunk
+
+
+@dataclass
+class FarmJob:
+    """One ``refrakt-farm render``."""
+
+    scene: Path
+    first: int
+    last: int
+    out: Path
+    chunk: int = 24
+    #: Ray's address: ``ray://head:10001``, ``auto`` (a cluster this machine belongs to), or
+    #: None for an already connected Ray or a new local one.
+    address: str | None = None
+    name: str | None = None
+    formats: list[str] = field(default_factory=lambda: ["exr", "png"])
+    #: refrakt on this machine (to pack the scene) and on the workers.
+    refrakt: str = "refrakt"
+    worker_refrakt: str | None = None
+    render_args: list[str] = field(default_factory=list)
+    allow_read: list[Path] = field(default_factory=list)
+    #: Ray resource each chunk takes one of: "GPU" (one GPU per task), or a custom resource
+    #: the worker nodes were started with (e.g. ``ray start --resources='{"refrakt": 1}'``)
+    #: for workers without GPUs.
+    resource: str = "GPU"
+    #: Times a failed or lost chunk is run again before the job gives up on it.
+    retries: int = 3
+    progress: bool = True
+
+
+@dataclass
+class NodeStats:
+    host: str
+    frames: int = 0
+    chunks: int = 0
+    seconds: float = 0.0
+
+
+@dataclass
+class Summary:
+    frames: int = 0
+    skipped: int = 0
+    retries: int = 0
+    seconds: float = 0.0
+    nodes: dict[str, NodeStats] = field(default_factory=dict)
+    #: Chunks that failed every attempt, with the last error.
+    failed: dict[str, str] = field(default_factory=dict)
+    #: Errors of the attempts that were retried.
+    retried_errors: list[str] = field(default_factory=list)
+
+    def lines(self) -> list[str]:
+        rate = self.frames / self.seconds if self.seconds > 0 else 0.0
+        out = [
+            f"refrakt-farm: {self.frames} frame(s) rendered, {self.skipped} already there, "
+            f"{self.retries} failed chunk attempt(s) retried, {len(self.failed)} chunk(s) failed; "
+            f"{self.seconds:.1f} s, {rate:.2f} frames/s"
+        ]
+        for node_id, n in sorted(self.nodes.items(), key=lambda kv: kv[1].host + kv[0]):
+            per = n.frames / n.seconds if n.seconds > 0 else 0.0
+            out.append(f"  node {n.host} ({node_id[:12]}): {n.frames} frame(s) in {n.chunks} chunk(s), {per:.2f} frames/s while busy")
+        for chunk, error in self.failed.items():
+            out.append(f"  chunk {chunk} failed: {error}")
+        return out
+
+
+def default_name(scene: Path) -> str:
+    """Frames are named after the scene file (``shot.lua`` -> ``shot.0001.exr``) as refrakt names
+    them; a bundle ``shot.tar.zst`` names them ``shot``."""
+    n = scene.name
+    return n[: -len(".tar.zst")] if n.lower().endswith(".tar.zst") else scene.stem
+
+
+def pack(job: FarmJob, folder: Path) -> bytes:
+    """The scene as a bundle: the file itself if it is one, else ``refrakt pack``'s output."""
+    if job.scene.name.lower().endswith(".tar.zst"):
+        return job.scene.read_bytes()
+    bundle = folder / "scene.tar.zst"
+    command = [job.refrakt, "pack", str(job.scene), "-o", str(bundle), "--frames", f"{job.first}..{job.last}"]
+    for d in job.allow_read:
+        command += ["--allow-read", str(d)]
+    try:
+        done = subprocess.run(command, capture_output=True, text=True)
+    except OSError as e:
+        raise SystemExit(f"refrakt-farm: cannot run refrakt ({job.refrakt}) to pack the scene: {e}") from None
+    if done.returncode != 0:
+        raise SystemExit(f"refrakt-farm: refrakt pack failed:\n{done.stderr.strip()}")
+    return bundle.read_bytes()
+
+
+def render(job: FarmJob, on_chunk: Callable[[ChunkResult], None] | None = None) -> Summary:
+    """Runs ``job`` on Ray; ``on_chunk`` sees each chunk once its frames are written."""
+    import ray
+
+    started = time.monotonic()
+    job.out.mkdir(parents=True, exist_ok=True)
+    name = job.name or default_name(job.scene)
+    summary = Summary()
+    todo = missing_frames(job.out, name, job.first, job.last, job.formats)
+    summary.skipped = job.last - job.first + 1 - len(todo)
+    if not todo:
+        summary.seconds = time.monotonic() - started
+        return summary
+    with tempfile.TemporaryDirectory(prefix="refrakt-farm-") as tmp:
+        bundle = pack(job, Path(tmp))
+    if not ray.is_initialized():
+        ray.init(address=job.address, logging_level=logging.WARNING, log_to_driver=False)
+    spec = ChunkSpec(name, job.formats, job.worker_refrakt or job.refrakt, job.render_args)
+    options: dict[str, Any] = {"max_retries": 0, "num_cpus": 1}
+    if job.resource == "GPU":
+        options["num_gpus"] = 1
+    else:
+        options["resources"] = {job.resource: 1}
+    task = ray.remote(render_chunk).options(**options)
+    bundle_ref = ray.put(bundle)
+    digits = frame_digits(job.last)
+    attempts: dict[Chunk, int] = {}
+    pending: dict[Any, Chunk] = {}
+
+    def submit(c: Chunk) -> None:
+        attempts[c] = attempts.get(c, 0) + 1
+        pending[task.remote(bundle_ref, c, spec)] = c
+
+    for c in chunks(todo, job.chunk):
+        submit(c)
+    bar = progress_bar(len(todo), job.progress)
+    try:
+        while pending:
+            ready, _ = ray.wait(list(pending), num_returns=1)
+            c = pending.pop(ready[0])
+            try:
+                result: ChunkResult = ray.get(ready[0])
+            except (ray.exceptions.RayError, OSError) as e:
+                message = f"{type(e).__name__}: {str(e).strip().splitlines()[-1] if str(e).strip() else ''}"
+                if attempts[c] <= job.retries:
+                    summary.retries += 1
+                    summary.retried_errors.append(f"chunk {c}: {message}")
+                    bar.write(f"refrakt-farm: chunk {c} failed ({message}); running it again")
+                    submit(c)
+                else:
+                    summary.failed[str(c)] = message
+                continue
+            for k, files in sorted(result.frames.items()):
+                for ext, data in files.items():
+                    write_atomically(job.out / frame_file(name, k, ext, digits), data)
+            stats = summary.nodes.setdefault(result.node_id, NodeStats(result.host))
+            stats.frames += len(result.frames)
+            stats.chunks += 1
+            stats.seconds += result.seconds
+            summary.frames += len(result.frames)
+            bar.update(len(result.frames))
+            if on_chunk is not None:
+                on_chunk(result)
+    finally:
+        bar.close()
+    summary.seconds = time.monotonic() - started
+    return summary
+
+
+class _NoBar:
+    def update(self, n: int) -> None: ...
+    def write(self, line: str) -> None:
+        print(line, file=sys.stderr)
+    def close(self) -> None: ...
+
+
+def progress_bar(total: int, shown: bool) -> Any:
+    """One bar with frames/s and the time left (tqdm's rate and ETA)."""
+    if not shown:
+        return _NoBar()
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="frame", desc="refrakt-farm", file=sys.stderr, smoothing=0.1, dynamic_ncols=True)

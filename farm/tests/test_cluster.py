@@ -57,7 +57,7 @@ def reference(refrakt_bin: str, scene_dir: Path, tmp_path_factory: pytest.TempPa
 
 
 def job(refrakt_bin: str, scene_dir: Path, out: Path) -> FarmJob:
-    return FarmJob(scene=scene_dir / "gem.lua", first=0, last=23, out=out, chunk=4, refrakt=refrakt_bin, resource="refrakt", progress=False)
+    return FarmJob(scene=scene_dir / "gem.lua", first=0, last=23, out=out, chunk=4, refrakt=refrakt_bin, resource="refrakt", progress="quiet")
 
 
 def test_chunks_on_two_workers_equal_one_render_and_a_rerun_skips_all(

@@ -62,3 +62,12 @@ def test_bad_arguments_are_refused_with_a_message(tmp_path: Path, capsys: pytest
     (tmp_path / "s.lua").write_text("")
     assert main(["render", str(tmp_path / "s.lua"), "--frames", "9..3", "--out", str(tmp_path)]) == 2
     assert "backwards" in capsys.readouterr().err
+
+
+def test_scene_options_go_to_pack_and_allow_read_only_there() -> None:
+    from refrakt_farm.driver import split_render_args
+
+    args = ["--size", "32x18", "--exposure", "1", "--allow-read", "/assets", "--fps=30", "--tonemap", "agx", "--photons", "0"]
+    pack_args, worker_args = split_render_args(args)
+    assert pack_args == ["--size", "32x18", "--allow-read", "/assets", "--fps=30", "--photons", "0"]
+    assert worker_args == ["--size", "32x18", "--exposure", "1", "--fps=30", "--tonemap", "agx", "--photons", "0"]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 from pathlib import Path
 
@@ -29,7 +30,8 @@ def parser() -> argparse.ArgumentParser:
                    help='Ray resource a chunk takes one of: GPU (default), or a custom one for workers without GPUs '
                         '(ray start --resources=\'{"refrakt": 1}\' and --resource refrakt)')
     r.add_argument("--retries", type=int, default=3, help="times a failed or lost chunk is run again (default 3)")
-    r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    r.add_argument("--progress", choices=["bar", "json", "quiet"], default="bar",
+                   help="a bar with frames/s and the time left (default), refrakt's JSON events on stdout, or nothing")
     return p
 
 
@@ -55,9 +57,14 @@ def main(argv: list[str] | None = None) -> int:
         scene=args.scene, first=first, last=last, out=args.out, chunk=args.chunk, address=args.address, name=args.name,
         formats=[f.strip() for f in args.format.split(",") if f.strip()], refrakt=args.refrakt,
         worker_refrakt=args.worker_refrakt, render_args=extra, allow_read=args.allow_read, resource=args.resource,
-        retries=args.retries, progress=not args.no_progress,
+        retries=args.retries, progress=args.progress,
     )
-    summary = render(job)
+    # SIGTERM (the Blender add-on's Cancel) stops like Ctrl-C: chunks still out are cancelled.
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
+    try:
+        summary = render(job)
+    except KeyboardInterrupt:
+        return 130
     for line in summary.lines():
         print(line, file=sys.stderr)
     return 1 if summary.failed else 0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import logging
 import subprocess
 import sys
@@ -41,7 +42,9 @@ class FarmJob:
     resource: str = "GPU"
     #: Times a failed or lost chunk is run again before the job gives up on it.
     retries: int = 3
-    progress: bool = True
+    #: "bar" (one bar with frames/s and the time left), "json" (refrakt's progress events on
+    #: stdout, for the Blender add-on) or "quiet".
+    progress: str = "bar"
 
 
 @dataclass
@@ -86,6 +89,33 @@ def default_name(scene: Path) -> str:
     return n[: -len(".tar.zst")] if n.lower().endswith(".tar.zst") else scene.stem
 
 
+#: `refrakt render` options that `refrakt pack` takes too (how the scene is evaluated, and so
+#: which files it reads), each with its value.
+SCENE_OPTIONS = {
+    "--fps", "--size", "--volume", "--photons", "--samples", "--camera", "--scene", "--animation",
+    "--allow-read", "--script-timeout", "--script-memory",
+}
+
+
+def split_render_args(args: list[str]) -> tuple[list[str], list[str]]:
+    """``render_args`` as (what `refrakt pack` also needs, what the workers' `refrakt render`
+    gets). `--allow-read` goes only to pack: the bundle holds those files, and the folder
+    does not exist on the workers."""
+    pack_args: list[str] = []
+    worker_args: list[str] = []
+    i = 0
+    while i < len(args):
+        option = args[i].split("=", 1)[0]
+        takes_value = option in SCENE_OPTIONS and "=" not in args[i] and i + 1 < len(args)
+        group = args[i : i + 2] if takes_value else args[i : i + 1]
+        if option in SCENE_OPTIONS:
+            pack_args += group
+        if option != "--allow-read":
+            worker_args += group
+        i += len(group)
+    return pack_args, worker_args
+
+
 def pack(job: FarmJob, folder: Path) -> bytes:
     """The scene as a bundle: the file itself if it is one, else ``refrakt pack``'s output."""
     if job.scene.name.lower().endswith(".tar.zst"):
@@ -94,6 +124,7 @@ def pack(job: FarmJob, folder: Path) -> bytes:
     command = [job.refrakt, "pack", str(job.scene), "-o", str(bundle), "--frames", f"{job.first}..{job.last}"]
     for d in job.allow_read:
         command += ["--allow-read", str(d)]
+    command += split_render_args(job.render_args)[0]
     try:
         done = subprocess.run(command, capture_output=True, text=True)
     except OSError as e:
@@ -120,7 +151,7 @@ def render(job: FarmJob, on_chunk: Callable[[ChunkResult], None] | None = None) 
         bundle = pack(job, Path(tmp))
     if not ray.is_initialized():
         ray.init(address=job.address, logging_level=logging.WARNING, log_to_driver=False)
-    spec = ChunkSpec(name, job.formats, job.worker_refrakt or job.refrakt, job.render_args)
+    spec = ChunkSpec(name, job.formats, job.worker_refrakt or job.refrakt, split_render_args(job.render_args)[1])
     options: dict[str, Any] = {"max_retries": 0, "num_cpus": 1}
     if job.resource == "GPU":
         options["num_gpus"] = 1
@@ -138,7 +169,7 @@ def render(job: FarmJob, on_chunk: Callable[[ChunkResult], None] | None = None) 
 
     for c in chunks(todo, job.chunk):
         submit(c)
-    bar = progress_bar(len(todo), job.progress)
+    bar = progress_bar(job.progress, job.first, job.last, len(todo), name, job.out, digits)
     try:
         while pending:
             ready, _ = ray.wait(list(pending), num_returns=1)
@@ -163,26 +194,76 @@ def render(job: FarmJob, on_chunk: Callable[[ChunkResult], None] | None = None) 
             stats.chunks += 1
             stats.seconds += result.seconds
             summary.frames += len(result.frames)
-            bar.update(len(result.frames))
+            bar.chunk_done(result)
             if on_chunk is not None:
                 on_chunk(result)
+    except KeyboardInterrupt:
+        # Ctrl-C or SIGTERM (the Blender add-on's Cancel): stop the chunks still out; the
+        # frames written are whole.
+        for ref in pending:
+            ray.cancel(ref, force=True)
+        bar.error(f"interrupted; {summary.frames} frame(s) written are whole (run again to render the rest)")
+        raise
     finally:
         bar.close()
     summary.seconds = time.monotonic() - started
+    bar.done(summary)
     return summary
 
 
-class _NoBar:
-    def update(self, n: int) -> None: ...
+class Progress:
+    """Progress on stderr (a tqdm bar with frames/s and the time left) or as refrakt's JSON
+    events on stdout (start, frame, done, error; see refrakt's src/progress.rs)."""
+
+    def __init__(self, mode: str, first: int, last: int, total: int, name: str, out: Path, digits: int) -> None:
+        self.mode, self.total, self.done_frames = mode, total, 0
+        self.name, self.out, self.digits = name, out, digits
+        self.last_time = time.monotonic()
+        self.bar: Any = None
+        if mode == "bar":
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, unit="frame", desc="refrakt-farm", file=sys.stderr, smoothing=0.1, dynamic_ncols=True)
+        elif mode == "json":
+            self.emit(event="start", frames=total, first=first, last=last)
+
+    @staticmethod
+    def emit(**event: Any) -> None:
+        print(json.dumps(event), flush=True)
+
+    def chunk_done(self, result: ChunkResult) -> None:
+        if self.bar is not None:
+            self.bar.update(len(result.frames))
+        if self.mode != "json":
+            return
+        for k, files in sorted(result.frames.items()):
+            self.done_frames += 1
+            now = time.monotonic()
+            paths = [str(self.out / frame_file(self.name, k, ext, self.digits)) for ext in sorted(files)]
+            self.emit(event="frame", frame=k, done=self.done_frames, total=self.total, seconds=now - self.last_time, files=paths)
+            self.last_time = now
+
     def write(self, line: str) -> None:
-        print(line, file=sys.stderr)
-    def close(self) -> None: ...
+        if self.bar is not None:
+            self.bar.write(line, file=sys.stderr)
+        elif self.mode != "quiet":
+            print(line, file=sys.stderr)
+
+    def error(self, message: str) -> None:
+        if self.mode == "json":
+            self.emit(event="error", message=message, frame=None)
+        self.write(f"refrakt-farm: {message}")
+
+    def done(self, summary: "Summary") -> None:
+        if self.mode == "json":
+            if summary.failed:
+                self.emit(event="error", message="; ".join(f"chunk {c}: {e}" for c, e in summary.failed.items()), frame=None)
+            self.emit(event="done", frames=summary.frames, skipped=summary.skipped, retries=summary.retries, seconds=summary.seconds)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
 
 
-def progress_bar(total: int, shown: bool) -> Any:
-    """One bar with frames/s and the time left (tqdm's rate and ETA)."""
-    if not shown:
-        return _NoBar()
-    from tqdm import tqdm
-
-    return tqdm(total=total, unit="frame", desc="refrakt-farm", file=sys.stderr, smoothing=0.1, dynamic_ncols=True)
+def progress_bar(mode: str, first: int, last: int, total: int, name: str, out: Path, digits: int) -> Progress:
+    return Progress(mode, first, last, total, name, out, digits)

@@ -25,7 +25,9 @@ shift $(( $# >= 2 ? 2 : $# ))
 [ "${1:-}" = "--" ] && shift
 BIN="${REFRAKT_BIN:-}"
 if [ -z "$BIN" ]; then
-  for b in target/release/refrakt target/debug/refrakt; do [ -x "$b" ] && { BIN="$PWD/$b"; break; }; done
+  # The newest build (a stale release build would lack --gpus).
+  BIN="$(ls -t target/release/refrakt target/debug/refrakt 2>/dev/null | head -1)"
+  [ -n "$BIN" ] && BIN="$PWD/$BIN"
 fi
 [ -x "$BIN" ] || { echo "farm_bench: no refrakt binary (cargo build --release, or REFRAKT_BIN=path)" >&2; exit 1; }
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-$(mktemp -d)}"
@@ -52,7 +54,7 @@ timed() {  # label, out folder, refrakt render options…
     'BEGIN { printf "%-34s %4d frames  %7.2f s  %7.3f frames/s  (%s)\n", l, n, b - a, n / (b - a), s }'
 }
 
-echo "== refrakt alone: $SCENE, frames $FRAMES, options: ${OPTS[*]:-(scene's own)}"
+echo "== refrakt alone: $SCENE, frames $FRAMES, options: ${OPTS[*]:-the scene defaults}"
 timed "one renderer" "$WORK/one"
 timed "--gpus 0,0 (two renderers, one GPU)" "$WORK/two" --gpus 0,0 --chunk 4
 

@@ -144,6 +144,18 @@ mod tests {
     }
 
     #[test]
+    fn adapter_indices_are_whole_numbers_below_the_count_else_names() {
+        use crate::gpu::adapter_index;
+        assert_eq!(adapter_index("1", 2), Some(1));
+        assert_eq!(adapter_index(" 0 ", 1), Some(0));
+        // Past the count, or not a whole number: matched against names instead.
+        assert_eq!(adapter_index("4090", 8), None);
+        assert_eq!(adapter_index("-1", 8), None);
+        assert_eq!(adapter_index("llvmpipe", 8), None);
+        assert_eq!(adapter_index("", 8), None);
+    }
+
+    #[test]
     fn a_stopped_queue_hands_out_nothing() {
         let queue = ChunkQueue::new(0, 99, 1);
         assert!(queue.take().is_some());

@@ -35,7 +35,7 @@ def run(workers: int, job: FarmJob) -> float:
         return summary.seconds
     finally:
         ray.shutdown()
-        cluster.shutdown()
+        cluster.shutdown()  # type: ignore[no-untyped-call]
 
 
 def main(argv: list[str] | None = None) -> int:

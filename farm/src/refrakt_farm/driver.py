@@ -157,6 +157,14 @@ def render(job: FarmJob, on_chunk: Callable[[ChunkResult], None] | None = None) 
         options["num_gpus"] = 1
     else:
         options["resources"] = {job.resource: 1}
+    if not ray.cluster_resources().get(job.resource, 0):  # type: ignore[no-untyped-call]
+        # An autoscaling cluster may still add such nodes: say so, and wait for them.
+        print(
+            f"refrakt-farm: warning: the Ray cluster has no {job.resource} resource now, so chunks wait until a node "
+            f"with one joins; on workers without GPUs start them with ray start --resources='{{\"refrakt\": 1}}' and "
+            "pass --resource refrakt",
+            file=sys.stderr,
+        )
     task = ray.remote(render_chunk).options(**options)
     bundle_ref = ray.put(bundle)
     digits = frame_digits(job.last)

@@ -74,6 +74,29 @@ def test_chunks_on_two_workers_equal_one_render_and_a_rerun_skips_all(
     assert {p.name: p.stat().st_mtime_ns for p in tmp_path.iterdir()} == mtimes, "nothing rewritten"
 
 
+def test_the_command_line_forwards_options_and_reports_json_events(
+    cluster: Any, refrakt_bin: str, scene_dir: Path, reference: dict[str, bytes], tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    import json
+
+    from refrakt_farm.cli import main
+
+    code = main([
+        "render", str(scene_dir / "gem.lua"), "--frames", "0..23", "--chunk", "6", "--out", str(tmp_path),
+        "--refrakt", refrakt_bin, "--resource", "refrakt", "--progress", "json", "--", "--photons", "0",
+    ])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    events = [json.loads(line) for line in out.splitlines()]
+    assert events[0] == {"event": "start", "frames": 24, "first": 0, "last": 23}
+    frames = sorted(e["frame"] for e in events if e["event"] == "frame")
+    assert frames == list(range(24)) and events[-1]["event"] == "done" and events[-1]["frames"] == 24
+    assert [e["done"] for e in events if e["event"] == "frame"] == list(range(1, 25))
+    assert "24 frame(s) rendered" in err and "frames/s while busy" in err, err
+    assert files(tmp_path) == reference
+
+
 def test_a_worker_killed_mid_chunk_has_its_chunk_retried(
     cluster: Any, refrakt_bin: str, scene_dir: Path, reference: dict[str, bytes], tmp_path: Path
 ) -> None:

@@ -10,25 +10,32 @@ INSTALL_HINT = (
 )
 
 
+FARM_INSTALL_HINT = (
+    "Install refrakt-farm (pip install ./farm from refrakt's source folder, in a Python that has Ray) "
+    "so it is on your PATH, or set its full path in Preferences > Add-ons > refrakt."
+)
+
+
 class BinaryError(Exception):
     """The refrakt executable is missing or does not work; the message says what to do."""
 
 
-def resolve(configured):
-    """The absolute path of the refrakt executable: `configured` (a path from the add-on
-    preferences, may start with ~) when set, otherwise `refrakt` found on PATH."""
+def resolve(configured, program="refrakt", hint=INSTALL_HINT):
+    """The absolute path of the `program` executable (refrakt, or refrakt-farm): `configured`
+    (a path from the add-on preferences, may start with ~) when set, otherwise `program` found
+    on PATH."""
     if configured.strip():
         path = os.path.abspath(os.path.expanduser(configured.strip()))
         if os.path.isdir(path):
-            raise BinaryError(f"The refrakt path in the preferences is a folder: {path}. Point it at the executable itself.")
+            raise BinaryError(f"The {program} path in the preferences is a folder: {path}. Point it at the executable itself.")
         if not os.path.isfile(path):
-            raise BinaryError(f"refrakt was not found at {path}. {INSTALL_HINT}")
+            raise BinaryError(f"{program} was not found at {path}. {hint}")
         if not os.access(path, os.X_OK):
-            raise BinaryError(f"{path} is not executable (chmod +x it, or pick the refrakt executable).")
+            raise BinaryError(f"{path} is not executable (chmod +x it, or pick the {program} executable).")
         return path
-    found = shutil.which("refrakt")
+    found = shutil.which(program)
     if found is None:
-        raise BinaryError(f"refrakt was not found on PATH. {INSTALL_HINT}")
+        raise BinaryError(f"{program} was not found on PATH. {hint}")
     return found
 
 

@@ -52,6 +52,26 @@ def render(binary, scene, paths):
     return args
 
 
+def cluster(farm, binary, scene, paths):
+    """`refrakt-farm render` of the scene's frame range on the Ray cluster at the scene's
+    address: frames come back into the same folder, named as `render` names them. The options
+    after `--` go to every refrakt (the farm passes those that choose files to `refrakt pack`)."""
+    s = scene.refrakt
+    args = [
+        farm, "render", scene_file(scene, paths),
+        "--frames", f"{scene.frame_start}..{scene.frame_end}",
+        "--chunk", str(s.cluster_chunk),
+        "--out", paths.frames,
+        "--name", paths.name,
+        "--format", "exr",
+        "--progress", "json",
+        "--refrakt", binary,
+    ]
+    if s.cluster_address.strip():
+        args += ["--address", s.cluster_address.strip()]
+    return args + ["--"] + _common(scene, paths)
+
+
 def watch(binary, scene, paths):
     return [
         binary, "watch", scene_file(scene, paths),

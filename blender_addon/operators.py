@@ -62,14 +62,14 @@ class REFRAKT_OT_export(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class REFRAKT_OT_render(bpy.types.Operator):
-    bl_idname = "refrakt.render"
-    bl_label = "Render Animation"
-    bl_description = "Export the scene and render its frame range with refrakt (Esc cancels; finished frames stay)"
+def _load_frames_property():
+    return BoolProperty(name="Load Frames", description="Load the frames into the image editor when the render ends", default=True)
 
-    load_frames: BoolProperty(
-        name="Load Frames", description="Load the frames into the image editor when the render ends", default=True
-    )
+
+class _RenderJob:
+    """A render in a subprocess that reports refrakt's JSON events: modal with a timer in the
+    interface, to the end in `execute` in background mode. (A mixin: Blender does not let one
+    registered operator subclass another.)"""
 
     _timer = None
 
@@ -85,7 +85,7 @@ class REFRAKT_OT_render(bpy.types.Operator):
             _report_warnings(self, scene_export.export(context))
             scene_export.write_wrapper(scene, self.paths)
             os.makedirs(self.paths.frames, exist_ok=True)
-            current_render = job.Job(cli.render(refrakt, scene, self.paths), output_dir=self.paths.frames)
+            current_render = job.Job(self._command(context, refrakt), output_dir=self.paths.frames)
         except (binary.BinaryError, scene_export.ExportError, OSError) as e:
             self.report({"ERROR"}, str(e))
             return False
@@ -94,6 +94,9 @@ class REFRAKT_OT_render(bpy.types.Operator):
         state.running, state.progress, state.error = True, 0.0, ""
         state.status = "Starting refrakt…"
         return True
+
+    def _command(self, context, refrakt):
+        raise NotImplementedError
 
     def _update(self, context):
         """Takes refrakt's news; returns True once it has exited."""
@@ -176,6 +179,33 @@ class REFRAKT_OT_render(bpy.types.Operator):
         return self._finish(context)
 
 
+class REFRAKT_OT_render(_RenderJob, bpy.types.Operator):
+    bl_idname = "refrakt.render"
+    bl_label = "Render Animation"
+    bl_description = "Export the scene and render its frame range with refrakt (Esc cancels; finished frames stay)"
+
+    load_frames: _load_frames_property()
+
+    def _command(self, context, refrakt):
+        return cli.render(refrakt, context.scene, self.paths)
+
+
+class REFRAKT_OT_render_cluster(_RenderJob, bpy.types.Operator):
+    bl_idname = "refrakt.render_cluster"
+    bl_label = "Render on Cluster"
+    bl_description = (
+        "Export the scene and render its frame range on the Ray cluster at Ray Address with refrakt-farm "
+        "(chunks on the cluster's GPUs, frames back into the output folder; Esc cancels)"
+    )
+
+    load_frames: _load_frames_property()
+
+    def _command(self, context, refrakt):
+        farm = binary.resolve(preferences.get(context).farm, "refrakt-farm", binary.FARM_INSTALL_HINT)
+        # Frames already in the folder are skipped by refrakt-farm itself (resume).
+        return cli.cluster(farm, refrakt, context.scene, self.paths)
+
+
 class REFRAKT_OT_cancel_render(bpy.types.Operator):
     bl_idname = "refrakt.cancel_render"
     bl_label = "Cancel"
@@ -246,6 +276,7 @@ classes = (
     REFRAKT_OT_check_binary,
     REFRAKT_OT_export,
     REFRAKT_OT_render,
+    REFRAKT_OT_render_cluster,
     REFRAKT_OT_cancel_render,
     REFRAKT_OT_load_frames,
     REFRAKT_OT_live,

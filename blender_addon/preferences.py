@@ -15,11 +15,18 @@ class RefraktPreferences(bpy.types.AddonPreferences):
         default="",
         subtype="FILE_PATH",
     )
+    farm: StringProperty(
+        name="refrakt-farm Executable",
+        description="Path to refrakt-farm (Render on Cluster); empty: find refrakt-farm on PATH",
+        default="",
+        subtype="FILE_PATH",
+    )
     check_report: StringProperty(default="", options={"SKIP_SAVE"})
 
     def draw(self, context):
         layout = self.layout
         layout.prop(self, "binary")
+        layout.prop(self, "farm")
         row = layout.row()
         row.operator("refrakt.check_binary", icon="CHECKMARK")
         try:

@@ -141,6 +141,19 @@ class RefraktSceneSettings(bpy.types.PropertyGroup):
         description="Skip frames whose files already exist (continue an interrupted render)",
         default=False,
     )
+    cluster_address: StringProperty(
+        name="Ray Address",
+        description="The Ray cluster for Render on Cluster: ray://HEAD:10001, or auto on a cluster node; "
+        "empty: a Ray started on this machine",
+        default="",
+    )
+    cluster_chunk: IntProperty(
+        name="Chunk",
+        description="Frames each cluster task renders (one refrakt render per chunk)",
+        default=24,
+        min=1,
+        soft_max=240,
+    )
     apply_modifiers: BoolProperty(
         name="Apply Modifiers",
         description="Export meshes with their modifiers applied (subdivision, booleans…)",

@@ -40,12 +40,25 @@ class RENDER_PT_refrakt(RefraktRenderPanel, bpy.types.Panel):
             row.scale_y = 1.4
             row.operator("refrakt.render", icon="RENDER_ANIMATION")
             row.operator("refrakt.export", text="", icon="EXPORT")
+            s = context.scene.refrakt
+            row = layout.row(align=True)
+            if _has_placeholder():
+                row.prop(s, "cluster_address", text="", placeholder="ray://head:10001")
+            else:
+                row.prop(s, "cluster_address", text="")
+            row.prop(s, "cluster_chunk")
+            row.operator("refrakt.render_cluster", text="Render on Cluster", icon="NETWORK_DRIVE")
             if state.status:
                 layout.label(text=state.status)
         if state.error:
             box = layout.box()
             for i, line in enumerate(_wrap(state.error, 70)):
                 box.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
+
+
+def _has_placeholder():
+    """UILayout.prop takes `placeholder` from Blender 4.1 on."""
+    return bpy.app.version >= (4, 1, 0)
 
 
 def _wrap(text, width):

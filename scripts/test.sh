@@ -9,4 +9,6 @@ status=0
 cargo test --locked --no-fail-fast 2>&1 || status=$?
 # The Blender add-on, headless with the bpy module (uses the refrakt binary cargo test built).
 bash scripts/test_blender.sh 2>&1 || status=$?
+# refrakt-farm (farm/): unit tests and a local Ray cluster rendering with the same binary.
+bash scripts/test_farm.sh 2>&1 || status=$?
 exit "$status"

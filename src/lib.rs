@@ -6,12 +6,14 @@
 //! [`pipeline::Renderer`] turns that into an [`output::Image`] on the GPU.
 
 pub mod bench;
+pub mod bundle;
 pub mod bvh;
 pub mod cpu;
 pub mod dump;
 pub mod frame;
 pub mod gltf;
 pub mod gpu;
+pub mod gpus;
 pub mod lua;
 pub mod output;
 pub mod pipeline;

@@ -30,6 +30,9 @@ struct Cli {
 enum Command {
     /// Render a scene (a .lua script or a .gltf/.glb file) to EXR/PNG frames.
     Render(Box<RenderArgs>),
+    /// Bundle a scene with exactly the files it reads into one .tar.zst that renders the same
+    /// anywhere (`refrakt render BUNDLE`; what refrakt-farm ships to its workers).
+    Pack(Box<PackArgs>),
     /// Render a scene to a preview file, and again on every save of a file it read.
     Watch(Box<WatchArgs>),
     /// Print the evaluated scene of each frame as one line of JSON (nodes, camera, lights,
@@ -78,9 +81,28 @@ struct BenchArgs {
 
 #[derive(Args)]
 struct GpuArgs {
-    /// Use the adapter whose name, driver or backend contains this text (also $REFRAKT_ADAPTER).
-    #[arg(long, value_name = "SUBSTRING")]
+    /// Use the adapter of this index in `refrakt info`'s list (identical GPUs have identical
+    /// names), or whose name, driver or backend contains this text (also $REFRAKT_ADAPTER).
+    #[arg(long, value_name = "INDEX|SUBSTRING")]
     adapter: Option<String>,
+}
+
+#[derive(Args)]
+struct PackArgs {
+    /// The scene: a .lua script, or a .gltf/.glb file.
+    scene: PathBuf,
+    /// The bundle to write, e.g. shot.tar.zst.
+    #[arg(short, long, value_name = "FILE")]
+    out: PathBuf,
+    /// Run the scene at these frames while packing, so files a script reads only in `update`
+    /// are bundled too (the range you will render).
+    #[arg(long, value_name = "A..B")]
+    frames: Option<FrameRange>,
+    /// Run the scene at this time, seconds, while packing (without --frames).
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, conflicts_with = "frames", allow_hyphen_values = true)]
+    time: f64,
+    #[command(flatten)]
+    scene_args: SceneArgs,
 }
 
 /// How to evaluate a scene: shared by `render`, `watch` and `dump`.
@@ -161,6 +183,14 @@ struct RenderArgs {
     /// Skip frames whose files all exist (resume an interrupted render).
     #[arg(long)]
     skip_existing: bool,
+    /// Render on several adapters at once, one renderer each, taking chunks of --chunk frames in
+    /// turn: `all` (every GPU of the best kind) or indices as `refrakt info` numbers them (0,1;
+    /// an index may repeat to run two renderers on one GPU).
+    #[arg(long, value_name = "all|0,1,…", requires = "frames", conflicts_with = "adapter")]
+    gpus: Option<String>,
+    /// Frames a renderer of --gpus takes at a time.
+    #[arg(long, value_name = "N", default_value_t = 8, value_parser = |s: &str| parse_whole(s, 1, 1 << 20), requires = "gpus")]
+    chunk: u32,
     #[command(flatten)]
     scene_args: SceneArgs,
     #[command(flatten)]
@@ -269,6 +299,8 @@ fn render_options(frames: Option<FrameRange>, time: f64, c: &SceneArgs) -> Resul
         skip_existing: false,
         progress: ProgressMode::Auto,
         adapter: None,
+        gpus: Vec::new(),
+        chunk: 1,
         scene: c.options()?,
     })
 }
@@ -344,9 +376,28 @@ fn run(cli: Cli) -> Result<()> {
                 skip_existing: a.skip_existing,
                 progress: a.output.progress,
                 adapter: a.output.gpu.adapter.clone(),
+                gpus: a.gpus.as_deref().map(refrakt::gpus::parse_gpus).transpose()?.unwrap_or_default(),
+                chunk: a.chunk,
                 ..render_options(a.frames, a.time, &a.scene_args)?
             };
             render::run(&a.scene, &opts)
+        }
+        Command::Pack(a) => {
+            check_time(a.time)?;
+            let moments = a.frames.map_or(refrakt::bundle::Moments::Time(a.time), refrakt::bundle::Moments::Frames);
+            let packed = refrakt::bundle::pack(&a.scene, &a.scene_args.options()?, moments, &a.out)?;
+            eprintln!(
+                "packed {} file(s) from {} into {} ({} KiB); scene: {}",
+                packed.manifest.files.len(),
+                packed.root.display(),
+                a.out.display(),
+                packed.bytes.div_ceil(1024),
+                packed.manifest.scene
+            );
+            for f in &packed.manifest.files {
+                eprintln!("  {f}");
+            }
+            Ok(())
         }
         Command::Dump(a) => {
             let opts = render_options(a.frames, a.time, &a.scene_args)?;

@@ -4,6 +4,7 @@
 //! ```text
 //! {"event":"start","frames":48,"first":1,"last":48}
 //! {"event":"frame","frame":1,"done":1,"total":48,"seconds":0.41,"files":["out/scene.0001.exr"]}
+//! {"event":"frame","frame":9,"done":2,"total":48,"seconds":0.43,"files":[…],"gpu":1}
 //! {"event":"skip","frame":2,"done":2,"total":48}
 //! {"event":"done","frames":47,"skipped":1,"seconds":19.6}
 //! {"event":"error","message":"scene.lua:12: …","frame":3}
@@ -12,7 +13,8 @@
 //! A frame's `seconds` is the time since the previous frame's files were in place (since the
 //! start for the first): frames are pipelined (one is evaluated while the GPU renders the one
 //! before), so times measured from each frame's own start would overlap; these add up to the
-//! total. `done` of the last event counts skipped frames; `frames` of `done` does not.
+//! total (per renderer with `--gpus`, whose frame events say which renderer, `gpu`, the index
+//! in `--gpus`, wrote them). `done` of the last event counts skipped frames; `frames` of `done` does not.
 //!
 //! `refrakt watch` adds `{"event":"watching","files":[…],"shaders":…}` and writes `frame` events
 //! with `quality` and `stats` (see `watch::FrameEvent`); its errors do not end the process.
@@ -83,7 +85,8 @@ impl Progress {
         }
     }
 
-    pub fn frame(&mut self, frame: i64, seconds: f64, files: &[PathBuf]) {
+    /// Frame `frame` is written (by renderer `gpu` of `--gpus`, when there are several).
+    pub fn frame(&mut self, frame: i64, seconds: f64, files: &[PathBuf], gpu: Option<usize>) {
         self.done += 1;
         self.last_frame = Some(seconds);
         let names: Vec<String> = files.iter().map(|p| p.display().to_string()).collect();
@@ -95,12 +98,19 @@ impl Progress {
                 }
             }
             ProgressMode::Lines => {
-                eprintln!("frame {frame} ({}/{}), {seconds:.2} s after the last: {}", self.done, self.total, names.join(", "))
+                let on = gpu.map_or(String::new(), |g| format!(" on GPU {g}"));
+                eprintln!("frame {frame} ({}/{}){on}, {seconds:.2} s after the last: {}", self.done, self.total, names.join(", "))
             }
-            ProgressMode::Json => json_line(serde_json::json!({
-                "event": "frame", "frame": frame, "done": self.done, "total": self.total,
-                "seconds": seconds, "files": names,
-            })),
+            ProgressMode::Json => {
+                let mut event = serde_json::json!({
+                    "event": "frame", "frame": frame, "done": self.done, "total": self.total,
+                    "seconds": seconds, "files": names,
+                });
+                if let Some(g) = gpu {
+                    event["gpu"] = g.into();
+                }
+                json_line(event)
+            }
             ProgressMode::Quiet | ProgressMode::Auto => {}
         }
     }

@@ -77,6 +77,10 @@ pub struct RenderOptions {
     pub skip_existing: bool,
     pub progress: ProgressMode,
     pub adapter: Option<String>,
+    /// One renderer per adapter named here (`--gpus`), each taking the next `chunk` frames of
+    /// the range in turn; empty: one renderer, on `adapter`.
+    pub gpus: Vec<String>,
+    pub chunk: u32,
     pub scene: SceneOptions,
 }
 
@@ -248,17 +252,49 @@ pub fn run(scene_path: &Path, opts: &RenderOptions) -> Result<()> {
     output::check_writable_folder(&opts.out).map_err(|e| anyhow!("--out {}: {e:#}", opts.out.display()))?;
     output::remove_stale_temporaries(&opts.out);
     let progress = Arc::new(Mutex::new(Progress::new(opts.progress)));
-    let mut current = None;
-    let result = render_all(scene_path, opts, &progress, &mut current);
+    let current = Mutex::new(None);
+    let result = if crate::bundle::is_bundle(scene_path) {
+        // The bundle's files may lie beside the scene's folder (they were packed with
+        // --allow-read): every file in it may be read.
+        crate::bundle::unpack(scene_path).and_then(|b| {
+            let mut opts = opts.clone();
+            opts.scene.allow_read.push(b.root().to_path_buf());
+            render_frames(&b.scene(), &opts, &progress, &current)
+        })
+    } else {
+        render_frames(scene_path, opts, &progress, &current)
+    };
     if let Err(e) = &result {
-        lock(&progress).error(&format!("{e:#}"), current);
+        lock(&progress).error(&format!("{e:#}"), *lock(&current));
     }
     result
 }
 
+/// Renders the frames of `opts` on one renderer, or on one per adapter of `--gpus`.
+fn render_frames(scene_path: &Path, opts: &RenderOptions, progress: &Arc<Mutex<Progress>>, current: &Mutex<Option<i64>>) -> Result<()> {
+    let started = Instant::now();
+    let (first, last) = opts.frames.map_or((0, 0), |r| (r.first, r.last));
+    lock(progress).start(first, last);
+    if opts.gpus.is_empty() {
+        let mut frames = first..=last;
+        render_all(scene_path, opts, progress, current, &mut || frames.next(), None)?;
+    } else {
+        crate::gpus::render_on_adapters(opts, first, last, |adapter_opts, next, gpu| {
+            render_all(scene_path, adapter_opts, progress, current, next, Some(gpu))
+        })?;
+    }
+    // Interrupted during the last frame (or the only one): it was finished and written, but
+    // the command was stopped, and says so with its exit code.
+    if INTERRUPTED.load(Ordering::SeqCst) {
+        bail!("interrupted; the frame in hand was finished and written whole");
+    }
+    lock(progress).finish(started.elapsed().as_secs_f64());
+    Ok(())
+}
+
 /// The progress report, shared by the render loop and the frame writer. (A panic while it was
 /// held cannot leave it inconsistent in a way that matters: keep reporting.)
-fn lock(progress: &Mutex<Progress>) -> std::sync::MutexGuard<'_, Progress> {
+fn lock<T>(progress: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     progress.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
@@ -280,7 +316,8 @@ struct FrameWriter {
 }
 
 impl FrameWriter {
-    fn new(progress: Arc<Mutex<Progress>>) -> Self {
+    /// `gpu`: the renderer's index in `--gpus`, reported with each frame when there are several.
+    fn new(progress: Arc<Mutex<Progress>>, gpu: Option<usize>) -> Self {
         let (jobs, inbox) = std::sync::mpsc::channel::<(Image, Outgoing)>();
         let (outbox, done) = std::sync::mpsc::channel();
         let thread = std::thread::spawn(move || {
@@ -290,7 +327,7 @@ impl FrameWriter {
                 let result = write_frame(&image, &out.paths, &out.png);
                 if result.is_ok() {
                     let files: Vec<PathBuf> = out.paths.into_iter().map(|(_, p)| p).collect();
-                    lock(&progress).frame(out.frame, previous.elapsed().as_secs_f64(), &files);
+                    lock(&progress).frame(out.frame, previous.elapsed().as_secs_f64(), &files, gpu);
                     previous = Instant::now();
                 }
                 let failed = result.is_err();
@@ -336,13 +373,20 @@ fn wait_for(renderer: &Renderer, ticket: &crate::pipeline::Ticket, frame: i64, o
     renderer.wait(ticket, &mut |p| lock(progress).within_frame(numbered, p))
 }
 
-/// Renders every frame; `current` names the frame in hand when one fails.
+/// Renders every frame `next` hands out (on the adapter of `opts`); `current` names the frame
+/// in hand when one fails; `gpu` is the renderer's index among several (`--gpus`).
 ///
 /// Frames are pipelined: while the GPU renders frame k, the CPU runs `update` and evaluates the
 /// scene for frame k+1 and submits it; frame k is then read back and handed to the writer
 /// thread. Frames are still written in order, and an error leaves every earlier frame whole.
-fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &Arc<Mutex<Progress>>, current: &mut Option<i64>) -> Result<()> {
-    let started = Instant::now();
+fn render_all(
+    scene_path: &Path,
+    opts: &RenderOptions,
+    progress: &Arc<Mutex<Progress>>,
+    current: &Mutex<Option<i64>>,
+    next: &mut dyn FnMut() -> Option<i64>,
+    gpu: Option<usize>,
+) -> Result<()> {
     let mut source = opts.scene.load(scene_path)?;
     let ctx = crate::gpu::GpuContext::new(opts.adapter.as_deref())?;
     tracing::info!("adapter: {}", ctx.adapter_name());
@@ -353,15 +397,15 @@ fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &Arc<Mutex<Prog
         .name
         .clone()
         .unwrap_or_else(|| scene_path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or("frame".into()));
-    let (first, last) = opts.frames.map_or((0, 0), |r| (r.first, r.last));
-    lock(progress).start(first, last);
+    let first = opts.frames.map_or(0, |r| r.first);
     let mut warned = std::collections::HashSet::new();
-    let mut writer = FrameWriter::new(progress.clone());
+    let mut writer = FrameWriter::new(progress.clone(), gpu);
     let mut in_flight: Option<(crate::pipeline::Ticket, Outgoing)> = None;
     let result = (|| -> Result<()> {
-        for k in first..=last {
+        let mut rendered = 0;
+        while let Some(k) = next() {
             if INTERRUPTED.load(Ordering::SeqCst) {
-                bail!("interrupted after {} frame(s); the frames written are whole", k - first);
+                bail!("interrupted after {rendered} frame(s); the frames written are whole");
             }
             let numbered = opts.frames.map(|_| k);
             let paths = frame_paths(opts, &name, numbered);
@@ -369,9 +413,14 @@ fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &Arc<Mutex<Prog
                 lock(progress).skip(k);
                 continue;
             }
-            *current = numbered;
+            *lock(current) = numbered;
+            rendered += 1;
             let t = frame_time(numbered, opts);
             let desc = source.frame_desc(t, &opts.scene.eval).map_err(|e| match numbered {
+                Some(k) if gpu.is_some() => anyhow!(
+                    "frame {k} (t = {t:.4} s): {e:#} (fix the scene and re-run with --skip-existing to render the \
+                     frames not written yet)"
+                ),
                 Some(k) if k > first => anyhow!(
                     "frame {k} (t = {t:.4} s): {e:#} (frames {first} to {} are written; fix the scene and re-run with \
                      --skip-existing to go on from frame {k})",
@@ -405,12 +454,5 @@ fn render_all(scene_path: &Path, opts: &RenderOptions, progress: &Arc<Mutex<Prog
     let written = writer.check(true);
     result?;
     drained?;
-    written?;
-    // Interrupted during the last frame (or the only one): it was finished and written, but
-    // the command was stopped, and says so with its exit code.
-    if INTERRUPTED.load(Ordering::SeqCst) {
-        bail!("interrupted; the frame in hand was finished and written whole");
-    }
-    lock(progress).finish(started.elapsed().as_secs_f64());
-    Ok(())
+    written
 }

@@ -253,6 +253,8 @@ fn options(frames: Option<&str>, time: f64) -> refrakt::render::RenderOptions {
         skip_existing: false,
         progress: refrakt::progress::ProgressMode::Quiet,
         adapter: None,
+        gpus: vec![],
+        chunk: 1,
         scene,
     }
 }

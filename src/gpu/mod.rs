@@ -1,8 +1,9 @@
 //! The headless GPU context: one adapter, one device, one queue — no window, no surface.
 //!
 //! Adapter choice is automatic (discrete GPU first, then integrated, virtual, CPU), and can be
-//! overridden by `--adapter SUBSTRING` or the `REFRAKT_ADAPTER` environment variable, matched
-//! against the adapter's name, driver and backend. `refrakt info` prints what was found and why
+//! overridden by `--adapter SUBSTRING|INDEX` or the `REFRAKT_ADAPTER` environment variable,
+//! matched against the adapter's name, driver and backend, or counted in the ranked list of
+//! usable adapters (identical GPUs have identical names). `refrakt info` prints what was found and why
 //! the chosen one won.
 
 pub mod readback;
@@ -72,6 +73,82 @@ pub fn no_adapter_help() -> &'static str {
      with Vulkan support. `refrakt info` lists what is found."
 }
 
+/// Every adapter found (for `refrakt info`), and those refrakt can use (compute shaders), best
+/// first: discrete GPUs, then integrated, virtual and CPU ones, in the driver's order within
+/// each kind. `--adapter N` and `--gpus` count in this order, so index 0 is the adapter refrakt
+/// chooses by itself.
+async fn ranked_adapters() -> Result<(Vec<wgpu::Adapter>, Vec<wgpu::AdapterInfo>)> {
+    // Native compute backends first; GL (whose EGL probing is noisy and whose compute support
+    // is partial) only when nothing else is there. WGPU_BACKEND overrides both.
+    let instance_for = |backends: wgpu::Backends| {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::from_env().unwrap_or(backends);
+        wgpu::Instance::new(desc)
+    };
+    let mut instance = instance_for(wgpu::Backends::PRIMARY);
+    let mut adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
+    if adapters.is_empty() {
+        instance = instance_for(wgpu::Backends::SECONDARY);
+        adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
+    }
+    let candidates: Vec<wgpu::AdapterInfo> = adapters.iter().map(|a| a.get_info()).collect();
+    if adapters.is_empty() {
+        bail!("{}", no_adapter_help());
+    }
+    let mut usable: Vec<wgpu::Adapter> = adapters
+        .into_iter()
+        .filter(|a| a.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS))
+        .collect();
+    // A stable sort: adapters of one kind keep the driver's order (identical GPUs stay apart by index).
+    usable.sort_by_key(|a| {
+        let i = a.get_info();
+        (device_rank(i.device_type), backend_rank(i.backend))
+    });
+    Ok((usable, candidates))
+}
+
+/// The adapter `filter` names: an index into the ranked list when it is a whole number below
+/// its length (identical GPUs have identical names), otherwise the best adapter whose name,
+/// driver or backend contains it. With an index, also the reason to report.
+fn pick<'a>(usable: &'a [wgpu::Adapter], candidates: &[wgpu::AdapterInfo], f: &str, source: &str) -> Result<(&'a wgpu::Adapter, Option<String>)> {
+    if let Some(i) = adapter_index(f, usable.len()) {
+        return Ok((&usable[i], Some(format!("it is adapter {i} of {} (by index, {source} {f})", usable.len()))));
+    }
+    if let Some(a) = usable.iter().find(|a| matches_filter(&a.get_info(), f)) {
+        return Ok((a, None));
+    }
+    let names: Vec<String> = usable.iter().enumerate().map(|(i, a)| format!("{i}: \"{}\" ({:?})", a.get_info().name, a.get_info().backend)).collect();
+    let unusable = candidates.len() - usable.len();
+    bail!(
+        "no adapter matches {source} \"{f}\"; usable adapters: {}{}. Give an index from this list, part of one of \
+         these names or backends, or unset {source} to choose automatically.",
+        if names.is_empty() { "none".to_string() } else { names.join(", ") },
+        if unusable > 0 { format!(" ({unusable} more without compute shaders)") } else { String::new() }
+    )
+}
+
+/// `filter` as an adapter index: a whole number below `count`.
+pub fn adapter_index(filter: &str, count: usize) -> Option<usize> {
+    let f = filter.trim();
+    if f.is_empty() || !f.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    f.parse::<usize>().ok().filter(|&i| i < count)
+}
+
+/// The usable adapters, best first (the order of `--adapter N`), as `refrakt info` lists them.
+pub fn usable_adapters() -> Result<Vec<wgpu::AdapterInfo>> {
+    let (usable, _) = pollster::block_on(ranked_adapters())?;
+    Ok(usable.iter().map(|a| a.get_info()).collect())
+}
+
+/// `--gpus all`: the indices of every usable adapter of the best kind present (every discrete
+/// GPU on a GPU machine, not the CPU driver beside them; the CPU driver on a machine without one).
+pub fn all_of_best_kind(adapters: &[wgpu::AdapterInfo]) -> Vec<usize> {
+    let Some(best) = adapters.first().map(|a| device_rank(a.device_type)) else { return Vec::new() };
+    (0..adapters.len()).filter(|&i| device_rank(adapters[i].device_type) == best).collect()
+}
+
 impl GpuContext {
     /// Opens the best adapter, or the one `filter` (or `$REFRAKT_ADAPTER`) names.
     pub fn new(filter: Option<&str>) -> Result<Self> {
@@ -85,50 +162,16 @@ impl GpuContext {
             (None, Some(f)) => (Some(f.to_string()), ADAPTER_ENV),
             (None, None) => (None, ""),
         };
-        // Native compute backends first; GL (whose EGL probing is noisy and whose compute support
-        // is partial) only when nothing else is there. WGPU_BACKEND overrides both.
-        let instance_for = |backends: wgpu::Backends| {
-            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-            desc.backends = wgpu::Backends::from_env().unwrap_or(backends);
-            wgpu::Instance::new(desc)
-        };
-        let mut instance = instance_for(wgpu::Backends::PRIMARY);
-        let mut adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
-        if adapters.is_empty() {
-            instance = instance_for(wgpu::Backends::SECONDARY);
-            adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
-        }
-        let candidates: Vec<wgpu::AdapterInfo> = adapters.iter().map(|a| a.get_info()).collect();
-        if adapters.is_empty() {
-            bail!("{}", no_adapter_help());
-        }
-        let mut usable: Vec<&wgpu::Adapter> = adapters
-            .iter()
-            .filter(|a| a.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS))
-            .collect();
-        if let Some(f) = &filter {
-            usable.retain(|a| matches_filter(&a.get_info(), f));
-            if usable.is_empty() {
-                let names: Vec<String> =
-                    candidates.iter().map(|i| format!("\"{}\" ({:?})", i.name, i.backend)).collect();
-                bail!(
-                    "no adapter matches {filter_source} \"{f}\"; found: {}. Give part of one of \
-                     these names or backends, or unset {filter_source} to choose automatically.",
-                    names.join(", ")
-                );
-            }
-        }
-        usable.sort_by_key(|a| {
-            let i = a.get_info();
-            (device_rank(i.device_type), backend_rank(i.backend))
-        });
-        let Some(adapter) = usable.first().copied() else {
-            bail!("no adapter with compute shaders was found. {}", no_adapter_help());
+        let (usable, candidates) = ranked_adapters().await?;
+        let (adapter, index_reason) = match &filter {
+            Some(f) => pick(&usable, &candidates, f, filter_source)?,
+            None => (usable.first().ok_or_else(|| anyhow::anyhow!("no adapter with compute shaders was found. {}", no_adapter_help()))?, None),
         };
         let info = adapter.get_info();
-        let reason = match &filter {
-            Some(f) => format!("it matches {filter_source} \"{f}\""),
-            None => format!(
+        let reason = match (&filter, index_reason) {
+            (_, Some(r)) => r,
+            (Some(f), None) => format!("it matches {filter_source} \"{f}\""),
+            (None, None) => format!(
                 "it is the most capable of {} adapter(s) found ({:?} on {:?}; discrete GPUs are \
                  preferred, then integrated, virtual and CPU ones)",
                 candidates.len(),
@@ -197,10 +240,16 @@ impl GpuContext {
             "  timestamp queries            {}",
             if self.has_timestamps() { "yes (refrakt bench times each stage)" } else { "no" }
         );
-        let _ = writeln!(s, "adapters found:");
+        let _ = writeln!(s, "adapters found (--adapter N and --gpus count the usable ones, best first):");
+        let usable = usable_adapters().unwrap_or_default();
         for c in &self.candidates {
-            let mark = if c.name == i.name && c.backend == i.backend { "*" } else { " " };
-            let _ = writeln!(s, " {mark} {} ({:?}, {:?}, {})", c.name, c.device_type, c.backend, c.driver);
+            let mark = if c.name == i.name && c.backend == i.backend && c.device_pci_bus_id == i.device_pci_bus_id { "*" } else { " " };
+            let index = usable
+                .iter()
+                .position(|u| u.name == c.name && u.backend == c.backend && u.device_pci_bus_id == c.device_pci_bus_id)
+                .map_or("-".to_string(), |k| k.to_string());
+            let bus = if c.device_pci_bus_id.is_empty() { String::new() } else { format!(", PCI {}", c.device_pci_bus_id) };
+            let _ = writeln!(s, " {mark} {index:>2}  {} ({:?}, {:?}, {}{bus})", c.name, c.device_type, c.backend, c.driver);
         }
         s
     }

@@ -136,7 +136,9 @@ def test_modal_operator_polls_on_timer_and_cancels_on_esc(fake_refrakt, saved_bl
     render = submodule("operators").REFRAKT_OT_render
 
     class Modal:  # the operator's own methods on a plain object (operators cannot be made by hand)
-        _start, _update, _finish, _load, modal = render._start, render._update, render._finish, render._load, render.modal
+        _start, _command, _update, _finish, _load, modal = (
+            render._start, render._command, render._update, render._finish, render._load, render.modal
+        )
         load_frames = True
 
         def __init__(self):

@@ -70,6 +70,8 @@ def test_render_panels_draw(addon, fog):
     bpy.context.scene.refrakt.fog = fog
     logs = {name: draw(name) for name in RENDER_PANELS}
     assert ("operator", "refrakt.render") in logs["RENDER_PT_refrakt"]
+    assert ("operator", "refrakt.render_cluster") in logs["RENDER_PT_refrakt"]
+    assert ("prop", "cluster_address") in logs["RENDER_PT_refrakt"]
     assert ("operator", "refrakt.load_frames") in logs["RENDER_PT_refrakt_compositing"]
     shown = {name for _, name in logs["RENDER_PT_refrakt_fog"]}
     assert ("fog_density" in shown) == (fog == "CUSTOM")

@@ -498,13 +498,16 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
 // The pixel being shaded (its index), which keys its random numbers.
 var<private> pixel_key: u32;
 
-// Traces pixel `p`'s camera rays and writes its five planes; returns the steps they took.
+// Traces this dispatch's camera rays of pixel `p` (samples sample_first… of `samples`) and
+// writes its five planes — or, after the first dispatch of a pixel's samples, adds to them;
+// returns the steps they took. (Splitting the samples keeps each invocation under lavapipe's
+// 65 535 loop iterations per shader, past which it silently ends every loop.)
 fn shade_pixel(p: vec2<u32>) -> u32 {
     let id = vec3<u32>(p, 0u);
     pixel_key = p.x + p.y * params.width;
     var sum = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
     var coverage = 0.0;
-    for (var k = 0u; k < params.samples; k++) {
+    for (var k = params.sample_first; k < params.sample_first + params.sample_count; k++) {
         let s = trace_view(camera_ray(vec2<f32>(id.xy) + r2(k)), k);
         sum.radiance += s.radiance;
         sum.caustic += s.caustic;
@@ -517,10 +520,21 @@ fn shade_pixel(p: vec2<u32>) -> u32 {
     let inv = 1.0 / f32(params.samples);
     let pixel = id.x + id.y * params.width;
     let plane = params.width * params.height;
-    frame[pixel] = vec4<f32>(sum.radiance * inv, coverage * inv);
-    frame[plane + pixel] = vec4<f32>(sum.depth, 0.0, 0.0, 0.0);
-    frame[2u * plane + pixel] = vec4<f32>(sum.caustic * inv, 0.0);
-    frame[3u * plane + pixel] = vec4<f32>(sum.direct * inv, 0.0);
-    frame[4u * plane + pixel] = vec4<f32>(sum.volume * inv, 0.0);
+    var planes = array<vec4<f32>, FRAME_PLANES>(
+        vec4<f32>(sum.radiance * inv, coverage * inv),
+        vec4<f32>(sum.depth, 0.0, 0.0, 0.0),
+        vec4<f32>(sum.caustic * inv, 0.0),
+        vec4<f32>(sum.direct * inv, 0.0),
+        vec4<f32>(sum.volume * inv, 0.0),
+    );
+    if params.sample_first > 0u {
+        for (var i = 0u; i < FRAME_PLANES; i++) {
+            planes[i] += frame[i * plane + pixel];
+        }
+        planes[1] = vec4<f32>(min(sum.depth, frame[plane + pixel].x), 0.0, 0.0, 0.0);
+    }
+    for (var i = 0u; i < FRAME_PLANES; i++) {
+        frame[i * plane + pixel] = planes[i];
+    }
     return sum.steps;
 }

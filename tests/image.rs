@@ -108,3 +108,28 @@ fn same_scene_renders_identical_bytes() {
     };
     assert_eq!(write("a.exr"), write("b.exr"), "EXR files");
 }
+
+/// Many camera samples keep all their light: 64 samples through an absorbing ball give the same
+/// picture as 8, within sub-pixel sampling. (On lavapipe one invocation running every sample
+/// hit llvmpipe's 65 535-iteration loop limit and lost light past ~48 samples; the view pass now
+/// splits a CPU adapter's samples over several dispatches, `view::dispatches`.)
+#[test]
+fn many_samples_keep_all_their_light() {
+    let mean_of = |samples: u32| {
+        let desc = frame_from_lua(&format!(
+            r#"local r = require("refrakt")
+            local scene = r.scene{{
+              camera = r.camera{{ position = {{0, 0.2, 2}}, target = {{0, 0, 0}}, fov = 26, size = {{24, 24}} }},
+              environment = r.environment{{ preset = "sky" }}, volume = {{ resolution = 32 }}, samples = {samples},
+            }}
+            scene:add(r.node{{ name = "tinted", shape = r.sphere{{ radius = 0.4 }}, material = r.glass{{ ior = 1.0, absorption = {{1, 2, 3}} }} }})
+            return scene"#
+        ));
+        let image = renderer().frame(&desc).unwrap();
+        let beauty = image.layer("beauty").unwrap();
+        beauty.data.chunks(4).map(|p| p[0] + p[1] + p[2]).sum::<f32>() / (24 * 24) as f32
+    };
+    let (few, many) = (mean_of(8), mean_of(64));
+    eprintln!("mean beauty: {few:.5} at 8 samples, {many:.5} at 64");
+    assert!((many / few - 1.0).abs() < 0.01, "64 samples {many} vs 8 samples {few}");
+}

@@ -48,6 +48,10 @@ struct ViewParams {
     camera_media_lo: u32,
     ambient: vec3<f32>,
     camera_media_hi: u32,
+    sample_first: u32,
+    sample_count: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 struct Field {

@@ -96,6 +96,12 @@ gpu_struct! {
         pub ambient: [f32; 3],
         /// …and high word.
         pub camera_media_hi: u32,
+        /// The camera samples this dispatch traces: from `sample_first`, `sample_count` of them
+        /// (all of `samples` in one dispatch, except on CPU adapters: `view::samples_per_dispatch`).
+        pub sample_first: u32,
+        pub sample_count: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
     }
 }
 

@@ -21,6 +21,9 @@ pub struct View {
     pipeline: wgpu::ComputePipeline,
     bgl: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
+    /// The uniforms of each dispatch when a frame's samples are split (CPU adapters), copied
+    /// into `params` before its dispatch.
+    batches: Option<wgpu::Buffer>,
     /// 64-bit count of the ray-equation steps of the last frame (benchmarks).
     pub steps: wgpu::Buffer,
     steps_staging: [crate::gpu::readback::Staging; 2],
@@ -40,6 +43,21 @@ pub struct ViewInputs<'a> {
     pub caustics: bool,
     /// Whether the radiance grid holds this frame's fluence.
     pub scattering: bool,
+}
+
+/// Camera samples one dispatch traces on a CPU adapter. Mesa's llvmpipe (lavapipe) ends every
+/// loop of a shader invocation, silently, once its loops have run 65 535 iterations in all
+/// (gallivm's `LP_MAX_TGSI_LOOP_ITERATIONS`): a pixel's many samples in one invocation would
+/// lose light past it (48 samples of a small scene already did). GPUs take all in one dispatch.
+pub const CPU_SAMPLES_PER_DISPATCH: u32 = 4;
+
+/// The frame's dispatches: the uniforms of each, its samples split as the adapter needs.
+pub fn dispatches(params: ViewParams, device_type: wgpu::DeviceType) -> Vec<ViewParams> {
+    let per = if device_type == wgpu::DeviceType::Cpu { CPU_SAMPLES_PER_DISPATCH } else { params.samples };
+    (0..params.samples)
+        .step_by(per as usize)
+        .map(|first| ViewParams { sample_first: first, sample_count: per.min(params.samples - first), ..params })
+        .collect()
 }
 
 /// The uniforms of one frame.
@@ -80,6 +98,7 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
         step: v.step,
         medium_eps: MEDIUM_EPS,
         samples: desc.samples.max(1),
+        sample_count: desc.samples.max(1),
         light_count: inputs.lights.light_count,
         // In a scattering medium the in-scattered light varies voxel to voxel: sample each.
         max_step: if inputs.scattering { v.voxel_size } else { 64.0 * v.voxel_size },
@@ -132,11 +151,26 @@ impl View {
             mapped_at_creation: false,
         });
         let steps_staging = [0, 1].map(|_| crate::gpu::readback::Staging::new(device, 8, "view steps readback"));
-        Ok(Self { pipeline, bgl, params, steps, steps_staging, bound: None })
+        Ok(Self { pipeline, bgl, params, batches: None, steps, steps_staging, bound: None })
     }
 
     pub fn encode(&mut self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder, profiler: &mut Profiler, desc: &FrameDesc, inputs: &ViewInputs) {
-        ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&view_params(desc, inputs)));
+        let dispatches = dispatches(view_params(desc, inputs), ctx.info.device_type);
+        let size = std::mem::size_of::<ViewParams>() as u64;
+        if dispatches.len() == 1 {
+            ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&dispatches[0]));
+        } else {
+            let needed = size * dispatches.len() as u64;
+            if self.batches.as_ref().is_none_or(|b| b.size() < needed) {
+                self.batches = Some(ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("view dispatches"),
+                    size: needed,
+                    usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                }));
+            }
+            ctx.queue.write_buffer(self.batches.as_ref().expect("made above"), 0, bytemuck::cast_slice(&dispatches));
+        }
         let (grids, env, receivers, lights, radiance, target) =
             (inputs.grids, inputs.environment, inputs.receivers, inputs.lights, inputs.radiance, inputs.target);
         let generations = [grids.generation, env.generation, target.generation, receivers.generation, lights.generation, radiance.generation];
@@ -174,10 +208,15 @@ impl View {
         }
         let (_, bg) = self.bound.as_ref().expect("bound above");
         enc.clear_buffer(&self.steps, 0, None);
-        let mut pass = profiler.pass(enc, "view");
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, bg, &[]);
-        pass.dispatch_workgroups(target.width.div_ceil(8), target.height.div_ceil(8), 1);
+        for b in 0..dispatches.len() as u64 {
+            if let (Some(batches), true) = (&self.batches, dispatches.len() > 1) {
+                enc.copy_buffer_to_buffer(batches, b * size, &self.params, 0, size);
+            }
+            let mut pass = profiler.pass(enc, "view");
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, bg, &[]);
+            pass.dispatch_workgroups(target.width.div_ceil(8), target.height.div_ceil(8), 1);
+        }
     }
 
     /// Copies the step count toward the CPU into readback `slot`.

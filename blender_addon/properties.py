@@ -155,6 +155,15 @@ class RefraktSceneSettings(bpy.types.PropertyGroup):
         default=True,
     )
 
+    viewport_scale: IntProperty(
+        name="Viewport Resolution",
+        description="Pixels refrakt renders in the viewport's Rendered mode, as a percentage of the viewport's",
+        default=50,
+        min=5,
+        max=100,
+        subtype="PERCENTAGE",
+    )
+
     live_debounce: FloatProperty(
         name="Delay",
         description="Seconds without changes before live mode re-exports the scene",
@@ -242,6 +251,29 @@ class RefraktMaterialSettings(bpy.types.PropertyGroup):
     )
 
 
+def _update_passes(settings, context):
+    # Blender asks the engine for its passes again, so the compositor's Render Layers node
+    # shows or hides the sockets at once.
+    for view_layer in settings.id_data.view_layers:
+        view_layer.update_render_passes()
+
+
+class RefraktViewLayerSettings(bpy.types.PropertyGroup):
+    """refrakt's passes in the Render Result (View Layer Properties ▸ Passes ▸ refrakt)."""
+
+    use_pass_caustic: BoolProperty(
+        name="Caustic", description="Light that reached a receiver through glass", default=True, update=_update_passes
+    )
+    use_pass_direct: BoolProperty(
+        name="Direct", description="Light that reached a receiver straight from the lights", default=True,
+        update=_update_passes,
+    )
+    use_pass_volume: BoolProperty(
+        name="Volume", description="Light scattered toward the camera by fog and media", default=True,
+        update=_update_passes,
+    )
+
+
 class RefraktJobState(bpy.types.PropertyGroup):
     """What the running render or live session shows in the panel (not saved in the .blend)."""
 
@@ -253,13 +285,20 @@ class RefraktJobState(bpy.types.PropertyGroup):
     live_status: StringProperty(default="")
 
 
-classes = (RefraktSceneSettings, RefraktObjectSettings, RefraktMaterialSettings, RefraktJobState)
+classes = (
+    RefraktSceneSettings,
+    RefraktObjectSettings,
+    RefraktMaterialSettings,
+    RefraktViewLayerSettings,
+    RefraktJobState,
+)
 
 # (owner type, attribute, property group)
 attachments = (
     (bpy.types.Scene, "refrakt", RefraktSceneSettings),
     (bpy.types.Object, "refrakt", RefraktObjectSettings),
     (bpy.types.Material, "refrakt", RefraktMaterialSettings),
+    (bpy.types.ViewLayer, "refrakt", RefraktViewLayerSettings),
     (bpy.types.WindowManager, "refrakt", RefraktJobState),
 )
 

@@ -29,7 +29,6 @@ _KINDS = (
     (bpy.types.Light, "light"),
     (bpy.types.World, "world"),
     (bpy.types.Mesh, "geometry"),
-    (bpy.types.Collection, "objects"),
     (bpy.types.NodeTree, "material"),
 )
 
@@ -71,13 +70,22 @@ return scene
 """
 
 
-def depsgraph_changes(depsgraph):
+def object_names(scene):
+    return frozenset(o.name for o in scene.objects)
+
+
+def depsgraph_changes(depsgraph, exported_objects):
     """The kinds of change in a depsgraph update that refrakt renders differently: moved or
-    reshaped objects, materials, lights, the World. Selecting objects or moving the scene
-    camera (the viewport has its own view) is none."""
+    reshaped objects, objects added or removed, materials, lights, the World. Selecting objects,
+    moving the scene camera (the viewport has its own view) or the glTF export's own
+    re-evaluation (which touches the scene's collection) is none."""
     kinds = set()
     for update in depsgraph.updates:
         data = update.id
+        if isinstance(data, bpy.types.Collection):
+            if object_names(depsgraph.scene) != exported_objects:
+                kinds.add("objects")
+            continue
         if isinstance(data, bpy.types.Object):
             if data.type != "CAMERA" and (update.is_updated_transform or update.is_updated_geometry):
                 kinds.add("transform" if update.is_updated_transform else "geometry")
@@ -106,7 +114,9 @@ class ViewportSession:
         self.frames = 0
         self.latest = None  # the preview's path once refrakt has written a frame
         self.reused = None
+        self.quality = None
         self.error = ""
+        self.exported_objects = object_names(scene)
         self.warnings = scene_export.export(bpy.context)
         self.sent.append(("scene", ["all"]))
 
@@ -115,7 +125,7 @@ class ViewportSession:
     def view_update(self, depsgraph):
         """Takes a depsgraph update: scene changes are exported once edits pause (tick), scene
         settings rewrite the view script, a new frame restarts the watcher."""
-        kinds = depsgraph_changes(depsgraph)
+        kinds = depsgraph_changes(depsgraph, self.exported_objects)
         if kinds:
             self.pending |= kinds
             self.dirty_since = time.monotonic()
@@ -147,6 +157,7 @@ class ViewportSession:
                 self.frames += 1
                 self.latest = event["files"][0]
                 self.reused = (event.get("stats") or {}).get("reused")
+                self.quality = event.get("quality", "final")  # a fast frame comes first after some changes
                 self.error = ""
                 fresh = True
             elif event.get("event") == "error":
@@ -157,6 +168,7 @@ class ViewportSession:
 
     def export(self):
         kinds, self.pending, self.dirty_since = sorted(self.pending), set(), None
+        self.exported_objects = object_names(self.scene)
         self.warnings = scene_export.export(bpy.context)
         self.sent.append(("scene", kinds))
 

@@ -53,6 +53,36 @@ def expected_passes(planes):
     return out
 
 
+def render_layers_outputs(scene):
+    """The sockets the compositor's Render Layers node shows for the scene's view layer."""
+    tree = submodule("compositor").tree(scene)
+    node = tree.nodes.new("CompositorNodeRLayers")
+    return {s.name for s in node.outputs if s.enabled}
+
+
+def test_engine_is_listed_and_its_passes_reach_the_compositor(addon):
+    scene = bpy.context.scene
+    scene.render.engine = "REFRAKT"  # (a name Blender does not list is refused)
+    assert scene.render.engine == "REFRAKT"
+    layer = scene.view_layers[0]
+    layer.use_pass_z = True
+    assert {"Image", "Alpha", "Depth", *PASSES} <= render_layers_outputs(scene)
+    layer.refrakt.use_pass_direct = False
+    layer.use_pass_z = False
+    shown = render_layers_outputs(scene)
+    assert {"caustic", "volume"} <= shown and not {"direct", "Depth"} & shown
+
+
+def test_refrakt_error_reaches_blenders_report(fake_refrakt, tmp_path, saved_blend, monkeypatch):
+    engine_scene(tmp_path, frames=(1, 3))
+    saved_blend()
+    monkeypatch.setenv("FAKE_REFRAKT_FAIL_AT", "2")
+    with pytest.raises(RuntimeError, match=r'refrakt: frame 2 .*node "Cube": scale has a zero component'):
+        bpy.ops.render.render(animation=True)
+    assert fake_frame_value(tmp_path / "out" / "shot.0001.exr") == 1
+    assert submodule("final_render").current is None
+
+
 @pytest.mark.parametrize("refrakt", ["fake", "real"])
 def test_f12_writes_the_result_and_blenders_file(request, refrakt, tmp_path, saved_blend, addon):
     if refrakt == "fake":

@@ -27,6 +27,8 @@ def engine_scene(tmp_path, frames=(1, 1), size=(32, 18)):
     scene.refrakt.volume_resolution, scene.refrakt.photons, scene.refrakt.samples = 16, 2000, 1
     scene.view_layers[0].use_pass_z = True
     settings = scene.render.image_settings
+    if hasattr(settings, "media_type"):  # Blender 5.0: multilayer images are a media type
+        settings.media_type = "MULTI_LAYER_IMAGE"
     settings.file_format = "OPEN_EXR_MULTILAYER"
     settings.color_depth = "32"
     settings.exr_codec = "ZIP"
@@ -36,11 +38,12 @@ def engine_scene(tmp_path, frames=(1, 1), size=(32, 18)):
 
 
 def refrakt_exr(path):
-    """refrakt's frame read by OpenEXR's own Python bindings (not the add-on's reader)."""
+    """An EXR's channels, of every part, read by OpenEXR's own Python bindings (not the add-on's
+    reader). Blender 5.0 writes a multilayer file as one part per pass."""
     import OpenEXR
 
     with OpenEXR.File(str(path), separate_channels=True) as f:
-        return {name: np.asarray(c.pixels, dtype=np.float32) for name, c in f.channels().items()}
+        return {name: np.asarray(c.pixels, dtype=np.float32) for part in f.parts for name, c in part.channels.items()}
 
 
 def expected_passes(planes):

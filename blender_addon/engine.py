@@ -29,8 +29,18 @@ COMPATIBLE_PANELS = (
     "VIEWLAYER_PT_layer_passes_data",
 )
 
-# Viewport sessions of the engines alive now, for the UI timer.
-_sessions = {}
+class Viewport:
+    """A viewport in Rendered mode: its engine, its session, and the texture last drawn."""
+
+    def __init__(self, engine, session):
+        self.engine = engine
+        self.session = session
+        self.texture = None
+        self.drawn = 0  # the session's frame count when the texture was made
+
+
+# The viewports in Rendered mode, by their engine's pointer, for the UI timer.
+_viewports = {}
 TICK_SECONDS = 0.1
 
 
@@ -48,31 +58,30 @@ class RefraktRenderEngine(bpy.types.RenderEngine):
         final_render.update_render_passes(self, scene, renderlayer)
 
     def view_update(self, context, depsgraph):
-        session = _sessions.get(self.as_pointer())
-        if session is None:
-            try:
-                refrakt = binary.resolve(preferences.get(context).binary)
-                session = viewport.ViewportSession(context.scene, refrakt)
-            except Exception as e:  # noqa: BLE001 (a viewport cannot raise: shown in the view)
-                self.report({"ERROR"}, f"refrakt: {e}")
-                return
-            _sessions[self.as_pointer()] = (self, session)
-            _ensure_timer()
+        view = _viewports.get(self.as_pointer())
+        if view is not None:
+            view.session.view_update(depsgraph)
             return
-        session[1].view_update(depsgraph)
+        try:
+            refrakt = binary.resolve(preferences.get(context).binary)
+            session = viewport.ViewportSession(context.scene, refrakt)
+        except Exception as e:  # noqa: BLE001 (a viewport cannot raise: the report says why)
+            self.report({"ERROR"}, f"refrakt: {e}")
+            return
+        _viewports[self.as_pointer()] = Viewport(self, session)
+        _ensure_timer()
 
     def view_draw(self, context, depsgraph):
-        entry = _sessions.get(self.as_pointer())
-        if entry is None:
+        view = _viewports.get(self.as_pointer())
+        if view is None:
             return
-        session = entry[1]
-        region, view = context.region, context.region_data
+        region, r3d = context.region, context.region_data
         camera = viewport.view_camera(
-            view.view_matrix, view.window_matrix, (region.width, region.height),
-            context.scene.refrakt.viewport_scale, view.is_perspective,
+            r3d.view_matrix, r3d.window_matrix, (region.width, region.height),
+            context.scene.refrakt.viewport_scale, r3d.is_perspective,
         )
-        session.set_view(camera)
-        _draw(self, session, context, region)
+        view.session.set_view(camera)
+        _draw(view, context.scene, region)
 
     def __del__(self):
         # Blender frees the engine when the viewport leaves Rendered mode.
@@ -80,41 +89,42 @@ class RefraktRenderEngine(bpy.types.RenderEngine):
             key = self.as_pointer()
         except ReferenceError:
             return
-        entry = _sessions.pop(key, None)
-        if entry is not None:
-            entry[1].stop()
+        view = _viewports.pop(key, None)
+        if view is not None:
+            view.session.stop()
 
 
-def _draw(engine, session, context, region):
+def _draw(view, scene, region):
+    """The session's latest frame over the whole region, through Blender's view transform."""
     import gpu
     from gpu_extras.presets import draw_texture_2d
 
-    texture = getattr(session, "texture", None)
-    if getattr(session, "drawn", None) != session.frames and session.latest is not None:
+    session = view.session
+    if view.drawn != session.frames and session.latest is not None:
         pixels, size = session.pixels()
         buffer = gpu.types.Buffer("FLOAT", len(pixels), pixels)
-        session.texture = texture = gpu.types.GPUTexture(size, format="RGBA16F", data=buffer)
-        session.drawn = session.frames
-    if texture is None:
+        view.texture = gpu.types.GPUTexture(size, format="RGBA16F", data=buffer)
+        view.drawn = session.frames
+    if view.texture is None:
         return
     gpu.state.blend_set("ALPHA_PREMULT")
-    engine.bind_display_space_shader(context.scene)
-    draw_texture_2d(texture, (0, 0), region.width, region.height)
-    engine.unbind_display_space_shader()
+    view.engine.bind_display_space_shader(scene)
+    draw_texture_2d(view.texture, (0, 0), region.width, region.height)
+    view.engine.unbind_display_space_shader()
     gpu.state.blend_set("NONE")
 
 
 def _tick():
-    for key, (engine, session) in list(_sessions.items()):
+    for key, view in list(_viewports.items()):
         try:
-            if session.tick():
-                engine.tag_redraw()
+            if view.session.tick():
+                view.engine.tag_redraw()
         except ReferenceError:  # the engine is gone (its viewport closed)
-            session.stop()
-            del _sessions[key]
+            view.session.stop()
+            del _viewports[key]
         except Exception as e:  # noqa: BLE001 (an export error: the last good frame stays)
-            session.error = str(e)
-    return TICK_SECONDS if _sessions else None
+            view.session.error = str(e)
+    return TICK_SECONDS if _viewports else None
 
 
 def _ensure_timer():
@@ -123,9 +133,9 @@ def _ensure_timer():
 
 
 def stop_viewports():
-    for _engine, session in _sessions.values():
-        session.stop()
-    _sessions.clear()
+    for view in _viewports.values():
+        view.session.stop()
+    _viewports.clear()
 
 
 def _panels():

@@ -15,18 +15,14 @@ import numpy as np
 
 from . import binary, cli, exr, job, preferences, scene_export
 
-# refrakt's passes beside Combined and Depth: (pass name, EXR layer, description).
-PASSES = (
-    ("caustic", "caustic", "Light that reached a receiver through glass (photons)"),
-    ("direct", "direct", "Light that reached a receiver straight from the lights"),
-    ("volume", "volume", "Light scattered toward the camera by fog and media"),
-)
+# refrakt's passes beside Combined and Depth, named as its EXR layers (properties.py describes them).
+PASSES = ("caustic", "direct", "volume")
 
 # Render Result pass → refrakt's EXR channels.
 CHANNELS = {
     "Combined": ("R", "G", "B", "A"),
     "Depth": ("depth.Z",),
-    **{name: tuple(f"{layer}.{c}" for c in "RGB") for name, layer, _ in PASSES},
+    **{name: tuple(f"{name}.{c}" for c in "RGB") for name in PASSES},
 }
 
 POLL_SECONDS = 0.05
@@ -94,7 +90,7 @@ def _show_progress(engine, run, k):
     state = "stopping after the frame in hand" if j.cancelled else f"rendering frame {k}"
     engine.update_stats("refrakt", f"{state} ({j.done}/{j.total or run.last - run.first + 1} of frames {run.first}–{run.last})")
     total = run.last - run.first + 1
-    engine.update_progress(min(1.0, (k - run.first) / total + 0.5 / total) if not j.cancelled else j.percent / 100.0)
+    engine.update_progress((k - run.first + 0.5) / total)  # half way through frame k of the range
 
 
 # The process of the render under way (an animation's frames share it).
@@ -200,6 +196,6 @@ def update_render_passes(engine, scene, view_layer):
     if view_layer.use_pass_z:
         engine.register_pass(scene, view_layer, "Depth", 1, "Z", "VALUE")
     settings = view_layer.refrakt
-    for name, _layer, _ in PASSES:
+    for name in PASSES:
         if getattr(settings, f"use_pass_{name}"):
             engine.register_pass(scene, view_layer, name, 3, "RGB", "COLOR")

@@ -107,10 +107,10 @@ def steps():
     view3d.spaces.active.shading.type = "RENDERED"
     engine = sys.modules[shots.MODULE + ".engine"]
     started = time.monotonic()
-    while not any(s.frames and s.quality == "final" for _, s in engine._sessions.values()):
+    while not any(v.session.frames and v.session.quality == "final" for v in engine._viewports.values()):
         shots.redraw()
         yield 0.5
-        errors = [s.error for _, s in engine._sessions.values() if s.error]
+        errors = [v.session.error for v in engine._viewports.values() if v.session.error]
         assert not errors, f"viewport: {errors}"
         assert time.monotonic() - started < VIEWPORT_TIMEOUT_S, "no viewport frame"
     print(f"blender_engine_screenshots: first viewport frame after {time.monotonic() - started:.1f} s", flush=True)

@@ -7,7 +7,9 @@ frames after it meanwhile. `render_init` (a new render) and `render_cancel`/`ren
 end the process of the render before, so an edited scene is exported afresh.
 """
 
+import contextlib
 import os
+import threading
 import time
 
 import bpy
@@ -115,9 +117,8 @@ def _range_for(engine, scene, k):
     stop_current()
     try:
         refrakt = binary.resolve(preferences.get(bpy.context).binary)
-        for w in scene_export.export(bpy.context):
+        for w in on_main_thread(lambda: _export(scene)):
             engine.report({"WARNING"}, w)
-        scene_export.write_wrapper(scene, scene_export.paths(scene))
     except (binary.BinaryError, scene_export.ExportError, OSError) as e:
         raise RenderError(str(e)) from None
     last = scene.frame_end if engine.is_animation and scene.frame_step == 1 and k <= scene.frame_end else k
@@ -126,6 +127,43 @@ def _range_for(engine, scene, k):
     except (binary.BinaryError, OSError) as e:
         raise RenderError(str(e)) from None
     return current
+
+
+def _export(scene):
+    """The scene's .glb and Lua wrapper; returns the export's warnings."""
+    windows = bpy.context.window_manager.windows
+    with bpy.context.temp_override(window=windows[0]) if windows else contextlib.nullcontext():
+        warnings = scene_export.export(bpy.context)
+    scene_export.write_wrapper(scene, scene_export.paths(scene))
+    return warnings
+
+
+EXPORT_TIMEOUT_S = 600.0
+
+
+def on_main_thread(work):
+    """Runs `work` on Blender's main thread and returns what it returns (or raises what it
+    raises). F12 renders on a thread of Blender's render job, whose context lacks what the glTF
+    exporter reads (the active object, the view layer); the main thread runs it from a timer.
+    Headless renders (`-b`, the bpy module) run on the main thread: `work` runs at once."""
+    if threading.current_thread() is threading.main_thread():
+        return work()
+    done, outcome = threading.Event(), {}
+
+    def run():
+        try:
+            outcome["value"] = work()
+        except Exception as e:  # noqa: BLE001 (raised again on the render thread)
+            outcome["error"] = e
+        done.set()
+        return None
+
+    bpy.app.timers.register(run, first_interval=0.0)
+    if not done.wait(EXPORT_TIMEOUT_S):
+        raise RenderError(f"Blender's main thread did not export the scene within {EXPORT_TIMEOUT_S:.0f} s")
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome["value"]
 
 
 def render(engine, depsgraph):

@@ -208,6 +208,7 @@ return scene
 
 def write_atomically(path, text):
     """Writes through a temporary name and a rename, so `refrakt watch` never reads half a file."""
+    os.makedirs(os.path.dirname(path), exist_ok=True)
     tmp = os.path.join(os.path.dirname(path), f".{os.path.basename(path)}.tmp-{os.getpid()}")
     with open(tmp, "w", encoding="utf-8") as f:
         f.write(text)

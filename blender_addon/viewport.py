@@ -108,23 +108,25 @@ class ViewportSession:
         self.settings = None  # the scene settings in the view script
         self.script = None  # the view script's text
         self.watch = None
-        self.pending = set()  # kinds of scene change not yet exported
-        self.dirty_since = None
+        # Kinds of scene change not yet exported: at first, everything. Exports run from `tick`
+        # (a UI timer), never inside view_update, which Blender calls while drawing.
+        self.pending = {"all"}
+        self.dirty_since = -math.inf
+        self.exported_objects = None
         self.sent = []  # (what, detail) in the order sent: ("scene", kinds), ("view", camera), …
         self.frames = 0
         self.latest = None  # the preview's path once refrakt has written a frame
         self.reused = None
         self.quality = None
         self.error = ""
-        self.exported_objects = object_names(scene)
-        self.warnings = scene_export.export(bpy.context)
-        self.sent.append(("scene", ["all"]))
+        self.warnings = []
 
     # --- what Blender tells the session ------------------------------------------------
 
     def view_update(self, depsgraph):
         """Takes a depsgraph update: scene changes are exported once edits pause (tick), scene
-        settings rewrite the view script, a new frame restarts the watcher."""
+        settings rewrite the view script (tick checks them too), a new frame restarts the
+        watcher."""
         kinds = depsgraph_changes(depsgraph, self.exported_objects)
         if kinds:
             self.pending |= kinds
@@ -142,7 +144,7 @@ class ViewportSession:
         self.camera = camera
         self.sent.append(("view", camera))
         self._write_script()
-        if self.watch is None:
+        if self.watch is None and self.exported_objects is not None:
             self._start_watch()
         return True
 
@@ -151,6 +153,8 @@ class ViewportSession:
         Returns True when a new frame is ready to draw."""
         if self.pending and time.monotonic() - self.dirty_since >= self.scene.refrakt.live_debounce:
             self.export()
+        # Add-on settings set from Python tag no depsgraph update: they are compared here.
+        self._write_script()
         fresh = False
         for event in self.watch.poll() if self.watch else ():
             if event.get("event") == "frame":
@@ -171,6 +175,8 @@ class ViewportSession:
         self.exported_objects = object_names(self.scene)
         self.warnings = scene_export.export(bpy.context)
         self.sent.append(("scene", kinds))
+        if self.watch is None:
+            self._start_watch()  # the first export: refrakt has a scene to watch
 
     def pixels(self):
         """The latest frame as float RGBA rows from the bottom (what a GPU texture takes), and
@@ -206,8 +212,8 @@ class ViewportSession:
             scene_export.write_atomically(self.paths.view_script, text)
 
     def _start_watch(self):
-        if self.camera is None:
-            return  # started by the first view
+        if self.camera is None or self.exported_objects is None:
+            return  # started once there is a view and an exported scene
         self.stop()
         argv = cli.watch_view(self.binary, self.scene, self.paths.view_script, self.paths.view_preview, self.frame)
         self.watch = job.Job(argv, output_dir=self.paths.directory)

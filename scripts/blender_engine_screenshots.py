@@ -100,6 +100,9 @@ def steps():
     tree = compositor(scene)
     nodes = shots.areas("NODE_EDITOR")[0]
     nodes.spaces.active.node_tree = tree
+    nodes.spaces.active.show_region_ui = False
+    nodes.spaces.active.show_region_toolbar = False
+    yield 0.5
     with shots.override(nodes):
         bpy.ops.node.view_all()
 

@@ -6,6 +6,7 @@ Headless Blender has no viewport, so the tests play its part: they give the sess
 
 import json
 import math
+import os
 import time
 
 import bpy
@@ -98,6 +99,25 @@ def viewport(fake_refrakt, saved_blend, tmp_path, monkeypatch):
     session.stop()
 
 
+def test_exports_wait_for_the_timer(fake_refrakt, saved_blend):
+    """Blender calls view_update while it draws (a GPU context bound): the session only notes
+    changes there; the glTF export runs from the UI timer's tick."""
+    scene = scenes.round_trip_scene()
+    saved_blend()
+    bpy.context.view_layer.update()
+    session = submodule("viewport").ViewportSession(scene, prefs().binary)
+    try:
+        session.set_view(camera(0))
+        bpy.data.objects["Ball"].location.x = 0.3
+        session.view_update(bpy.context.evaluated_depsgraph_get())
+        assert not os.path.exists(session.paths.glb) and session.watch is None
+        session.tick()
+        assert os.path.exists(session.paths.glb) and session.watch is not None
+        assert session.sent == [("view", camera(0)), ("scene", ["all"])]
+    finally:
+        session.stop()
+
+
 def test_orbit_sends_only_the_view(viewport):
     session, reloads = viewport
     name = session.paths.name
@@ -143,10 +163,8 @@ def test_moved_object_and_changed_material_send_the_scene(viewport):
 
 def test_scene_settings_rewrite_the_view_script(viewport):
     session, reloads = viewport
-    with Recorder(session):
-        session.scene.refrakt.photons = 12345
-        bpy.context.view_layer.update()
-        tick_until(session, lambda: session.frames >= 2)
+    session.scene.refrakt.photons = 12345  # (no depsgraph update: the timer's tick sees it)
+    tick_until(session, lambda: session.frames >= 2)
     assert session.sent[-1][0] == "settings" and session.sent[-1][1]["photons"] == 12345
     assert reloads()[-1]["changed"] == [f"{session.paths.name}.view.lua"]
     assert "photons = 12345," in reloads()[-1]["script"]

@@ -70,24 +70,34 @@ return scene
 """
 
 
-def object_names(scene):
-    return frozenset(o.name for o in scene.objects)
+def placement(obj):
+    """Where an (evaluated) object is and how big: its world matrix and bounding box, to 1e-6."""
+    values = [x for row in obj.matrix_world for x in row] + [x for corner in obj.bound_box for x in corner]
+    return tuple(round(x, 6) for x in values)
 
 
-def depsgraph_changes(depsgraph, exported_objects):
+def placements(depsgraph):
+    """Every object's placement as exported: the glTF exporter steps through the animation's
+    frames and back, and Blender reports every animated object as moved afterwards, though
+    nothing is where it was not; comparing with this tells those echoes from real edits."""
+    return {o.name: placement(o) for o in depsgraph.objects}
+
+
+def depsgraph_changes(depsgraph, exported):
     """The kinds of change in a depsgraph update that refrakt renders differently: moved or
     reshaped objects, objects added or removed, materials, lights, the World. Selecting objects,
     moving the scene camera (the viewport has its own view) or the glTF export's own
-    re-evaluation (which touches the scene's collection) is none."""
+    re-evaluation (`exported`: placements at the last export) is none."""
     kinds = set()
     for update in depsgraph.updates:
         data = update.id
         if isinstance(data, bpy.types.Collection):
-            if object_names(depsgraph.scene) != exported_objects:
+            if {o.name for o in depsgraph.scene.objects} != set(exported):
                 kinds.add("objects")
             continue
         if isinstance(data, bpy.types.Object):
-            if data.type != "CAMERA" and (update.is_updated_transform or update.is_updated_geometry):
+            moved = update.is_updated_transform or update.is_updated_geometry
+            if data.type != "CAMERA" and moved and exported.get(data.name) != placement(data):
                 kinds.add("transform" if update.is_updated_transform else "geometry")
             continue
         for kind_type, kind in _KINDS:
@@ -112,7 +122,7 @@ class ViewportSession:
         # (a UI timer), never inside view_update, which Blender calls while drawing.
         self.pending = {"all"}
         self.dirty_since = -math.inf
-        self.exported_objects = None
+        self.exported = None  # placements at the last export
         self.sent = []  # (what, detail) in the order sent: ("scene", kinds), ("view", camera), …
         self.frames = 0
         self.latest = None  # the preview's path once refrakt has written a frame
@@ -120,6 +130,7 @@ class ViewportSession:
         self.quality = None
         self.error = ""
         self.warnings = []
+        self.exporting = False
 
     # --- what Blender tells the session ------------------------------------------------
 
@@ -127,7 +138,9 @@ class ViewportSession:
         """Takes a depsgraph update: scene changes are exported once edits pause (tick), scene
         settings rewrite the view script (tick checks them too), a new frame restarts the
         watcher."""
-        kinds = depsgraph_changes(depsgraph, self.exported_objects)
+        if self.exporting:
+            return  # the exporter stepping through the animation: nothing was edited
+        kinds = depsgraph_changes(depsgraph, self.exported or {})
         if kinds:
             self.pending |= kinds
             self.dirty_since = time.monotonic()
@@ -144,7 +157,7 @@ class ViewportSession:
         self.camera = camera
         self.sent.append(("view", camera))
         self._write_script()
-        if self.watch is None and self.exported_objects is not None:
+        if self.watch is None and self.exported is not None:
             self._start_watch()
         return True
 
@@ -172,8 +185,12 @@ class ViewportSession:
 
     def export(self):
         kinds, self.pending, self.dirty_since = sorted(self.pending), set(), None
-        self.exported_objects = object_names(self.scene)
-        self.warnings = scene_export.export(bpy.context)
+        self.exporting = True
+        try:
+            self.warnings = scene_export.export(bpy.context)
+        finally:
+            self.exporting = False
+        self.exported = placements(bpy.context.evaluated_depsgraph_get())
         self.sent.append(("scene", kinds))
         if self.watch is None:
             self._start_watch()  # the first export: refrakt has a scene to watch
@@ -212,7 +229,7 @@ class ViewportSession:
             scene_export.write_atomically(self.paths.view_script, text)
 
     def _start_watch(self):
-        if self.camera is None or self.exported_objects is None:
+        if self.camera is None or self.exported is None:
             return  # started once there is a view and an exported scene
         self.stop()
         argv = cli.watch_view(self.binary, self.scene, self.paths.view_script, self.paths.view_preview, self.frame)

@@ -172,3 +172,18 @@ def test_esc_stops_refrakt_after_the_frame_in_hand(fake_refrakt, tmp_path, saved
     # (Headless Blender's own loop cannot see the stand-in Esc, so it asks for frames 2 and 3;
     # the engine starts no refrakt for them and hands back blank results.)
     assert len([line for line in fake_refrakt.read_text().splitlines() if '"render"' in line]) == 1
+
+
+def test_blenders_overwrite_setting_applies(fake_refrakt, tmp_path, saved_blend):
+    """Overwrite off: Blender skips frames whose files exist, as for Cycles; the engine renders
+    the others (still through one refrakt process) and leaves the existing file alone."""
+    scene = engine_scene(tmp_path, frames=(1, 3))
+    scene.render.use_overwrite = False
+    saved_blend()
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "shot.0002.exr").write_bytes(b"kept")
+    bpy.ops.render.render(animation=True)
+    assert (out / "shot.0002.exr").read_bytes() == b"kept"
+    assert fake_frame_value(out / "shot.0001.exr") == 1 and fake_frame_value(out / "shot.0003.exr") == 3
+    assert len([line for line in fake_refrakt.read_text().splitlines() if '"render"' in line]) == 1

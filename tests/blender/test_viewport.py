@@ -141,6 +141,11 @@ def test_moved_object_and_changed_material_send_the_scene(viewport):
         ball.select_set(True)  # selecting is no change to the picture
         bpy.context.view_layer.update()
         assert not session.pending
+        # Re-evaluated where it was (as after the exporter stepped through the animation).
+        ball.location = ball.location.copy()
+        bpy.data.objects["Cube"].location = bpy.data.objects["Cube"].location.copy()
+        bpy.context.view_layer.update()
+        assert not session.pending
         ball.location.x = -0.4
         bpy.context.view_layer.update()
         assert session.pending == {"transform"}

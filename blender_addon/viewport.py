@@ -140,14 +140,16 @@ class ViewportSession:
         watcher."""
         if self.exporting:
             return  # the exporter stepping through the animation: nothing was edited
-        kinds = depsgraph_changes(depsgraph, self.exported or {})
-        if kinds:
-            self.pending |= kinds
-            self.dirty_since = time.monotonic()
         if self.scene.frame_current != self.frame:
             self.frame = self.scene.frame_current
             self.sent.append(("frame", self.frame))
             self._start_watch()
+            if self.exported is not None:  # the .glb holds the animation: what it moved is no edit
+                self.exported = placements(depsgraph)
+        kinds = depsgraph_changes(depsgraph, self.exported or {})
+        if kinds:
+            self.pending |= kinds
+            self.dirty_since = time.monotonic()
         self._write_script()
 
     def set_view(self, camera):

@@ -181,7 +181,7 @@ def test_frame_change_restarts_the_watcher(viewport, fake_refrakt):
     bpy.context.scene.frame_set(4)
     session.view_update(bpy.context.evaluated_depsgraph_get())  # (frame_set runs no update handler)
     assert session.watch is not first and first.finished
-    assert session.sent[-1] == ("frame", 4)
+    assert session.sent[-1] == ("frame", 4) and not session.pending, "the animation moved the Cube, no edit"
     tick_until(session, lambda: session.frames > frames)  # the new watcher's first frame
     watches = [json.loads(line) for line in fake_refrakt.read_text().splitlines() if '"watch"' in line]
     assert watches[-1][watches[-1].index("--frame") + 1] == "4"

@@ -251,26 +251,20 @@ class RefraktMaterialSettings(bpy.types.PropertyGroup):
     )
 
 
-def _update_passes(settings, context):
-    # Blender asks the engine for its passes again, so the compositor's Render Layers node
-    # shows or hides the sockets at once.
-    for view_layer in settings.id_data.view_layers:
-        view_layer.update_render_passes()
-
-
 class RefraktViewLayerSettings(bpy.types.PropertyGroup):
-    """refrakt's passes in the Render Result (View Layer Properties ▸ Passes ▸ refrakt)."""
+    """refrakt's passes in the Render Result (View Layer Properties ▸ refrakt Passes). Blender
+    asks the engine for them again when the compositor updates its Render Layers node and
+    before each render. (An `update` callback calling ViewLayer.update_render_passes at once
+    makes the bpy module of Blender 4.2 crash on exit.)"""
 
     use_pass_caustic: BoolProperty(
-        name="Caustic", description="Light that reached a receiver through glass", default=True, update=_update_passes
+        name="Caustic", description="Light that reached a receiver through glass", default=True
     )
     use_pass_direct: BoolProperty(
-        name="Direct", description="Light that reached a receiver straight from the lights", default=True,
-        update=_update_passes,
+        name="Direct", description="Light that reached a receiver straight from the lights", default=True
     )
     use_pass_volume: BoolProperty(
-        name="Volume", description="Light scattered toward the camera by fog and media", default=True,
-        update=_update_passes,
+        name="Volume", description="Light scattered toward the camera by fog and media", default=True
     )
 
 

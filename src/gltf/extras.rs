@@ -195,15 +195,15 @@ fn node_role(n: NodeExtras, file: &str, what: &str) -> Result<Option<NodeRole>> 
     let radius = n.radius.unwrap_or(0.0);
     let size = Vec3::from(n.size.unwrap_or([0.0; 3]));
     if round {
-        check(radius.is_finite() && radius > 0.0, file, &what, "radius", "a number > 0 (metres)")?;
+        check(radius.is_finite() && radius > 0.0, file, what, "radius", "a number > 0 (metres)")?;
     } else {
-        check(size.is_finite() && size.min_element() > 0.0, file, &what, "size", "three numbers > 0 (metres)")?;
+        check(size.is_finite() && size.min_element() > 0.0, file, what, "size", "three numbers > 0 (metres)")?;
     }
     let ior = n.ior.unwrap_or(1.5);
-    check((1.0..=4.0).contains(&ior), file, &what, "ior", "from 1 to 4")?;
+    check((1.0..=4.0).contains(&ior), file, what, "ior", "from 1 to 4")?;
     let gradient = n.gradient.unwrap_or(0.0);
-    check(gradient.is_finite(), file, &what, "gradient", "a finite number (per metre)")?;
-    check(n.boundary.is_none_or(|b| (0.0..=16.0).contains(&b)), file, &what, "boundary", "from 0 to 16 (voxels)")?;
+    check(gradient.is_finite(), file, what, "gradient", "a finite number (per metre)")?;
+    check(n.boundary.is_none_or(|b| (0.0..=16.0).contains(&b)), file, what, "boundary", "from 0 to 16 (voxels)")?;
     Ok(Some(NodeRole::Field(FieldExtras { kind, radius, size, ior, gradient, boundary: n.boundary })))
 }
 

@@ -17,6 +17,7 @@ from mathutils import Matrix
 import scenes
 from conftest import prefs, submodule
 from gltf_eval import Gltf
+from test_engine import refrakt_exr
 
 
 def window_matrix(fov_y_deg, aspect):
@@ -200,6 +201,10 @@ def test_viewport_with_the_real_refrakt_watch(addon, real_refrakt, saved_blend):
         tick_until(session, lambda: session.quality == "final", timeout=120)
         before, size = session.pixels()
         assert size == (48, 27) and before.shape == (48 * 27 * 4,)
+        # The add-on's reader against OpenEXR's own (the preview is half floats, uncompressed).
+        planes = refrakt_exr(session.latest)
+        expected = np.stack([planes[c][::-1] for c in "RGBA"], axis=-1).reshape(-1)
+        assert np.array_equal(before, expected)
         frames = session.frames
         session.set_view(camera(25, scale=50, size=(96, 54)))
         tick_until(session, lambda: session.frames > frames and session.quality == "final", timeout=120)

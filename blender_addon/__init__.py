@@ -2,12 +2,12 @@
 light shafts, gradient-index lenses), and bring the EXR frames back into the image editor and
 the compositor. See the README's "Blender" section."""
 
-from . import gltf_hooks, operators, preferences, properties, ui
+from . import engine, gltf_hooks, operators, preferences, properties, ui
 
 # Blender's glTF exporter looks for this name on every enabled add-on and calls its hooks.
 glTF2ExportUserExtension = gltf_hooks.RefraktGltfExtension
 
-_modules = (properties, preferences, operators, ui)
+_modules = (properties, preferences, operators, ui, engine)
 
 
 def register():

@@ -16,11 +16,11 @@ def scene_file(scene, paths):
     return paths.lua if scene.refrakt.source == "LUA" else paths.glb
 
 
-def _common(scene, paths):
-    w, h = render_size(scene)
-    args = ["--fps", f"{scene_export.fps(scene):.9g}", "--size", f"{w}x{h}"]
-    if scene.camera is not None:
-        args += ["--camera", scene.camera.name]
+def _common(scene, paths, blender_camera=True):
+    args = ["--fps", f"{scene_export.fps(scene):.9g}"]
+    if blender_camera:  # the scene camera at the render size (a view script brings its own)
+        w, h = render_size(scene)
+        args += ["--size", f"{w}x{h}", *(["--camera", scene.camera.name] if scene.camera is not None else [])]
     # refrakt reads files only below the scene's folder unless told otherwise: let it read the
     # World's image where it lies.
     image = extras.environment(scene, paths.directory, extras.Warnings()).get("image")
@@ -38,16 +38,19 @@ def _inside(path, folder):
         return False
 
 
-def render(binary, scene, paths):
+def render(binary, scene, paths, frames=None, resume=None):
+    """`refrakt render` of `frames` (first, last), by default the scene's range; `resume`
+    (default: the panel's Resume) skips frames whose files exist."""
+    first, last = frames or (scene.frame_start, scene.frame_end)
     args = [
         binary, "render", scene_file(scene, paths),
-        "--frames", f"{scene.frame_start}..{scene.frame_end}",
+        "--frames", f"{first}..{last}",
         "--out", paths.frames,
         "--name", paths.name,
         "--format", "exr",
         "--progress", "json",
     ] + _common(scene, paths)
-    if scene.refrakt.skip_existing:
+    if scene.refrakt.skip_existing if resume is None else resume:
         args.append("--skip-existing")
     return args
 
@@ -79,3 +82,14 @@ def watch(binary, scene, paths):
         "--frame", str(scene.frame_current),
         "--progress", "json",
     ] + _common(scene, paths)
+
+
+def watch_view(binary, scene, script, preview, frame):
+    """`refrakt watch` of the viewport's script (scene_export.view_script): its camera carries
+    the viewport's view and size, so neither --size nor --camera is given."""
+    return [
+        binary, "watch", script,
+        "--out", preview,
+        "--frame", str(frame),
+        "--progress", "json",
+    ] + _common(scene, scene_export.paths(scene), blender_camera=False)

@@ -1,7 +1,8 @@
 """Blender data → the `extras.refrakt` objects refrakt's glTF importer reads (docs/gltf.md):
 
 - `scenes[i].extras.refrakt`: photons, samples, volume, fog, environment;
-- `nodes[i].extras.refrakt`: an analytic index field, or `{"role": "ignore"}`;
+- `nodes[i].extras.refrakt`: an analytic index field, or `{"role": "ignore"}`, or a point or
+  spot light's `light_radius`;
 - `materials[i].extras.refrakt`: absorption, scattering, g, boundary of the medium inside.
 
 Everything is converted to refrakt's frame (Y up, as the glTF exporter's +Y Up option does) and
@@ -182,10 +183,13 @@ def _local_half_extents(obj):
 
 
 def node_extras(obj, scene):
-    """A node's extras: an index field, or 'ignore' (the volume bounds object, or by choice)."""
+    """A node's extras: an index field, or 'ignore' (the volume bounds object, or by choice);
+    a point or spot light's radius (glTF's KHR_lights_punctual has none)."""
     s = obj.refrakt
     if s.role == "IGNORE" or obj == scene.refrakt.volume_bounds:
         return {"role": "ignore"}
+    if obj.type == "LIGHT" and obj.data.type in ("POINT", "SPOT"):
+        return {"light_radius": obj.data.shadow_soft_size}
     if s.role != "FIELD":
         return None
     half = _local_half_extents(obj) if s.use_bounds else None

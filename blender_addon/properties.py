@@ -168,6 +168,15 @@ class RefraktSceneSettings(bpy.types.PropertyGroup):
         default=True,
     )
 
+    viewport_scale: IntProperty(
+        name="Viewport Resolution",
+        description="Pixels refrakt renders in the viewport's Rendered mode, as a percentage of the viewport's",
+        default=50,
+        min=5,
+        max=100,
+        subtype="PERCENTAGE",
+    )
+
     live_debounce: FloatProperty(
         name="Delay",
         description="Seconds without changes before live mode re-exports the scene",
@@ -266,6 +275,23 @@ class RefraktMaterialSettings(bpy.types.PropertyGroup):
     )
 
 
+class RefraktViewLayerSettings(bpy.types.PropertyGroup):
+    """refrakt's passes in the Render Result (View Layer Properties ▸ refrakt Passes). Blender
+    asks the engine for them again when the compositor updates its Render Layers node and
+    before each render. (An `update` callback calling ViewLayer.update_render_passes at once
+    makes the bpy module of Blender 4.2 crash on exit.)"""
+
+    use_pass_caustic: BoolProperty(
+        name="Caustic", description="Light that reached a receiver through glass", default=True
+    )
+    use_pass_direct: BoolProperty(
+        name="Direct", description="Light that reached a receiver straight from the lights", default=True
+    )
+    use_pass_volume: BoolProperty(
+        name="Volume", description="Light scattered toward the camera by fog and media", default=True
+    )
+
+
 class RefraktJobState(bpy.types.PropertyGroup):
     """What the running render or live session shows in the panel (not saved in the .blend)."""
 
@@ -277,13 +303,20 @@ class RefraktJobState(bpy.types.PropertyGroup):
     live_status: StringProperty(default="")
 
 
-classes = (RefraktSceneSettings, RefraktObjectSettings, RefraktMaterialSettings, RefraktJobState)
+classes = (
+    RefraktSceneSettings,
+    RefraktObjectSettings,
+    RefraktMaterialSettings,
+    RefraktViewLayerSettings,
+    RefraktJobState,
+)
 
 # (owner type, attribute, property group)
 attachments = (
     (bpy.types.Scene, "refrakt", RefraktSceneSettings),
     (bpy.types.Object, "refrakt", RefraktObjectSettings),
     (bpy.types.Material, "refrakt", RefraktMaterialSettings),
+    (bpy.types.ViewLayer, "refrakt", RefraktViewLayerSettings),
     (bpy.types.WindowManager, "refrakt", RefraktJobState),
 )
 

@@ -39,6 +39,15 @@ class Paths:
     def preview(self):
         return os.path.join(self.directory, self.name + ".preview.exr")
 
+    @property
+    def view_script(self):
+        """The viewport's scene: the .glb seen from the viewport (viewport.py)."""
+        return os.path.join(self.directory, self.name + ".view.lua")
+
+    @property
+    def view_preview(self):
+        return os.path.join(self.directory, self.name + ".view.exr")
+
     def frame(self, k, last=None):
         """Frame k of a range ending at `last` (refrakt pads to the digits of the range's last
         frame, at least 4)."""
@@ -157,13 +166,20 @@ def lua_value(v, indent=""):
     return "{\n" + "".join(f"{inner}{k} = {lua_value(x, inner)},\n" for k, x in v.items()) + indent + "}"
 
 
+SETTING_CONSTRUCTORS = {"environment": "r.environment", "fog": "r.fog", "camera": "r.camera"}
+
+
+def scene_fields(settings):
+    """The fields of `r.scene{…}` for the settings (scene extras, and a camera if given)."""
+    return "".join(
+        f"  {key} = {SETTING_CONSTRUCTORS.get(key, '')}{lua_value(value, '  ')},\n" for key, value in settings.items()
+    )
+
+
 def wrapper_text(paths_, settings, blend_name):
     """The wrapper script: the scene settings as exported from Blender, written out so the user
     sees and can change them, and the glTF file as a subtree of the scene."""
-    constructors = {"environment": "r.environment", "fog": "r.fog"}
-    fields = "".join(
-        f"  {key} = {constructors.get(key, '')}{lua_value(value, '  ')},\n" for key, value in settings.items()
-    )
+    fields = scene_fields(settings)
     body = f"""-- {paths_.name}.lua: a refrakt scene around {paths_.name}.glb, exported from Blender ({blend_name}).
 -- The glTF file brings the nodes, cameras, lights, materials and animation; the settings
 -- below are the ones set in Blender's refrakt panel when this file was written.
@@ -188,6 +204,15 @@ scene:add(r.gltf("{paths_.name}.glb"))
 return scene
 """
     return f"{WRAPPER_MARK}{_checksum(body)}: generated; edit freely.\n{body}"
+
+
+def write_atomically(path, text):
+    """Writes through a temporary name and a rename, so `refrakt watch` never reads half a file."""
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    tmp = os.path.join(os.path.dirname(path), f".{os.path.basename(path)}.tmp-{os.getpid()}")
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write(text)
+    os.replace(tmp, path)
 
 
 def _checksum(body):

@@ -1,9 +1,10 @@
-"""Panels: Render Properties ▸ refrakt (settings, render, frames, live), Object Properties ▸
-refrakt (index fields), Material Properties ▸ refrakt (the medium inside)."""
+"""Panels: Render Properties ▸ refrakt (settings, render, frames, live, viewport), View Layer
+Properties ▸ refrakt Passes (with the refrakt engine), Object Properties ▸ refrakt (index
+fields), Material Properties ▸ refrakt (its reading of the material, the medium inside)."""
 
 import bpy
 
-from . import extras
+from . import extras, material_reading
 
 
 class PropertiesPanel:
@@ -146,6 +147,35 @@ class RENDER_PT_refrakt_live(RefraktSubPanel, bpy.types.Panel):
             layout.label(text=state.live_status)
 
 
+class RENDER_PT_refrakt_viewport(RefraktSubPanel, bpy.types.Panel):
+    bl_label = "Viewport"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw_settings(self, context, layout, s):
+        layout.prop(s, "viewport_scale")
+        layout.prop(s, "live_debounce", text="Export Delay")
+        layout.label(text="Rendered shading with the refrakt engine: one refrakt watch per viewport", icon="INFO")
+
+
+class VIEWLAYER_PT_refrakt_passes(PropertiesPanel, bpy.types.Panel):
+    bl_label = "refrakt Passes"
+    bl_context = "view_layer"
+    COMPAT_ENGINES = {"REFRAKT"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene.render.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        view_layer = context.view_layer
+        col = layout.column(heading="Include", align=True)
+        col.prop(view_layer, "use_pass_z")
+        for name in ("caustic", "direct", "volume"):
+            col.prop(view_layer.refrakt, f"use_pass_{name}")
+
+
 class OBJECT_PT_refrakt(PropertiesPanel, bpy.types.Panel):
     bl_label = "refrakt"
     bl_context = "object"
@@ -183,6 +213,7 @@ class MATERIAL_PT_refrakt(PropertiesPanel, bpy.types.Panel):
         material = context.material
         s = material.refrakt
         layout = self.layout
+        _show_reading(layout, material_reading.read(material))
         layout.use_property_split = True
         layout.prop(s, "medium")
         if s.medium == "CUSTOM":
@@ -196,6 +227,26 @@ class MATERIAL_PT_refrakt(PropertiesPanel, bpy.types.Panel):
                 layout.label(text=w, icon="ERROR")
         layout.prop(s, "boundary")
         layout.prop(s, "surface")
+
+
+READING_TITLES = {
+    "glass": "refrakt reads: glass (a refractive medium)",
+    "receiver": "refrakt reads: an opaque diffuse receiver",
+    "unknown": "refrakt reads: the glTF exporter's default material",
+}
+
+
+def _show_reading(layout, reading):
+    box = layout.box()
+    box.label(text=READING_TITLES[reading.kind], icon="MATERIAL")
+    col = box.column(align=True)
+    for label, value, meaning in reading.rows:
+        col.label(text=f"{label}: {value} → {meaning}")
+    if reading.ignored:
+        col = box.column(align=True)
+        col.label(text="Ignored:", icon="INFO")
+        for text in reading.ignored:
+            col.label(text=text, icon="BLANK1")
 
 
 def _show_medium(layout, medium):
@@ -212,6 +263,8 @@ classes = (
     RENDER_PT_refrakt_output,
     RENDER_PT_refrakt_compositing,
     RENDER_PT_refrakt_live,
+    RENDER_PT_refrakt_viewport,
+    VIEWLAYER_PT_refrakt_passes,
     OBJECT_PT_refrakt,
     MATERIAL_PT_refrakt,
 )

@@ -383,4 +383,5 @@ def tick():
         os._exit(1)
 
 
-bpy.app.timers.register(tick, first_interval=1.0)
+if __name__ == "__main__":  # (scripts/blender_engine_screenshots.py imports the helpers above)
+    bpy.app.timers.register(tick, first_interval=1.0)

@@ -5,6 +5,9 @@
 #   blender_panel.png             Render Properties ▸ refrakt, every subpanel open
 #   blender_object_panel.png      Object Properties ▸ refrakt (a Luneburg lens index field)
 #   blender_progress.png          Render ▸ refrakt while refrakt renders (progress, cancel)
+# or, with SCREENSHOTS=engine, those of scripts/blender_engine_screenshots.py (F12 with the
+# refrakt render engine, its passes in the compositor, the viewport in Rendered mode):
+#   blender_engine.png, blender_engine_viewport.png, blender_engine_passes.png
 # A maintainer tool, not part of CI. Run as root (debootstrap, chroot, mounts), with the network
 # to deb.debian.org, from anywhere in the repository:
 #
@@ -28,6 +31,11 @@ TRIXIE=${TRIXIE:-/tmp/trixie}
 MIRROR=${MIRROR:-http://deb.debian.org/debian}
 REFRAKT_BIN=${REFRAKT_BIN:-$REPO/target/release/refrakt}
 SCREEN="1600x1200x24"  # the layout in blender_screenshots.py is made for this size
+case "${SCREENSHOTS:-addon}" in
+  addon) SCRIPT=blender_screenshots.py; NAMES="blender_frame_in_blender blender_panel blender_object_panel blender_progress" ;;
+  engine) SCRIPT=blender_engine_screenshots.py; NAMES="blender_engine blender_engine_viewport blender_engine_passes" ;;
+  *) echo "blender_screenshots: SCREENSHOTS is addon or engine, not ${SCREENSHOTS}" >&2; exit 1 ;;
+esac
 PACKAGES="blender python3-numpy xvfb xauth x11-apps imagemagick libgl1-mesa-dri libglx-mesa0 mesa-vulkan-drivers libvulkan1"
 
 say() { echo "blender_screenshots: $*" >&2; }
@@ -86,14 +94,14 @@ in_chroot XDG_RUNTIME_DIR=/tmp /opt/refrakt/refrakt info | sed -n 1p >&2
 SHOTS=/tmp/refrakt-screenshots  # paths inside the chroot
 rm -rf "$TRIXIE$SHOTS" "$TRIXIE/tmp/refrakt-screenshots-home" "$TRIXIE/tmp/refrakt-screenshots-xdg"
 install -d -m 700 "$TRIXIE/tmp/refrakt-screenshots-xdg"
-say "$(in_chroot blender --version 2>/dev/null | head -1): running scripts/blender_screenshots.py"
+say "$(in_chroot blender --version 2>/dev/null | head -1): running scripts/$SCRIPT"
 in_chroot HOME=/tmp/refrakt-screenshots-home XDG_RUNTIME_DIR=/tmp/refrakt-screenshots-xdg LIBGL_ALWAYS_SOFTWARE=1 \
   timeout 1200 xvfb-run -a -s "-screen 0 $SCREEN" \
-  blender --factory-startup --python "$REPO/scripts/blender_screenshots.py" -- "$SHOTS" \
+  blender --factory-startup --python "$REPO/scripts/$SCRIPT" -- "$SHOTS" \
   --refrakt /opt/refrakt/refrakt --work /tmp/refrakt-demo
 
 mkdir -p "$OUTDIR"
-for name in blender_frame_in_blender blender_panel blender_object_panel blender_progress; do
+for name in $NAMES; do
   [ -f "$TRIXIE$SHOTS/$name.png" ] || die "Blender wrote no $name.png"
   cp "$TRIXIE$SHOTS/$name.png" "$OUTDIR/$name.png"
   say "$OUTDIR/$name.png ($(du -k "$OUTDIR/$name.png" | cut -f1) KiB)"

@@ -10,6 +10,9 @@ cd "$(dirname "$0")/.."
 # Blender 4.5 LTS (needs CPython 3.11); BPY_VERSION=4.2.0 or 5.0.0 tests another Blender.
 BPY_VERSION="${BPY_VERSION:-4.5.15}"
 PYTEST_VERSION=9.2.0
+# OpenEXR's own bindings, for the tests to read EXRs independently of the add-on's reader;
+# without its dependencies, so bpy's numpy stays as bpy ships it.
+OPENEXR_VERSION=3.4.4
 CACHE="${XDG_CACHE_HOME:-$HOME/.cache}/refrakt"
 WHEELS="$CACHE/wheels"
 VENV="$CACHE/venv-bpy-$BPY_VERSION"
@@ -42,6 +45,9 @@ if ! "$VENV/bin/python" -c 'import bpy, pytest' >/dev/null 2>&1; then
     "$VENV/bin/pip" download -q --no-deps --only-binary=:all: -d "$WHEELS" "bpy==$BPY_VERSION"
   fi
   "$VENV/bin/pip" install -q --find-links "$WHEELS" "bpy==$BPY_VERSION" "pytest==$PYTEST_VERSION"
+fi
+if ! "$VENV/bin/python" -c 'import OpenEXR' >/dev/null 2>&1; then
+  "$VENV/bin/pip" install -q --no-deps "openexr==$OPENEXR_VERSION"
 fi
 
 if [ -z "${REFRAKT_BIN:-}" ] && [ -x target/debug/refrakt ]; then

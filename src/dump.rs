@@ -137,10 +137,11 @@ fn light_json(l: &crate::scene::Light, d: &LightDesc) -> Value {
         LightKind::Spot { angle, blend } => {
             v["outer_cone_angle"] = json!(angle);
             v["inner_cone_angle"] = json!(angle * (1.0 - blend));
+            v["radius"] = json!(l.radius);
         }
         LightKind::Sun { angular_diameter } => v["angular_diameter"] = json!(angular_diameter),
         LightKind::Rect { size } => v["size"] = json!([size.x, size.y]),
-        LightKind::Point => {}
+        LightKind::Point => v["radius"] = json!(l.radius),
     }
     v
 }

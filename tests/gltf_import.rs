@@ -12,6 +12,7 @@ use glam::{Mat4, Quat, Vec3};
 use refrakt::gltf::ImportOptions;
 use refrakt::render::{GltfScene, SceneSource};
 use refrakt::scene::eval::{EvalOptions, evaluate};
+use refrakt::scene::light::DEFAULT_LIGHT_RADIUS;
 use refrakt::scene::{LightKind, Material, Scene, Shape};
 use serde_json::json;
 
@@ -210,6 +211,44 @@ fn punctual_lights_keep_candela_and_lux_and_their_cones() {
     assert!((l.radiant - Vec3::new(1.0, 0.5, 0.25) * 800.0 / 683.0).abs().max_element() < 1e-5);
     assert!((l.direction - down * Vec3::NEG_Z).length() < 1e-6, "a glTF light shines down its local −Z");
     assert!((desc.lights[1].radiant - Vec3::splat(3.0 / 683.0)).abs().max_element() < 1e-7);
+}
+
+#[test]
+fn a_light_radius_in_node_extras_sizes_point_and_spot_bulbs() {
+    let mut g = GltfBuilder::new();
+    g.uses("KHR_lights_punctual", false);
+    g.json["extensions"] = json!({ "KHR_lights_punctual": { "lights": [
+        { "type": "point", "intensity": 50.0 },
+        { "type": "spot", "intensity": 50.0, "spot": { "outerConeAngle": 0.5 } },
+        { "type": "directional", "intensity": 3.0 } ] } });
+    let light = |name: &str, index: usize, radius: Option<f32>| {
+        let extras = radius.map_or(json!(null), |r| json!({ "refrakt": { "light_radius": r } }));
+        json!({ "name": name, "extras": extras, "extensions": { "KHR_lights_punctual": { "light": index } } })
+    };
+    let bulb = g.push("nodes", light("Bulb", 0, Some(0.25)));
+    let spot = g.push("nodes", light("Spot", 1, Some(0.0)));
+    let plain = g.push("nodes", light("Plain", 0, None));
+    let sun = g.push("nodes", light("Sun", 2, Some(0.3)));
+    g.scene("S", &[bulb, spot, plain, sun]);
+    let dir = tempfile::tempdir().unwrap();
+    let s = load(&g.write_glb(&dir.path().join("r.glb"))).scene;
+    let radius = |n: &str| s.find(n).unwrap().borrow().light.as_ref().unwrap().borrow().radius;
+    assert_eq!((radius("Bulb"), radius("Spot")), (0.25, 0.0));
+    assert_eq!(radius("Plain"), DEFAULT_LIGHT_RADIUS);
+    let access = refrakt::lua::sandbox::FileAccess::new(dir.path(), &[]).unwrap();
+    let import = refrakt::gltf::import(&dir.path().join("r.glb"), "r.glb", &access, &ImportOptions::default()).unwrap();
+    let warned = "r.glb: nodes[3] \"Sun\": extras.refrakt.light_radius is for point and spot lights; skipped";
+    assert!(import.warnings.iter().any(|w| w == warned), "{:?}", import.warnings);
+    let desc = evaluate(&s, 0.0, &EvalOptions::default()).unwrap();
+    assert_eq!(desc.lights.iter().map(|l| l.radius).take(3).collect::<Vec<_>>(), [0.25, 0.0, DEFAULT_LIGHT_RADIUS]);
+
+    let mut bad = GltfBuilder::new();
+    bad.uses("KHR_lights_punctual", false);
+    bad.json["extensions"] = g.json["extensions"].clone();
+    let node = bad.push("nodes", light("Bulb", 0, Some(-1.0)));
+    bad.scene("S", &[node]);
+    let err = load_with(&bad.write_glb(&dir.path().join("bad.glb")), &ImportOptions::default()).err().expect("a negative radius is refused");
+    assert!(format!("{err:#}").contains("nodes[0].extras.refrakt.light_radius must be a number ≥ 0 (metres)"), "{err:#}");
 }
 
 #[test]

@@ -3,7 +3,7 @@
 //!
 //! - `scenes[i].extras.refrakt`: photons, samples, volume, environment, fog;
 //! - `nodes[i].extras.refrakt`: an analytic index field instead of the node's mesh, or
-//!   `{"role": "ignore"}`;
+//!   `{"role": "ignore"}`; `light_radius` for the node's point or spot light;
 //! - `materials[i].extras.refrakt`: absorption, scattering, g and boundary of the medium.
 //!
 //! Unknown keys are skipped with a warning (a newer add-on may write more); values out of
@@ -129,6 +129,15 @@ pub struct NodeExtras {
     pub ior: Option<f32>,
     pub gradient: Option<f32>,
     pub boundary: Option<f32>,
+    /// The bulb radius of the node's point or spot light, metres (Blender's light radius).
+    pub light_radius: Option<f32>,
+}
+
+/// What a node's extras say: its role, and its light's radius.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct NodeSettings {
+    pub role: Option<NodeRole>,
+    pub light_radius: Option<f32>,
 }
 
 /// What a node's extras make of it.
@@ -158,11 +167,17 @@ pub enum FieldType {
     Slab,
 }
 
-const NODE_KEYS: &[&str] = &["role", "field", "radius", "size", "ior", "gradient", "boundary"];
+const NODE_KEYS: &[&str] = &["role", "field", "radius", "size", "ior", "gradient", "boundary", "light_radius"];
 
-pub fn node_role(node: &gltf::Node, file: &str, warnings: &mut Vec<String>) -> Result<Option<NodeRole>> {
+pub fn node_settings(node: &gltf::Node, file: &str, warnings: &mut Vec<String>) -> Result<NodeSettings> {
     let what = format!("nodes[{}]", node.index());
-    let Some(n) = refrakt_object::<NodeExtras>(node.extras(), file, &what, NODE_KEYS, warnings)? else { return Ok(None) };
+    let Some(n) = refrakt_object::<NodeExtras>(node.extras(), file, &what, NODE_KEYS, warnings)? else { return Ok(NodeSettings::default()) };
+    let light_radius = n.light_radius;
+    check(light_radius.is_none_or(|r| r.is_finite() && r >= 0.0), file, &what, "light_radius", "a number ≥ 0 (metres)")?;
+    Ok(NodeSettings { role: node_role(n, file, &what)?, light_radius })
+}
+
+fn node_role(n: NodeExtras, file: &str, what: &str) -> Result<Option<NodeRole>> {
     match n.role.as_deref() {
         Some("ignore") => return Ok(Some(NodeRole::Ignore)),
         None | Some("field") => {}
@@ -180,15 +195,15 @@ pub fn node_role(node: &gltf::Node, file: &str, warnings: &mut Vec<String>) -> R
     let radius = n.radius.unwrap_or(0.0);
     let size = Vec3::from(n.size.unwrap_or([0.0; 3]));
     if round {
-        check(radius.is_finite() && radius > 0.0, file, &what, "radius", "a number > 0 (metres)")?;
+        check(radius.is_finite() && radius > 0.0, file, what, "radius", "a number > 0 (metres)")?;
     } else {
-        check(size.is_finite() && size.min_element() > 0.0, file, &what, "size", "three numbers > 0 (metres)")?;
+        check(size.is_finite() && size.min_element() > 0.0, file, what, "size", "three numbers > 0 (metres)")?;
     }
     let ior = n.ior.unwrap_or(1.5);
-    check((1.0..=4.0).contains(&ior), file, &what, "ior", "from 1 to 4")?;
+    check((1.0..=4.0).contains(&ior), file, what, "ior", "from 1 to 4")?;
     let gradient = n.gradient.unwrap_or(0.0);
-    check(gradient.is_finite(), file, &what, "gradient", "a finite number (per metre)")?;
-    check(n.boundary.is_none_or(|b| (0.0..=16.0).contains(&b)), file, &what, "boundary", "from 0 to 16 (voxels)")?;
+    check(gradient.is_finite(), file, what, "gradient", "a finite number (per metre)")?;
+    check(n.boundary.is_none_or(|b| (0.0..=16.0).contains(&b)), file, what, "boundary", "from 0 to 16 (voxels)")?;
     Ok(Some(NodeRole::Field(FieldExtras { kind, radius, size, ior, gradient, boundary: n.boundary })))
 }
 

@@ -100,12 +100,13 @@ impl<'a> Builder<'a, '_> {
         let mut node = Node::new(g.name().unwrap_or(""));
         node.origin = Origin(format!("{} nodes[{}]", self.file(), g.index()));
         node.transform = transform(g, self.file(), &what)?;
-        let role = extras::node_role(g, self.file(), self.warnings)?;
+        let settings = extras::node_settings(g, self.file(), self.warnings)?;
+        let role = settings.role;
         let node = shared(node);
         self.graph.nodes[g.index()] = Rc::downgrade(&node);
         if role != Some(NodeRole::Ignore) {
             self.camera(g, &node, &what);
-            self.light(g, &node)?;
+            self.light(g, &node, settings.light_radius)?;
             match role {
                 Some(NodeRole::Field(f)) => self.field(g, &node, &f)?,
                 _ => self.mesh(g, &node)?,
@@ -141,8 +142,14 @@ impl<'a> Builder<'a, '_> {
     }
 
     /// KHR_lights_punctual: intensity in candela (point, spot) or lux (directional), which is
-    /// what refrakt's lights take; spot cones by their outer and inner half-angles.
-    fn light(&mut self, g: &gltf::Node, node: &Shared<Node>) -> Result<()> {
+    /// what refrakt's lights take; spot cones by their outer and inner half-angles; a point or
+    /// spot light's bulb radius from the node's `extras.refrakt.light_radius`.
+    fn light(&mut self, g: &gltf::Node, node: &Shared<Node>, radius: Option<f32>) -> Result<()> {
+        let bulb = g.light().is_some_and(|l| !matches!(l.kind(), gltf::khr_lights_punctual::Kind::Directional));
+        if radius.is_some() && !bulb {
+            let what = format!("nodes[{}]{}", g.index(), mesh::quoted(g.name()));
+            self.warnings.push(format!("{}: {what}: extras.refrakt.light_radius is for point and spot lights; skipped", self.file()));
+        }
         let Some(l) = g.light() else { return Ok(()) };
         let what = format!("KHR_lights_punctual lights[{}]{}", l.index(), mesh::quoted(l.name()));
         let kind = match l.kind() {
@@ -161,7 +168,11 @@ impl<'a> Builder<'a, '_> {
         if !(color.is_finite() && color.min_element() >= 0.0 && intensity.is_finite() && intensity >= 0.0) {
             bail!("{}: {what}: color and intensity must be finite and ≥ 0", self.file());
         }
-        node.borrow_mut().light = Some(shared(Light { color, intensity, ..Light::new(kind) }));
+        let mut light = Light { color, intensity, ..Light::new(kind) };
+        if let (true, Some(r)) = (bulb, radius) {
+            light.radius = r;
+        }
+        node.borrow_mut().light = Some(shared(light));
         Ok(())
     }
 

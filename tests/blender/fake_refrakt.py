@@ -10,10 +10,13 @@ environment variables below steer it:
   FAKE_REFRAKT_DELAY   seconds per frame (default 0.05)
   FAKE_REFRAKT_FAIL_AT frame at which to fail with refrakt's kind of error
   FAKE_REFRAKT_LOG     file to which each invocation's argv is appended as a JSON line
+  FAKE_REFRAKT_WATCH_LOG  file to which `watch` appends, for each reload, the files that
+                       changed and the Lua scene's text (the recording stand-in of the viewport)
 """
 
 import json
 import os
+import re
 import signal
 import sys
 import time
@@ -93,19 +96,50 @@ def render(args):
     emit(event="done", frames=total, seconds=time.monotonic() - started)
 
 
+def watched_files(scene):
+    """The scene and, for a Lua scene, the glTF files it imports (as refrakt watches them)."""
+    files = [scene]
+    if scene.endswith(".lua"):
+        with open(scene, encoding="utf-8") as f:
+            names = re.findall(r'r\.gltf\("([^"]+)"\)', f.read())
+        files += [os.path.join(os.path.dirname(scene), n) for n in names]
+    return files
+
+
+def stamp(path):
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_ino, st.st_mtime_ns, st.st_size  # a rename into place is a new inode
+
+
 def watch(args):
     scene = args[0]
     check_scene(scene)
     out = option(args, "--out")
     k = int(option(args, "--frame", "0"))
     w, h = (int(x) for x in option(args, "--size", "8x4").split("x"))
-    seen = None
+    seen = {}
     while not stop:
-        stamp = os.stat(scene).st_mtime_ns
-        if stamp != seen:
-            seen = stamp
+        files = watched_files(scene)
+        now = {f: stamp(f) for f in files}
+        changed = [f for f in files if now[f] != seen.get(f)]
+        if changed:
+            first, seen = not seen, now
+            record = {"changed": [os.path.basename(f) for f in changed]}
+            if scene.endswith(".lua"):
+                with open(scene, encoding="utf-8") as f:
+                    record["script"] = f.read()
+            if os.environ.get("FAKE_REFRAKT_WATCH_LOG"):
+                with open(os.environ["FAKE_REFRAKT_WATCH_LOG"], "a") as f:
+                    f.write(json.dumps(record) + "\n")
             exr_writer.write(out, w, h, frame_planes(k, w, h))
-            emit(event="frame", frame=k, done=1, total=1, seconds=0.01, files=[out])
+            # As refrakt: only a changed view (the script, not the glTF) reuses volume and photons.
+            view_only = not first and changed == [scene]
+            reused = {"volume": view_only, "photons": view_only}
+            emit(event="frame", frame=k, done=1, total=1, seconds=0.01, files=[out], quality="final",
+                 stats={"reused": reused})
         time.sleep(0.02)
 
 

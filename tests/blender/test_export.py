@@ -81,6 +81,38 @@ def test_lights_camera_and_glass(addon, saved_blend):
         assert name in gltf.json["extensionsUsed"]
 
 
+def test_light_radius_reaches_the_node_extras(addon, saved_blend):
+    """Blender's light Radius (shadow_soft_size) of point and spot lights travels as
+    nodes[i].extras.refrakt.light_radius (KHR_lights_punctual has no size); suns have none."""
+    scenes.round_trip_scene()
+    bpy.data.lights["Spot"].shadow_soft_size = 0.3
+    bulb = bpy.data.objects.new("Bulb", bpy.data.lights.new("Bulb", "POINT"))
+    bulb.data.shadow_soft_size = 0.12
+    bpy.context.scene.collection.objects.link(bulb)
+    _, gltf = export(saved_blend)
+    assert gltf.node("Spot")["extras"]["refrakt"] == {"light_radius": pytest.approx(0.3)}
+    assert gltf.node("Bulb")["extras"]["refrakt"] == {"light_radius": pytest.approx(0.12)}
+    assert "refrakt" not in (gltf.node("Sun").get("extras") or {})
+
+
+def test_principled_glass_reaches_khr_materials(addon, saved_blend):
+    """What refrakt reads of a Principled BSDF arrives through Blender's own exporter:
+    transmission, IOR, roughness and base colour."""
+    scenes.round_trip_scene()
+    bsdf = bpy.data.materials["Glass"].node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["IOR"].default_value = 1.6
+    bsdf.inputs["Roughness"].default_value = 0.25
+    bsdf.inputs["Base Color"].default_value = (0.9, 0.8, 0.7, 1.0)
+    _, gltf = export(saved_blend)
+    glass = gltf.material("Glass")
+    ext = glass["extensions"]
+    assert ext["KHR_materials_transmission"]["transmissionFactor"] == pytest.approx(1.0)
+    assert ext["KHR_materials_ior"]["ior"] == pytest.approx(1.6, rel=1e-6)
+    pbr = glass["pbrMetallicRoughness"]
+    assert pbr.get("roughnessFactor", 1.0) == pytest.approx(0.25, rel=1e-6)
+    assert pbr["baseColorFactor"][:3] == pytest.approx([0.9, 0.8, 0.7], rel=1e-6)
+
+
 def test_scene_and_node_extras(addon, saved_blend):
     scene = scenes.round_trip_scene()
     s = scene.refrakt

@@ -101,6 +101,7 @@ def test_lights_carry_blender_power(dumped):
     assert close(spot["position"], world.translation)
     assert close(spot["direction"], (world @ Vector((0, 0, -1, 0))).xyz.normalized())
     assert sun["kind"] == "sun" and sun["radiant"] == pytest.approx([scenes.SUN_STRENGTH] * 3, rel=1e-5)
+    assert spot["radius"] == pytest.approx(bpy.data.lights["Spot"].shadow_soft_size, rel=1e-6)
 
 
 def test_glass_material(dumped):

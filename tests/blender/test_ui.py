@@ -8,6 +8,7 @@ import bpy
 import pytest
 
 import scenes
+from conftest import submodule
 
 
 class Layout:
@@ -61,6 +62,7 @@ def draw(panel_name, context=None):
 RENDER_PANELS = [
     "RENDER_PT_refrakt", "RENDER_PT_refrakt_light", "RENDER_PT_refrakt_volume", "RENDER_PT_refrakt_fog",
     "RENDER_PT_refrakt_output", "RENDER_PT_refrakt_compositing", "RENDER_PT_refrakt_live",
+    "RENDER_PT_refrakt_viewport",
 ]
 
 
@@ -107,3 +109,38 @@ def test_material_panel_shows_what_it_read_from_the_nodes(addon):
     scenes.round_trip_scene()
     log = draw("MATERIAL_PT_refrakt", Context(material=bpy.data.materials["Glass"]))
     assert ("label", "Absorption /m: 0.4 0.2 0") in log
+
+
+def test_material_panel_shows_refrakts_reading_of_the_principled_bsdf(addon):
+    scenes.round_trip_scene()
+    glass = bpy.data.materials["Glass"]
+    bsdf = glass.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Roughness"].default_value = 0.2
+    bsdf.inputs["Metallic"].default_value = 0.5
+    bsdf.inputs["Coat Weight"].default_value = 0.3
+    bsdf.inputs["Base Color"].default_value = (0.9, 0.8, 0.7, 1.0)
+    labels = [text for kind, text in draw("MATERIAL_PT_refrakt", Context(material=glass)) if kind == "label"]
+    assert labels[0] == "refrakt reads: glass (a refractive medium)"
+    assert "Transmission: 1 → clear glass" in labels
+    assert f"IOR: {scenes.GLASS_IOR:.4g} → index of refraction" in labels
+    assert "Base Color: 0.9 0.8 0.7 → tint at each surface" in labels
+    ignored = labels[labels.index("Ignored:") + 1:]
+    assert "Roughness 0.2 (refrakt renders glass smooth)" in ignored
+    assert "Metallic 0.5" in ignored and "Coat Weight 0.3" in ignored
+
+    bsdf.inputs["Transmission Weight"].default_value = 0.0
+    glass.node_tree.links.remove(glass.node_tree.nodes["Material Output"].inputs["Volume"].links[0])
+    reading = submodule("material_reading").read(glass)
+    assert reading.kind == "receiver" and reading.rows == [("Base Color", "0.9 0.8 0.7", "albedo")]
+
+
+
+def test_passes_panel_shows_with_the_engine(addon):
+    scene = bpy.context.scene
+    panel = bpy.types.VIEWLAYER_PT_refrakt_passes
+    assert not panel.poll(bpy.context)
+    scene.render.engine = "REFRAKT"
+    assert panel.poll(bpy.context)
+    context = Context(view_layer=scene.view_layers[0])
+    shown = [name for _, name in draw("VIEWLAYER_PT_refrakt_passes", context)]
+    assert shown == ["use_pass_z", "use_pass_caustic", "use_pass_direct", "use_pass_volume"]

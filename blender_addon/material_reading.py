@@ -1,0 +1,94 @@
+"""refrakt's reading of a material, for the Material panel: what of the Principled BSDF (or a
+Glass/Refraction BSDF) reaches refrakt through the glTF export and what it does with it, and
+what it ignores. It follows refrakt's glTF importer (docs/gltf.md, Materials): a material that
+transmits light (KHR_materials_transmission) or holds a medium is glass, with KHR_materials_ior's
+index and the base colour as the tint at each surface; any other is a diffuse receiver whose
+albedo is the base colour.
+"""
+
+from dataclasses import dataclass, field
+
+from . import extras
+
+# Principled BSDF inputs refrakt does not render, with the value at which they do nothing.
+IGNORED = (
+    ("Metallic", 0.0),
+    ("Specular IOR Level", 0.5),
+    ("Anisotropic", 0.0),
+    ("Subsurface Weight", 0.0),
+    ("Coat Weight", 0.0),
+    ("Sheen Weight", 0.0),
+    ("Emission Strength", 0.0),
+    ("Thin Film Thickness", 0.0),
+    ("Dispersion", 0.0),  # Blender 4.4 and later
+    ("Alpha", 1.0),
+)
+
+
+@dataclass
+class Reading:
+    kind: str  # "glass", "receiver" or "unknown"
+    rows: list = field(default_factory=list)  # (label, value text, what refrakt does with it)
+    ignored: list = field(default_factory=list)  # texts
+    medium: object = None  # extras.Medium
+
+
+def _color(c):
+    return " ".join(f"{x:.3g}" for x in list(c)[:3])
+
+
+def _surface(material):
+    out = extras._output_node(material)
+    if out is None or not out.inputs["Surface"].is_linked:
+        return None
+    return out.inputs["Surface"].links[0].from_node
+
+
+def _linked(node, name):
+    return name in node.inputs and node.inputs[name].is_linked
+
+
+def read(material):
+    """How refrakt reads `material`."""
+    warnings = extras.Warnings()
+    medium = extras.node_medium(material, warnings) if material.refrakt.medium == "NODES" else extras.Medium(
+        material.refrakt.absorption, material.refrakt.scattering, material.refrakt.anisotropy
+    )
+    node = _surface(material)
+    if node is None:
+        return Reading("receiver", [("Base Color", _color(material.diffuse_color), "albedo (no surface nodes)")], [], medium)
+    if node.bl_idname in ("ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction"):
+        ior, color = extras.glass_surface(material)
+        rows = [("IOR", f"{ior:.4g}", "index of refraction"), ("Color", _color(color), "tint at each surface")]
+        ignored = ["Roughness (refrakt's glass is smooth)"] if node.inputs["Roughness"].default_value > 0 else []
+        return Reading("glass", rows, ignored, medium)
+    if node.bl_idname != "ShaderNodeBsdfPrincipled":
+        return Reading("unknown", [], [f"'{node.bl_label}': the glTF export reads only a Principled BSDF"], medium)
+    return _principled(node, medium)
+
+
+def _principled(node, medium):
+    value = lambda name: node.inputs[name].default_value  # noqa: E731
+    transmission = value("Transmission Weight")
+    glass = transmission > 0.0 or not medium.is_empty()
+    rows, ignored = [], []
+    if glass:
+        clear = "clear glass" if transmission >= 1.0 else "taken as 1: refrakt's glass is clear"
+        rows.append(("Transmission", f"{transmission:.3g}", clear if transmission > 0 else "0: a medium without surface"))
+        rows.append(("IOR", f"{value('IOR'):.4g}", "index of refraction"))
+        tint = "a texture: not used, the plain value is" if _linked(node, "Base Color") else "tint at each surface"
+        rows.append(("Base Color", _color(value("Base Color")), tint))
+    else:
+        albedo = "albedo from the texture" if _linked(node, "Base Color") else "albedo"
+        rows.append(("Base Color", _color(value("Base Color")), albedo))
+    if value("Roughness") > 0.0:
+        ignored.append(f"Roughness {value('Roughness'):.3g} ({'refrakt renders glass smooth' if glass else 'receivers are Lambertian'})")
+    for name, neutral in IGNORED:
+        if name in node.inputs and abs(value(name) - neutral) > 1e-6:
+            ignored.append(f"{name} {value(name):.3g}")
+    for name in ("IOR", "Transmission Weight", "Roughness"):
+        if _linked(node, name):
+            ignored.append(f"the nodes driving {name} (its plain value is exported)")
+    if _linked(node, "Normal"):
+        ignored.append("Normal map (refrakt uses the mesh's own normals)")
+    return Reading("glass" if glass else "receiver", rows, ignored, medium)

@@ -1,0 +1,189 @@
+"""refrakt as Blender's render engine: F12 and animation renders through `refrakt render` into the
+Render Result (Combined, Depth, caustic, direct, volume) and Blender's own output files; Esc;
+errors. Headless Blender renders on the calling thread, so `bpy.ops.render.render` returns once
+the frame (or the animation) is done."""
+
+import json
+import os
+
+import bpy
+import numpy as np
+import pytest
+
+import scenes
+from conftest import submodule
+
+PASSES = ("caustic", "direct", "volume")
+
+
+def engine_scene(tmp_path, frames=(1, 1), size=(32, 18)):
+    """The round-trip scene rendered by refrakt, with Blender writing OpenEXR multilayer files
+    (every pass, full float) under tmp_path/out/."""
+    scene = scenes.round_trip_scene()
+    scene.render.engine = "REFRAKT"
+    scene.render.resolution_x, scene.render.resolution_y = size
+    scene.frame_start, scene.frame_end = frames
+    scene.frame_set(frames[0])
+    scene.refrakt.volume_resolution, scene.refrakt.photons, scene.refrakt.samples = 16, 2000, 1
+    scene.view_layers[0].use_pass_z = True
+    settings = scene.render.image_settings
+    if hasattr(settings, "media_type"):  # Blender 5.0: multilayer images are a media type
+        settings.media_type = "MULTI_LAYER_IMAGE"
+    settings.file_format = "OPEN_EXR_MULTILAYER"
+    settings.color_depth = "32"
+    settings.exr_codec = "ZIP"
+    scene.render.filepath = str(tmp_path / "out" / "shot.")
+    scene.render.use_file_extension = True
+    return scene
+
+
+def refrakt_exr(path):
+    """An EXR's channels, of every part, read by OpenEXR's own Python bindings (not the add-on's
+    reader). Blender 5.0 writes a multilayer file as one part per pass."""
+    import OpenEXR
+
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        return {name: np.asarray(c.pixels, dtype=np.float32) for part in f.parts for name, c in part.channels.items()}
+
+
+def expected_passes(planes):
+    """refrakt's channels grouped as Blender's passes, rows from the bottom as Blender keeps them."""
+    def stack(names):
+        return np.stack([planes[n][::-1] for n in names], axis=-1)
+
+    out = {"Combined": stack("RGBA"), "Depth": stack(["depth.Z"])}
+    out.update({p: stack([f"{p}.{c}" for c in "RGB"]) for p in PASSES})
+    return out
+
+
+def render_layers_outputs(scene):
+    """The sockets the compositor's Render Layers node shows for the scene's view layer."""
+    tree = submodule("compositor").tree(scene)
+    node = tree.nodes.new("CompositorNodeRLayers")
+    return {s.name for s in node.outputs if s.enabled}
+
+
+def test_engine_is_listed_and_its_passes_reach_the_compositor(addon):
+    scene = bpy.context.scene
+    scene.render.engine = "REFRAKT"  # (a name Blender does not list is refused)
+    assert scene.render.engine == "REFRAKT"
+    layer = scene.view_layers[0]
+    layer.use_pass_z = True
+    assert {"Image", "Alpha", "Depth", *PASSES} <= render_layers_outputs(scene)
+    layer.refrakt.use_pass_direct = False
+    layer.use_pass_z = False
+    shown = render_layers_outputs(scene)
+    assert {"caustic", "volume"} <= shown and not {"direct", "Depth"} & shown
+
+
+def test_refrakt_error_reaches_blenders_report(fake_refrakt, tmp_path, saved_blend, monkeypatch):
+    engine_scene(tmp_path, frames=(1, 3))
+    saved_blend()
+    monkeypatch.setenv("FAKE_REFRAKT_FAIL_AT", "2")
+    with pytest.raises(RuntimeError, match=r'refrakt: frame 2 .*node "Cube": scale has a zero component'):
+        bpy.ops.render.render(animation=True)
+    assert fake_frame_value(tmp_path / "out" / "shot.0001.exr") == 1
+    assert submodule("final_render").current is None
+
+
+@pytest.mark.parametrize("refrakt", ["fake", "real"])
+def test_f12_writes_the_result_and_blenders_file(request, refrakt, tmp_path, saved_blend, addon):
+    if refrakt == "fake":
+        request.getfixturevalue("fake_refrakt")
+    else:
+        path = request.getfixturevalue("real_refrakt")
+        submodule("preferences").get(bpy.context).binary = path
+    scene = engine_scene(tmp_path)
+    saved_blend()
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    written = tmp_path / "out" / "shot.exr"
+    assert written.is_file()
+    paths = submodule("scene_export").paths(scene)
+    ours = refrakt_exr(paths.frame(1))
+    blenders = blender_exr_passes(written)
+    want = expected_passes(ours)
+    assert set(want) <= set(blenders), (sorted(blenders), sorted(want))
+    assert np.any(want["Combined"][..., 3] > 0) and np.any(want["caustic"] > 0), "an empty frame proves nothing"
+    for name, pixels in want.items():
+        got = blenders[name]
+        assert got.shape == pixels.shape, name
+        assert np.max(np.abs(got - pixels)) <= 1e-6, name
+
+
+def blender_exr_passes(path):
+    """The passes of Blender's multilayer EXR as {pass: (h, w, channels)}, rows from the bottom."""
+    planes = refrakt_exr(path)
+    grouped = {}
+    for name, values in planes.items():
+        parts = name.split(".")
+        grouped.setdefault(parts[-2], []).append((parts[-1], values))
+    order = "RGBAXYZV"
+    out = {}
+    for p, chans in grouped.items():
+        chans.sort(key=lambda c: order.index(c[0]) if c[0] in order else 99)
+        out[p] = np.stack([v[::-1] for _, v in chans], axis=-1)
+    return out
+
+
+def fake_frame_value(path):
+    """The fake refrakt's frame number, which it writes into R."""
+    return float(np.unique(blender_exr_passes(path)["Combined"][..., 0])[0])
+
+
+def test_animation_renders_through_one_refrakt_process(fake_refrakt, tmp_path, saved_blend):
+    engine_scene(tmp_path, frames=(1, 3))
+    saved_blend()
+    assert bpy.ops.render.render(animation=True) == {"FINISHED"}
+    calls = [json.loads(line) for line in fake_refrakt.read_text().splitlines()]
+    renders = [c for c in calls if c[0] == "render"]
+    assert len(renders) == 1 and renders[0][renders[0].index("--frames") + 1] == "1..3", renders
+    for k in (1, 2, 3):
+        assert fake_frame_value(tmp_path / "out" / f"shot.{k:04d}.exr") == k
+    assert submodule("final_render").current is None, "the process outlived the render"
+
+
+def test_esc_stops_refrakt_after_the_frame_in_hand(fake_refrakt, tmp_path, saved_blend, monkeypatch):
+    """Esc during frame 2 of 3 (test_break stands in for it: headless Blender has no events):
+    refrakt finishes the frame in hand and exits; every file left is whole."""
+    scene = engine_scene(tmp_path, frames=(1, 3))
+    saved_blend()
+    monkeypatch.setenv("FAKE_REFRAKT_DELAY", "0.4")
+    final_render = submodule("final_render")
+    written = []
+    write = final_render.write_result
+    monkeypatch.setattr(final_render, "write_result", lambda e, s, p: (write(e, s, p), written.append(s.frame_current)))
+    monkeypatch.setattr(final_render, "interrupted", lambda engine: bool(written))
+    jobs = []
+    start = final_render.RangeRender.__init__
+    monkeypatch.setattr(final_render.RangeRender, "__init__", lambda self, *a: (start(self, *a), jobs.append(self.job))[0])
+
+    bpy.ops.render.render(animation=True)
+
+    assert written == [1] and len(jobs) == 1
+    proc = jobs[0].proc
+    assert proc.poll() is not None, "refrakt still runs"
+    paths = submodule("scene_export").paths(scene)
+    frames = sorted(os.listdir(paths.frames))  # no temporaries either
+    whole = [f"{paths.name}.{k:04d}.exr" for k in (1, 2)]
+    assert frames in (whole[:1], whole), frames
+    for k, name in enumerate(frames, start=1):
+        assert np.all(refrakt_exr(os.path.join(paths.frames, name))["R"] == k)
+    assert fake_frame_value(tmp_path / "out" / "shot.0001.exr") == 1
+    # (Headless Blender's own loop cannot see the stand-in Esc, so it asks for frames 2 and 3;
+    # the engine starts no refrakt for them and hands back blank results.)
+    assert len([line for line in fake_refrakt.read_text().splitlines() if '"render"' in line]) == 1
+
+
+def test_blenders_overwrite_setting_applies(fake_refrakt, tmp_path, saved_blend):
+    """Overwrite off: Blender skips frames whose files exist, as for Cycles; the engine renders
+    the others (still through one refrakt process) and leaves the existing file alone."""
+    scene = engine_scene(tmp_path, frames=(1, 3))
+    scene.render.use_overwrite = False
+    saved_blend()
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "shot.0002.exr").write_bytes(b"kept")
+    bpy.ops.render.render(animation=True)
+    assert (out / "shot.0002.exr").read_bytes() == b"kept"
+    assert fake_frame_value(out / "shot.0001.exr") == 1 and fake_frame_value(out / "shot.0003.exr") == 3
+    assert len([line for line in fake_refrakt.read_text().splitlines() if '"render"' in line]) == 1

@@ -58,13 +58,26 @@ def read(material):
     if node is None:
         return Reading("receiver", [("Base Color", _color(material.diffuse_color), "albedo (no surface nodes)")], [], medium)
     if node.bl_idname in ("ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction"):
-        ior, color = extras.glass_surface(material)
-        rows = [("IOR", f"{ior:.4g}", "index of refraction"), ("Color", _color(color), "tint at each surface")]
-        ignored = ["Roughness (refrakt's glass is smooth)"] if node.inputs["Roughness"].default_value > 0 else []
-        return Reading("glass", rows, ignored, medium)
+        ior, color, roughness = extras.glass_surface(material)
+        rows = [
+            ("IOR", f"{ior:.4g}", "index of refraction"),
+            ("Color", _color(color), "tint at each surface"),
+            ("Roughness", f"{roughness:.3g}", "GGX roughness: frosted glass" if roughness > 0 else "polished"),
+            _surface_row(material),
+        ]
+        return Reading("glass", rows, [], medium)
     if node.bl_idname != "ShaderNodeBsdfPrincipled":
         return Reading("unknown", [], [f"'{node.bl_label}': the glTF export reads only a Principled BSDF"], medium)
-    return _principled(node, medium)
+    reading = _principled(node, medium)
+    if reading.kind == "glass":
+        reading.rows.append(_surface_row(material))
+    return reading
+
+
+def _surface_row(material):
+    choice = material.refrakt.surface
+    what = {"AUTO": "closed meshes solid, flat ones thin sheets", "SOLID": "a solid", "THIN": "a thin sheet"}[choice]
+    return ("Glass", choice.title(), what)
 
 
 def _principled(node, medium):
@@ -81,8 +94,10 @@ def _principled(node, medium):
     else:
         albedo = "albedo from the texture" if _linked(node, "Base Color") else "albedo"
         rows.append(("Base Color", _color(value("Base Color")), albedo))
-    if value("Roughness") > 0.0:
-        ignored.append(f"Roughness {value('Roughness'):.3g} ({'refrakt renders glass smooth' if glass else 'receivers are Lambertian'})")
+    if glass:
+        rows.append(("Roughness", f"{value('Roughness'):.3g}", "GGX roughness: frosted glass" if value("Roughness") > 0 else "polished"))
+    elif value("Roughness") > 0.0:
+        ignored.append(f"Roughness {value('Roughness'):.3g} (receivers are Lambertian)")
     for name, neutral in IGNORED:
         if name in node.inputs and abs(value(name) - neutral) > 1e-6:
             ignored.append(f"{name} {value(name):.3g}")

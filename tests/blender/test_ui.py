@@ -124,9 +124,14 @@ def test_material_panel_shows_refrakts_reading_of_the_principled_bsdf(addon):
     assert "Transmission: 1 → clear glass" in labels
     assert f"IOR: {scenes.GLASS_IOR:.4g} → index of refraction" in labels
     assert "Base Color: 0.9 0.8 0.7 → tint at each surface" in labels
+    assert "Roughness: 0.2 → GGX roughness: frosted glass" in labels
+    assert "Glass: Auto → closed meshes solid, flat ones thin sheets" in labels
     ignored = labels[labels.index("Ignored:") + 1:]
-    assert "Roughness 0.2 (refrakt renders glass smooth)" in ignored
+    assert not any(text.startswith("Roughness") for text in ignored)
     assert "Metallic 0.5" in ignored and "Coat Weight 0.3" in ignored
+    glass.refrakt.surface = "THIN"
+    labels = [text for kind, text in draw("MATERIAL_PT_refrakt", Context(material=glass)) if kind == "label"]
+    assert "Glass: Thin → a thin sheet" in labels
 
     bsdf.inputs["Transmission Weight"].default_value = 0.0
     glass.node_tree.links.remove(glass.node_tree.nodes["Material Output"].inputs["Volume"].links[0])

@@ -318,6 +318,17 @@ impl FrameDesc {
                 )
             });
         }
+        let (lo, hi) = (self.volume.min, self.volume.max());
+        let sharp = self.fields.iter().filter(|f| f.sharp).map(|f| (&f.name, f.bounds));
+        for (name, (b_lo, b_hi)) in sharp.chain(self.meshes.iter().filter(|m| m.sharp).map(|m| (&m.name, m.bounds))) {
+            let slack = 1e-3 * self.volume.voxel_size;
+            if b_lo.cmplt(lo - slack).any() || b_hi.cmpgt(hi + slack).any() {
+                out.push(format!(
+                    "glass \"{name}\" reaches outside the volume box ({lo} to {hi}): light that meets it out there is not \
+                     refracted, though it still casts a shadow (enlarge volume.min/max, or leave them out so the box fits the glass)"
+                ));
+            }
+        }
         if self.photons == 0 && !self.lights.is_empty() && (!self.receivers.is_empty() || self.fog.is_some()) {
             out.push("photons = 0: no caustics or light shafts are traced (set scene.photons or --photons)".into());
         }

@@ -246,7 +246,24 @@ fn open_glass_meshes_are_guessed_with_a_warning_and_thin_decides() {
     let warnings = guessed.warnings();
     assert!(warnings.iter().any(|w| w.contains("\"pane\" is flat: rendered as a thin sheet") && w.contains("thin = true")), "{warnings:?}");
     assert!(warnings.iter().any(|w| w.contains("\"cup\" is open: rendered as the solid") && w.contains("thin = true")), "{warnings:?}");
+    assert!(warnings.iter().all(|w| !w.contains("outside the volume box")), "the fitted box holds the glass: {warnings:?}");
     let chosen = desc(", thin = false", ", thin = true");
     assert!(!chosen.meshes[0].sharp && chosen.meshes[1].thin && chosen.meshes[1].sharp);
     assert!(chosen.warnings().iter().all(|w| !w.contains("glass mesh")), "{:?}", chosen.warnings());
+}
+
+/// Sharp glass that reaches outside a script's fixed volume box is named in a warning: light
+/// meeting it out there is not refracted.
+#[test]
+fn glass_outside_a_fixed_volume_box_is_warned_about() {
+    let desc = frame_from_lua(
+        r#"local r = require("refrakt")
+        local scene = r.scene{ camera = r.camera{ size = {8, 8} }, volume = { resolution = 16, min = {-0.5, -0.3, -0.5}, max = {0.5, 0.3, 0.5} } }
+        scene:add(r.node{ name = "slab", shape = r.box{ size = {3, 0.1, 3} }, material = r.glass{ ior = 1.5 } })
+        scene:add(r.node{ name = "pebble", shape = r.sphere{ radius = 0.1 }, material = r.glass{ ior = 1.5 } })
+        return scene"#,
+    );
+    let named: Vec<String> = desc.warnings().into_iter().filter(|w| w.contains("outside the volume box")).collect();
+    assert_eq!(named.len(), 1, "{named:?}");
+    assert!(named[0].starts_with("glass \"slab\" reaches outside the volume box"), "{}", named[0]);
 }

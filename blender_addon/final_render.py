@@ -79,12 +79,7 @@ class RangeRender:
 
     def stop(self, timeout=30.0):
         """Ends the process (after the frame in hand) and waits for it."""
-        self.job.cancel()
-        try:
-            self.job.wait(timeout=timeout)
-        except TimeoutError:
-            self.job.proc.kill()
-            self.job.wait()
+        self.job.stop(timeout)
 
 
 def _show_progress(engine, run, k):

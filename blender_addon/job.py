@@ -153,6 +153,15 @@ class Job:
                 # into place when it is complete, so only a hidden temporary can be left.
                 self.proc.terminate()
 
+    def stop(self, timeout):
+        """Cancels (after the frame in hand) and waits up to `timeout` s, then kills refrakt."""
+        self.cancel()
+        try:
+            self.wait(timeout=timeout)
+        except TimeoutError:
+            self.proc.kill()
+            self.wait()
+
     def wait(self, timeout=None, interval=0.05):
         """Polls until the process has finished (for background mode and tests)."""
         deadline = None if timeout is None else time.monotonic() + timeout

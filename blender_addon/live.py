@@ -104,11 +104,7 @@ class LiveSession:
 
     def stop(self):
         if self.watch is not None:
-            self.watch.cancel()
-            try:
-                self.watch.wait(timeout=5.0)
-            except TimeoutError:
-                self.watch.proc.kill()
+            self.watch.stop(timeout=5.0)
 
 
 # The one live session (Blender has one UI thread and one scene being edited at a time).

@@ -208,11 +208,7 @@ class ViewportSession:
 
     def stop(self):
         if self.watch is not None:
-            self.watch.cancel()
-            try:
-                self.watch.wait(timeout=5.0)
-            except TimeoutError:
-                self.watch.proc.kill()
+            self.watch.stop(timeout=5.0)
             self.watch = None
 
     # --- files and process -------------------------------------------------------------

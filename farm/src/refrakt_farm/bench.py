@@ -16,7 +16,7 @@ import tempfile
 from pathlib import Path
 
 from refrakt_farm.driver import FarmJob, render
-from refrakt_farm.frames import parse_range
+from refrakt_farm.frames import parse_range, split_options
 
 
 def run(workers: int, job: FarmJob) -> float:
@@ -39,11 +39,7 @@ def run(workers: int, job: FarmJob) -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
-    extra: list[str] = []
-    if "--" in argv:
-        i = argv.index("--")
-        argv, extra = argv[:i], argv[i + 1:]
+    argv, extra = split_options(sys.argv[1:] if argv is None else argv)
     p = argparse.ArgumentParser(prog="python -m refrakt_farm.bench")
     p.add_argument("scene", type=Path)
     p.add_argument("--frames", default="0..23")

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from refrakt_farm.driver import FarmJob, render
-from refrakt_farm.frames import parse_range
+from refrakt_farm.frames import parse_range, split_options
 
 
 def parser() -> argparse.ArgumentParser:
@@ -36,11 +36,7 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
-    extra: list[str] = []
-    if "--" in argv:
-        i = argv.index("--")
-        argv, extra = argv[:i], argv[i + 1:]
+    argv, extra = split_options(sys.argv[1:] if argv is None else argv)
     args = parser().parse_args(argv)
     try:
         first, last = parse_range(args.frames)

@@ -90,3 +90,11 @@ def write_atomically(path: Path, data: bytes) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def split_options(argv: list[str]) -> tuple[list[str], list[str]]:
+    """The command's own arguments, and those after `--` (refrakt's scene options)."""
+    if "--" not in argv:
+        return argv, []
+    i = argv.index("--")
+    return argv[:i], argv[i + 1:]

@@ -278,8 +278,10 @@ fn march_photon(photon: Photon, index: u32) -> u32 {
         flux = after;
         refracted = refracted || s.g.w - 1.0 > params.eps_refract;
         let d_new = normalize(s.v);
-        if dot(d_new, d) < 1.0 - 1e-9 {
+        if bends && dot(d_new, d) < 1.0 - 1e-9 {
             // The path bent: the surface ahead must be looked for again along the new direction.
+            // (A straight jump keeps d exactly; taking it back from v = n·d would round it by an
+            // ulp and cast the BVH again at every step.)
             d = d_new;
             ahead_of.valid = false;
         }

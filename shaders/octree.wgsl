@@ -12,9 +12,12 @@
 // the 4×4×4 block around the cell, so that in a flat cell ∇n is zero too (to within ε/h) and a
 // straight step through it is exactly what the ray equation would do.
 //
-// Sharp glass (extinction's w, see voxelize.wgsl) is not in n: rays meet it as surfaces. A cell
-// whose block it touches gets its n bounds raised by the glass's n − 1, both alike, so the cell
-// stays as flat as the grid is while `n_max − 1` tells the photon raster that glass is there.
+// Sharp glass (extinction's w, see voxelize.wgsl) is not in n: rays meet it as surfaces
+// (shared/interface.wgsl), so the pyramid leaves it out — the air around a glass object and the
+// uniform inside of it stay flat at every level, and rays cross both in long straight steps up
+// to the surface their lookahead found. Only the photon raster needs to know where sharp glass
+// is: `leaf` also writes `glass_mark`, per level-0 cell the largest n − 1 of sharp glass in the
+// cell's 4×4×4 block (0 where there is none).
 
 #import shared/types.wgsl
 
@@ -23,6 +26,7 @@
 @group(0) @binding(2) var extinction_grid: texture_3d<f32>;
 @group(0) @binding(3) var<storage, read_write> octree: array<vec4<f32>>;
 @group(0) @binding(4) var<uniform> level: u32;
+@group(0) @binding(5) var<storage, read_write> glass_mark: array<f32>;
 
 fn voxel_index(p: vec3<u32>) -> u32 {
     let d = octree_params.grid.dims;
@@ -47,7 +51,9 @@ fn leaf(@builtin(global_invocation_id) id: vec3<u32>) {
         v = vec4<f32>(min(v.x, n), max(v.y, n), min(v.z, s), max(v.w, s));
         sharp = max(sharp, sigma.w);
     }
-    octree[id.x + dims0.x * (id.y + dims0.y * id.z)] = v + vec4<f32>(sharp, sharp, 0.0, 0.0);
+    let cell = id.x + dims0.x * (id.y + dims0.y * id.z);
+    octree[cell] = v;
+    glass_mark[cell] = sharp;
 }
 
 @compute @workgroup_size(4, 4, 4)

@@ -3,7 +3,7 @@
 // The paper rasterizes the refractive objects from each light to emit photons only where they
 // matter. Here every light gets a G×G raster over the directions (or, for the sun, the area)
 // that can reach the volume, and each cell a weight = its power × its importance: 1 when its
-// central ray crosses a refractive cell of the octree, `medium_importance` when it crosses only a
+// central ray crosses a refractive cell of the octree (smooth or sharp glass), `medium_importance` when it crosses only a
 // scattering medium (light shafts), 0 otherwise. One CDF over all lights' cells then splits the
 // photon budget over lights and cells by weight, and photon i takes the stratified sample
 // u = (i + ξ)/N of it, so its flux — I(ω)·cell measure / (N·pmf) — keeps the estimate unbiased
@@ -25,11 +25,13 @@
 @group(0) @binding(4) var<storage, read> octree: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> cdf: array<f32>;
 @group(0) @binding(6) var<storage, read_write> photons: array<Photon>;
+// Per level-0 octree cell, the n − 1 of sharp glass near it (octree.wgsl).
+@group(0) @binding(7) var<storage, read> glass_mark: array<f32>;
 
-// The octree level whose cells classify raster rays: level 0 follows the objects' outline to a
-// voxel (its cells are dilated by one voxel, so the test stays conservative), so few photons
-// are spent on rays that miss the glass; a raster ray crosses at most a few hundred cells.
-const CLASSIFY_LEVEL: u32 = 0u;
+// Raster rays are classified by the octree's level-0 cells, which follow the objects' outline to
+// a voxel (each cell bounds the 4×4×4 voxels around it, so the test stays conservative): few
+// photons are spent on rays that miss the glass; a raster ray crosses at most a few hundred
+// cells.
 
 // Origin and direction of the point (u ∈ [0,1)²) of an emitter's raster.
 struct EmitterRay {
@@ -63,20 +65,19 @@ fn importance(o: vec3<f32>, d: vec3<f32>) -> f32 {
     if span.x > span.y || span.y <= 0.0 {
         return 0.0;
     }
-    let level = min(CLASSIFY_LEVEL, octree_params.level_count - 1u);
-    let dims = octree_params.levels[level];
-    let cell_size = grid.voxel_size * f32(1u << level);
-    // Level cells in dual-grid units: x ↦ (x − origin)/h − 1/2, divided by the cell size.
-    let to_cells = (vec3<f32>(-0.5 * grid.voxel_size) - grid.origin) / cell_size;
-    let a = (o + d * max(span.x, 0.0)) / cell_size + to_cells;
-    let b = (o + d * span.y) / cell_size + to_cells;
+    let dims = octree_params.levels[0];
+    // Level-0 cells in dual-grid units: x ↦ (x − origin)/h − 1/2.
+    let to_cells = vec3<f32>(-0.5) - grid.origin / grid.voxel_size;
+    let a = (o + d * max(span.x, 0.0)) / grid.voxel_size + to_cells;
+    let b = (o + d * span.y) / grid.voxel_size + to_cells;
     var medium = false;
     var dda = dda_begin(a, b);
     while dda_more(dda) {
         let c = clamp(dda.cell, vec3<i32>(0), vec3<i32>(dims.xyz) - 1);
         dda_advance(&dda);
-        let v = octree[dims.w + u32(c.x) + dims.x * (u32(c.y) + dims.y * u32(c.z))];
-        if v.y - 1.0 > params.eps_refract {
+        let cell = u32(c.x) + dims.x * (u32(c.y) + dims.y * u32(c.z));
+        let v = octree[cell];
+        if v.y - 1.0 > params.eps_refract || glass_mark[cell] > params.eps_refract {
             return 1.0;
         }
         medium = medium || v.w > 0.0;

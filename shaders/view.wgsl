@@ -427,8 +427,10 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                 ahead_of.valid = false;
                 continue;
             }
+            // Only a curved step turns the ray: a straight jump keeps d exactly, and taking it
+            // back from v = n·d would round it by an ulp and discard the lookahead every step.
             let d_new = normalize(s.v);
-            if dot(d_new, b.d) < 1.0 - 1e-9 {
+            if bends && dot(d_new, b.d) < 1.0 - 1e-9 {
                 b.d = d_new;
                 ahead_of.valid = false;
             }

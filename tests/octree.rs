@@ -41,6 +41,7 @@ struct Volume {
     sigma: Vec<f32>,
     sharp: Vec<f32>,
     octree: Vec<[f32; 4]>,
+    glass_mark: Vec<f32>,
 }
 
 fn build(source: &str) -> Volume {
@@ -54,7 +55,8 @@ fn build(source: &str) -> Volume {
     let sigma = halves.chunks(4).map(|c| c[0].to_f32().max(c[1].to_f32()).max(c[2].to_f32())).collect();
     let sharp = halves.chunks(4).map(|c| c[3].to_f32()).collect();
     let octree = bytemuck::cast_slice::<u8, [f32; 4]>(&readback::read_buffer(&renderer.ctx, &grids.octree).unwrap()).to_vec();
-    Volume { desc, renderer, n, sigma, sharp, octree }
+    let glass_mark = bytemuck::cast_slice::<u8, f32>(&readback::read_buffer(&renderer.ctx, &grids.glass_mark).unwrap()).to_vec();
+    Volume { desc, renderer, n, sigma, sharp, octree, glass_mark }
 }
 
 #[test]
@@ -62,12 +64,35 @@ fn gpu_octree_equals_cpu_twin() {
     for source in [random_scene(1), random_scene(2), LENS.to_string()] {
         let v = build(&source);
         let params = v.renderer.grids().unwrap().octree_layout;
-        let cpu = cpu::octree::build(&params, &v.n, &v.sigma, &v.sharp);
+        let cpu = cpu::octree::build(&params, &v.n, &v.sigma);
         assert_eq!(cpu.len(), v.octree.len());
         // Both take min/max of the same stored values: no rounding anywhere.
         assert_eq!(cpu, v.octree, "octree cells differ");
+        assert_eq!(cpu::octree::glass_mark(&params, &v.sharp), v.glass_mark, "glass marks differ");
         assert!(params.level_count >= 6, "a 48³ grid has a pyramid of {} levels", params.level_count);
     }
+}
+
+/// Sharp glass is met at its surface, not marched through: it stays out of the pyramid (so the
+/// whole grid around and inside a glass ball is one flat cell, crossed in long straight steps),
+/// and only the glass mark the photon raster aims by shows it.
+#[test]
+fn sharp_glass_leaves_the_pyramid_flat_and_sets_the_glass_mark() {
+    let v = build(
+        r#"local r = require("refrakt")
+local scene = r.scene{ volume = { resolution = 32 } }
+scene:add(r.node{ shape = r.sphere{ radius = 0.5 }, material = r.glass{ ior = 1.5 } })
+return scene"#,
+    );
+    let params = v.renderer.grids().unwrap().octree_layout;
+    let top = params.levels[params.level_count as usize - 1];
+    let root = v.octree[top[3] as usize];
+    assert!(root[1] - root[0] < params.eps_n && root[0] == 1.0, "the root cell holds n in [{}, {}]", root[0], root[1]);
+    let d0 = params.levels[0];
+    let cell = |x: u32, y: u32, z: u32| v.glass_mark[(x + d0[0] * (y + d0[1] * z)) as usize];
+    let centre = cell(d0[0] / 2, d0[1] / 2, d0[2] / 2);
+    assert!((centre - 0.5).abs() < 1e-3, "the glass mark at the ball's centre is {centre}, not n − 1 = 0.5");
+    assert_eq!(cell(0, 0, 0), 0.0, "the glass mark in the corner, outside the ball");
 }
 
 fn random_queries(v: &Volume, count: usize, seed: u64) -> Vec<ProbeRay> {

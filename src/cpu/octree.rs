@@ -5,9 +5,9 @@ use glam::{UVec3, Vec3};
 
 use crate::gpu::types::OctreeParams;
 
-/// The pyramid for voxel values `n`, `sigma` (largest extinction channel) and `sharp` (the
-/// sharp glass mark, extinction's w), laid out as `params.levels` says.
-pub fn build(params: &OctreeParams, n: &[f32], sigma: &[f32], sharp: &[f32]) -> Vec<[f32; 4]> {
+/// The pyramid for voxel values `n` and `sigma` (largest extinction channel), laid out as
+/// `params.levels` says.
+pub fn build(params: &OctreeParams, n: &[f32], sigma: &[f32]) -> Vec<[f32; 4]> {
     let d = UVec3::from(params.grid.dims);
     let voxel = |p: UVec3| (p.x + d.x * (p.y + d.y * p.z)) as usize;
     let level = |l: usize| UVec3::new(params.levels[l][0], params.levels[l][1], params.levels[l][2]);
@@ -15,21 +15,15 @@ pub fn build(params: &OctreeParams, n: &[f32], sigma: &[f32], sharp: &[f32]) -> 
     let merge = |v: [f32; 4], w: [f32; 4]| [v[0].min(w[0]), v[1].max(w[1]), v[2].min(w[2]), v[3].max(w[3])];
     let empty = [1e30, -1e30, 1e30, -1e30];
     let d0 = level(0);
-    let last = d.as_ivec3() - 1;
     for z in 0..d0.z {
         for y in 0..d0.y {
             for x in 0..d0.x {
                 let mut v = empty;
-                let mut mark = 0.0f32;
-                // The 4×4×4 block whose values reach the cell through ∇n's central differences.
-                for k in 0..64i32 {
-                    let offset = glam::IVec3::new(k & 3, (k >> 2) & 3, k >> 4) - 1;
-                    let p = (UVec3::new(x, y, z).as_ivec3() + offset).clamp(glam::IVec3::ZERO, last).as_uvec3();
+                for p in leaf_block(params, UVec3::new(x, y, z)) {
                     let (nv, s) = (n[voxel(p)], sigma[voxel(p)]);
                     v = merge(v, [nv, nv, s, s]);
-                    mark = mark.max(sharp[voxel(p)]);
                 }
-                out[(x + d0.x * (y + d0.y * z)) as usize] = [v[0] + mark, v[1] + mark, v[2], v[3]];
+                out[(x + d0.x * (y + d0.y * z)) as usize] = v;
             }
         }
     }
@@ -48,6 +42,33 @@ pub fn build(params: &OctreeParams, n: &[f32], sigma: &[f32], sharp: &[f32]) -> 
                     }
                     out[(off + x + here.x * (y + here.y * z)) as usize] = v;
                 }
+            }
+        }
+    }
+    out
+}
+
+/// The voxels of level-0 cell `c`'s block: the 4×4×4 whose values reach the cell through ∇n's
+/// central differences (clamped at the grid's faces).
+fn leaf_block(params: &OctreeParams, c: UVec3) -> impl Iterator<Item = UVec3> {
+    let last = UVec3::from(params.grid.dims).as_ivec3() - 1;
+    (0..64i32).map(move |k| {
+        let offset = glam::IVec3::new(k & 3, (k >> 2) & 3, k >> 4) - 1;
+        (c.as_ivec3() + offset).clamp(glam::IVec3::ZERO, last).as_uvec3()
+    })
+}
+
+/// The glass mark per level-0 cell (`shaders/octree.wgsl`'s `glass_mark`): the largest `sharp`
+/// (extinction's w: n − 1 of sharp glass) over the cell's block.
+pub fn glass_mark(params: &OctreeParams, sharp: &[f32]) -> Vec<f32> {
+    let d = UVec3::from(params.grid.dims);
+    let d0 = UVec3::new(params.levels[0][0], params.levels[0][1], params.levels[0][2]);
+    let mut out = Vec::with_capacity((d0.x * d0.y * d0.z) as usize);
+    for z in 0..d0.z {
+        for y in 0..d0.y {
+            for x in 0..d0.x {
+                let mark = leaf_block(params, UVec3::new(x, y, z)).map(|p| sharp[(p.x + d.x * (p.y + d.y * p.z)) as usize]).fold(0.0f32, f32::max);
+                out.push(mark);
             }
         }
     }

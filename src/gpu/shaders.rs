@@ -56,13 +56,22 @@ impl Composed {
 pub const SHADER_DIR_ENV: &str = "REFRAKT_SHADERS";
 
 impl ShaderLibrary {
+    /// The folder in `$REFRAKT_SHADERS` if set, else the embedded sources: what `refrakt bench`
+    /// measures, so a shader variant can be timed with the same binary.
+    pub fn from_env() -> Self {
+        match std::env::var_os(SHADER_DIR_ENV).filter(|d| !d.is_empty()) {
+            Some(dir) => ShaderLibrary::Dir(PathBuf::from(dir)),
+            None => ShaderLibrary::Embedded,
+        }
+    }
+
     /// The folder in `$REFRAKT_SHADERS` if set, else the source tree's `shaders/` when this
     /// binary runs from inside that tree (a development build: `target/…/refrakt`), else the
     /// embedded sources. A binary copied elsewhere uses what is embedded in it, even on the
     /// machine it was built on: its `watch` and its `render` must draw with the same shaders.
     pub fn for_development() -> Self {
-        if let Some(dir) = std::env::var_os(SHADER_DIR_ENV).filter(|d| !d.is_empty()) {
-            return ShaderLibrary::Dir(PathBuf::from(dir));
+        if let lib @ ShaderLibrary::Dir(_) = Self::from_env() {
+            return lib;
         }
         let tree = Path::new(env!("CARGO_MANIFEST_DIR"));
         let exe = std::env::current_exe().unwrap_or_default();

@@ -11,6 +11,7 @@
 use glam::{Mat3, Vec3};
 
 use crate::bvh::Triangle;
+use crate::scene::MeshData;
 use crate::frame::{FieldDesc, FieldKind, FrameDesc, MeshInstance};
 use crate::gpu::types::{Interface, interface_kind};
 
@@ -20,9 +21,6 @@ use crate::gpu::types::{Interface, interface_kind};
 /// cube the solid reaches (half a voxel's diagonal is 0.866).
 pub const MARK_WIDTH_VOXELS: f32 = 1.75;
 
-/// Faces meeting at less than this angle share a smooth shading normal (meshes without their
-/// own normals; the value Blender's "auto smooth" defaults to).
-pub const CREASE_ANGLE_DEGREES: f32 = 30.0;
 
 /// The sharp objects of a frame as interface records: the analytic ones first, then the
 /// meshes, then one `NONE` record that ends the analytic list even when there is no mesh.
@@ -74,8 +72,8 @@ pub fn triangles(desc: &FrameDesc) -> (Vec<Triangle>, Vec<[Vec3; 3]>) {
     for (j, m) in sharp_meshes(desc).enumerate() {
         let normal_to_world = Mat3::from_mat4(m.world).inverse().transpose();
         let positions: Vec<Vec3> = m.mesh.positions.iter().map(|p| m.world.transform_point3(*p)).collect();
-        let corners = m.mesh.corner_normals(CREASE_ANGLE_DEGREES.to_radians());
-        for (t, n) in m.mesh.triangles.iter().zip(corners) {
+        let facts = MeshData::glass_facts(&m.mesh);
+        for (t, n) in m.mesh.triangles.iter().zip(&facts.corner_normals) {
             triangles.push(Triangle {
                 v: t.map(|i| positions[i as usize]),
                 receiver: interface_kind::BIT | (first + j as u32),
@@ -92,7 +90,9 @@ pub fn triangles(desc: &FrameDesc) -> (Vec<Triangle>, Vec<[Vec3; 3]>) {
 /// two to a word, at most four. Lights and the camera inside glass start their paths with it.
 pub fn media_at(desc: &FrameDesc, p: Vec3) -> [u32; 2] {
     let analytic = desc.fields.iter().filter(|f| f.sharp).map(|f| (f.bounds, !f.thin && field_contains(f, p)));
-    let meshes = sharp_meshes(desc).map(|m| (m.bounds, !m.thin && m.mesh.encloses(m.world, p)));
+    // (The box first: the crossing count walks every triangle, and this runs every frame.)
+    let in_box = |(lo, hi): (Vec3, Vec3)| p.cmpge(lo).all() && p.cmple(hi).all();
+    let meshes = sharp_meshes(desc).map(|m| (m.bounds, !m.thin && in_box(m.bounds) && m.mesh.encloses(m.world, p)));
     let mut around: Vec<(f32, u32)> = analytic
         .chain(meshes)
         .enumerate()
@@ -129,14 +129,14 @@ mod tests {
     #[test]
     fn smooth_normals_follow_a_sphere_and_keep_a_cubes_edges() {
         let ball = mesh::icosphere(1.0, 3);
-        for (t, n) in ball.triangles.iter().zip(ball.corner_normals(CREASE_ANGLE_DEGREES.to_radians())) {
+        for (t, n) in ball.triangles.iter().zip(ball.corner_normals(mesh::GLASS_CREASE_DEGREES.to_radians())) {
             for (i, n) in t.iter().zip(n) {
                 // On a unit sphere the true normal is the position.
                 assert!(n.dot(ball.positions[*i as usize].normalize()) > 0.9995);
             }
         }
         let cube = mesh::cuboid(Vec3::ONE);
-        for (t, n) in cube.triangles.iter().zip(cube.corner_normals(CREASE_ANGLE_DEGREES.to_radians())) {
+        for (t, n) in cube.triangles.iter().zip(cube.corner_normals(mesh::GLASS_CREASE_DEGREES.to_radians())) {
             let [a, b, c] = t.map(|i| cube.positions[i as usize]);
             let face = (b - a).cross(c - a).normalize();
             assert!(n.iter().all(|v| v.dot(face) > 0.9999), "a cube's faces stay flat");

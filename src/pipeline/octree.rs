@@ -1,5 +1,6 @@
 //! Stage 3, octree (`shaders/octree.wgsl`): the min/max pyramid of n and extinction that tells
-//! the marching stages where a ray may take one long straight step. CPU twin: `cpu::octree`.
+//! the marching stages where a ray may take one long straight step, and the level-0 mark of
+//! sharp glass that tells the photon raster where to aim. CPU twin: `cpu::octree`.
 
 use anyhow::Result;
 use glam::UVec3;
@@ -39,9 +40,14 @@ pub fn layout_for(grid: GridParams) -> OctreeParams {
     OctreeParams { grid, level_count: count as u32, eps_n: EPS_N, eps_sigma: EPS_SIGMA, _pad0: 0, levels }
 }
 
+/// Cells of level `l`.
+pub fn level_cells(p: &OctreeParams, l: usize) -> u64 {
+    p.levels[l][0] as u64 * p.levels[l][1] as u64 * p.levels[l][2] as u64
+}
+
 /// Cells over all levels.
 pub fn cell_count(p: &OctreeParams) -> u64 {
-    (0..p.level_count as usize).map(|l| p.levels[l][0] as u64 * p.levels[l][1] as u64 * p.levels[l][2] as u64).sum()
+    (0..p.level_count as usize).map(|l| level_cells(p, l)).sum()
 }
 
 pub struct Octree {
@@ -62,6 +68,7 @@ impl Octree {
             layout::texture(2, wgpu::TextureViewDimension::D3),
             layout::storage(3, false),
             layout::uniform(4),
+            layout::storage(5, false),
         ];
         let (leaf, bgl) = layout::pipeline_entry(device, shaders, "octree", "leaf", &entries)?;
         let (reduce, _) = layout::pipeline_entry(device, shaders, "octree", "reduce", &entries)?;
@@ -100,6 +107,7 @@ impl Octree {
                             },
                             wgpu::BindGroupEntry { binding: 3, resource: grids.octree.as_entire_binding() },
                             wgpu::BindGroupEntry { binding: 4, resource: u.as_entire_binding() },
+                            wgpu::BindGroupEntry { binding: 5, resource: grids.glass_mark.as_entire_binding() },
                         ],
                     })
                 })

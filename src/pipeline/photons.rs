@@ -45,6 +45,7 @@ impl Photons {
             layout::storage(4, true),
             layout::storage(5, false),
             layout::storage(6, false),
+            layout::storage(7, true),
         ];
         let (importance, bgl) = layout::pipeline_entry(device, shaders, "photons", "importance_raster", &entries)?;
         let (scan, _) = layout::pipeline_entry(device, shaders, "photons", "scan", &entries)?;
@@ -128,6 +129,7 @@ impl Photons {
                     wgpu::BindGroupEntry { binding: 4, resource: grids.octree.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 5, resource: self.cdf.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 6, resource: self.photons.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 7, resource: grids.glass_mark.as_entire_binding() },
                 ],
             });
             self.bound = Some((generations, bg));

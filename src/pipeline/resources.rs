@@ -78,6 +78,9 @@ pub struct Grids {
     pub octree: wgpu::Buffer,
     pub octree_layout: crate::gpu::types::OctreeParams,
     pub octree_params: wgpu::Buffer,
+    /// Per level-0 octree cell, the n − 1 of sharp glass in its block (0: none): where the
+    /// photon raster aims. Kept out of the pyramid so sharp glass leaves it flat.
+    pub glass_mark: wgpu::Buffer,
 }
 
 impl Grids {
@@ -119,6 +122,12 @@ impl Grids {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             }),
+            glass_mark: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("glass_mark"),
+                size: super::octree::level_cells(&octree_layout, 0) * 4,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
             octree_layout,
             octree_params: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("octree params"),
@@ -144,6 +153,9 @@ pub struct EnvironmentTexture {
     pub generation: u64,
     /// The image now uploaded (compared by identity: images are shared, never mutated).
     uploaded: Option<Arc<EnvImage>>,
+    /// Its mean radiance over the sphere (`EnvImage::mean`, a pass over every texel: taken once
+    /// per image, not per frame).
+    pub mean: glam::Vec3,
 }
 
 impl EnvironmentTexture {
@@ -157,7 +169,7 @@ impl EnvironmentTexture {
             min_filter: wgpu::FilterMode::Linear,
             ..Default::default()
         });
-        Self { texture, view, sampler, generation: next_generation(), uploaded: None }
+        Self { texture, view, sampler, generation: next_generation(), uploaded: None, mean: glam::Vec3::ONE }
     }
 
     fn texture(ctx: &GpuContext, width: u32, height: u32, texels: &[[f32; 4]]) -> (wgpu::Texture, wgpu::TextureView) {
@@ -199,6 +211,7 @@ impl EnvironmentTexture {
         };
         (self.texture, self.view) = (texture, view);
         self.uploaded = Some(image.clone());
+        self.mean = image.mean();
         self.generation = next_generation();
         true
     }

@@ -68,8 +68,9 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
         crate::scene::EnvironmentSource::Color(c) => (*c, 0),
         _ => (glam::Vec3::ONE, 1),
     };
+    // (The environment texture holds the image's mean: uploaded before the view pass runs.)
     let ambient = match env.image() {
-        Some(img) => img.mean() * env.intensity,
+        Some(_) => inputs.environment.mean * env.intensity,
         None => color * env.intensity,
     };
     // A curved ray can wander: allow a few box diagonals of steps before giving up.

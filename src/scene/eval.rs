@@ -190,8 +190,9 @@ fn mesh_instance(node: &Node, mesh: &Arc<MeshData>, world: Mat4, glass: Glass, b
     // a closed one a solid, an open curved one is voxelized as the solid it bounds (robust to
     // holes, as before sharp interfaces) — the first and last are guesses the frame warns of.
     let refracts = is_sharp(&glass, boundary);
-    let closed = refracts && mesh.is_closed();
-    let flat = refracts && glass.thin.is_none() && mesh.is_flat();
+    let facts = refracts.then(|| MeshData::glass_facts(mesh));
+    let closed = facts.as_ref().is_some_and(|f| f.closed);
+    let flat = glass.thin.is_none() && facts.as_ref().is_some_and(|f| f.flat);
     let guessed = refracts && glass.thin.is_none() && (flat || !closed);
     let thin = refracts && glass.thin.unwrap_or(flat);
     let sharp = closed || thin;

@@ -1,6 +1,7 @@
 //! Triangle meshes, in the local space of the node that carries them.
 
 use std::collections::HashMap;
+use std::sync::{Arc, Mutex, Weak};
 
 use glam::{Vec2, Vec3};
 
@@ -19,7 +20,42 @@ pub struct MeshData {
 // (Its floats are checked finite before they reach the GPU.)
 impl Eq for MeshData {}
 
+/// What a glass mesh's shape says, each a pass over all its triangles: computed once per shared
+/// mesh (`MeshData::glass_facts`), since a glass object that only moves keeps its `Arc` and
+/// these ran every frame.
+#[derive(Debug)]
+pub struct GlassFacts {
+    /// [`MeshData::is_closed`].
+    pub closed: bool,
+    /// [`MeshData::is_flat`].
+    pub flat: bool,
+    /// [`MeshData::corner_normals`] at [`GLASS_CREASE_DEGREES`].
+    pub corner_normals: Vec<[Vec3; 3]>,
+}
+
+/// Faces of a glass mesh meeting at less than this angle share a smooth shading normal (the value
+/// Blender's "auto smooth" defaults to); at more, the edge stays sharp.
+pub const GLASS_CREASE_DEGREES: f32 = 30.0;
+
 impl MeshData {
+    /// The glass facts of `mesh`, from a process-wide cache keyed by the shared mesh (entries
+    /// go when their mesh is dropped).
+    pub fn glass_facts(mesh: &Arc<MeshData>) -> Arc<GlassFacts> {
+        static CACHE: Mutex<Vec<(Weak<MeshData>, Arc<GlassFacts>)>> = Mutex::new(Vec::new());
+        let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
+        cache.retain(|(m, _)| m.strong_count() > 0);
+        if let Some((_, facts)) = cache.iter().find(|(m, _)| std::ptr::eq(m.as_ptr(), Arc::as_ptr(mesh))) {
+            return facts.clone();
+        }
+        let facts = Arc::new(GlassFacts {
+            closed: mesh.is_closed(),
+            flat: mesh.is_flat(),
+            corner_normals: mesh.corner_normals(GLASS_CREASE_DEGREES.to_radians()),
+        });
+        cache.push((Arc::downgrade(mesh), facts.clone()));
+        facts
+    }
+
     /// Local bounding box (min, max); `None` for a mesh without vertices.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
         let first = *self.positions.first()?;

@@ -12,7 +12,8 @@ use refrakt::gltf::ImportOptions;
 use refrakt::output::{Format, Layers};
 use refrakt::output::png::{PngOptions, ToneMap};
 use refrakt::progress::ProgressMode;
-use refrakt::render::{self, FrameRange, RenderOptions, SceneOptions};
+use refrakt::output::exr::{ExrCodec, ExrSettings};
+use refrakt::render::{self, FrameFlow, FrameRange, RenderOptions, SceneOptions};
 use refrakt::scene::eval::EvalOptions;
 use refrakt::watch::{self, Moment, WatchOptions};
 
@@ -195,6 +196,38 @@ struct RenderArgs {
     scene_args: SceneArgs,
     #[command(flatten)]
     output: OutputArgs,
+    #[command(flatten)]
+    flow: FlowArgs,
+}
+
+/// How `render` takes frames from the GPU to disk.
+#[derive(Args)]
+struct FlowArgs {
+    /// EXR compression: zip (lossless, small), zips, piz, rle (lossless), dwaa (lossy colors) or
+    /// none (the least CPU: for frame rates the encoders cannot keep up with).
+    #[arg(long, value_enum, default_value_t = ExrCodec::Zip)]
+    exr_compression: ExrCodec,
+    /// Store EXR colors as 16-bit half floats (depth stays 32-bit): half the size and time.
+    #[arg(long)]
+    exr_half: bool,
+    /// Frames on the GPU at once, each read back while the next ones render (1 to 4).
+    #[arg(long, value_name = "N", default_value_t = 3, value_parser = |s: &str| parse_whole(s, 1, refrakt::pipeline::MAX_FRAMES_IN_FLIGHT as u32))]
+    frames_in_flight: u32,
+    /// Threads encoding and writing frames side by side (default: one per core, at most 8; 1
+    /// compresses each EXR on all cores instead).
+    #[arg(long, value_name = "N", value_parser = |s: &str| parse_whole(s, 1, 256))]
+    writers: Option<u32>,
+}
+
+impl FlowArgs {
+    fn flow(&self) -> FrameFlow {
+        FrameFlow {
+            frames_in_flight: self.frames_in_flight as usize,
+            writers: self.writers.map_or_else(refrakt::render::frames::default_writers, |w| w as usize),
+            exr: ExrSettings { codec: self.exr_compression, half: self.exr_half, parallel: false },
+            split: None,
+        }
+    }
 }
 
 #[derive(Args)]
@@ -302,6 +335,7 @@ fn render_options(frames: Option<FrameRange>, time: f64, c: &SceneArgs) -> Resul
         gpus: Vec::new(),
         chunk: 1,
         scene: c.options()?,
+        flow: FrameFlow::default(),
     })
 }
 
@@ -378,6 +412,7 @@ fn run(cli: Cli) -> Result<()> {
                 adapter: a.output.gpu.adapter.clone(),
                 gpus: a.gpus.as_deref().map(refrakt::gpus::parse_gpus).transpose()?.unwrap_or_default(),
                 chunk: a.chunk,
+                flow: a.flow.flow(),
                 ..render_options(a.frames, a.time, &a.scene_args)?
             };
             render::run(&a.scene, &opts)

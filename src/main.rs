@@ -73,7 +73,8 @@ struct BenchArgs {
     /// Write the JSON here as well as to stdout.
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
-    /// Print the ratio of each median time to the ones in an earlier JSON.
+    /// Compare with an earlier run's JSON: print each median time's ratio, and fail when a scene,
+    /// a stage or a frame flow is slower than there by more than noise.
     #[arg(long, value_name = "FILE")]
     compare: Option<PathBuf>,
     #[command(flatten)]
@@ -395,8 +396,16 @@ fn run(cli: Cli) -> Result<()> {
             if let Some(path) = &a.compare {
                 let before: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("--compare {}: {e}", path.display()))?)
                     .map_err(|e| anyhow::anyhow!("--compare {}: not a refrakt bench JSON file: {e}", path.display()))?;
-                for line in refrakt::bench::compare(&report, &before) {
+                let comparison = refrakt::bench::compare::compare(&report, &before);
+                for line in &comparison.lines {
                     eprintln!("{line}");
+                }
+                if !comparison.regressions.is_empty() {
+                    anyhow::bail!(
+                        "slower than {} by more than noise:\n  {}",
+                        path.display(),
+                        comparison.regressions.join("\n  ")
+                    );
                 }
             }
             Ok(())

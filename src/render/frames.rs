@@ -79,6 +79,8 @@ pub struct FrameSplit {
     pub gpu_s: f64,
     /// Bytes written.
     pub bytes: u64,
+    /// Seconds from the first frame's evaluation to the last frame's files in place.
+    pub run_s: f64,
 }
 
 impl FrameSplit {
@@ -187,6 +189,7 @@ pub(super) fn render_all(
     let mut warned = std::collections::HashSet::new();
     let mut pool = frame_pool(opts, progress, gpu);
     let mut in_flight: VecDeque<(Ticket, Outgoing)> = VecDeque::new();
+    let started = Instant::now();
     let result = (|| -> Result<()> {
         let mut rendered = 0;
         while let Some(k) = next() {
@@ -240,6 +243,7 @@ pub(super) fn render_all(
         }
     }
     let written = timed(split, |s| &mut s.drain_s, || pool.finish());
+    FrameSplit::add(split, |s| s.run_s += started.elapsed().as_secs_f64());
     result?;
     drained?;
     written

@@ -47,6 +47,14 @@ fn flows(quick: bool) -> Vec<Flow> {
             flows.push(Flow { name, formats: vec![Format::Exr], flow: pipelined(exr(codec, true)) });
         }
         flows.push(Flow { name: "png".into(), formats: vec![Format::Png], flow: FrameFlow::default() });
+        // Where the machine has more cores than the default writers, a writer per core.
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        if cores > FrameFlow::default().writers {
+            for codec in [ExrCodec::None, ExrCodec::Zip] {
+                let flow = FrameFlow { writers: cores, ..pipelined(exr(codec, false)) };
+                flows.push(Flow { name: format!("exr {}, a writer per core", codec_name(codec)), formats: vec![Format::Exr], flow });
+            }
+        }
     }
     flows
 }
@@ -118,6 +126,35 @@ fn flow_json(flow: &Flow, s: &FrameSplit) -> Value {
     })
 }
 
+/// What one frame of the scene costs to encode on one core with each EXR codec (and as PNG), and
+/// the size of the file: the CPU a frame rate needs, whatever the GPU does.
+fn encode_costs(scene: &std::path::Path, eval: &EvalOptions, opts: &BenchOptions, allow_read: &[PathBuf]) -> Result<Value> {
+    let mut source = crate::render::SceneSource::load(scene, allow_read, &Default::default())?;
+    let mut renderer = crate::pipeline::Renderer::new(crate::gpu::GpuContext::new(opts.adapter.as_deref())?)?;
+    let image = renderer.frame(&source.frame_desc(0.0, eval)?)?;
+    let time = |encode: &dyn Fn() -> Result<Vec<u8>>| -> Result<(f64, usize)> {
+        let mut ms = Vec::new();
+        let mut bytes = 0;
+        for _ in 0..3 {
+            let t0 = std::time::Instant::now();
+            bytes = encode()?.len();
+            ms.push(t0.elapsed().as_secs_f64() * 1e3);
+        }
+        Ok((super::median(&ms), bytes))
+    };
+    let mut rows = Vec::new();
+    for codec in [ExrCodec::None, ExrCodec::Rle, ExrCodec::Zips, ExrCodec::Zip, ExrCodec::Piz, ExrCodec::Dwaa] {
+        for half in [false, true] {
+            let settings = ExrSettings { codec, half, parallel: false };
+            let (ms, bytes) = time(&|| crate::output::exr::encode(&image, settings))?;
+            rows.push(json!({ "format": "exr", "compression": codec_name(codec), "half": half, "encode_ms": ms, "mb": bytes as f64 / 1e6 }));
+        }
+    }
+    let (ms, bytes) = time(&|| crate::output::png::encode(&image, &Default::default()))?;
+    rows.push(json!({ "format": "png", "encode_ms": ms, "mb": bytes as f64 / 1e6 }));
+    Ok(json!({ "size": [image.width, image.height], "one_core": rows }))
+}
+
 /// Measures every flow on `seed` (with `--mesh` if given) and returns the JSON section.
 pub fn measure(opts: &BenchOptions, eval: &EvalOptions, frames: u32) -> Result<Value> {
     let (source, allow) = super::scene_source("seed", opts, super::SEED_DETAIL)?;
@@ -136,6 +173,7 @@ pub fn measure(opts: &BenchOptions, eval: &EvalOptions, frames: u32) -> Result<V
         rows.push(flow_json(&flow, &split));
     }
     Ok(json!({
+        "encode": encode_costs(&scene, eval, opts, &allow)?,
         "scene": "seed",
         "settings": { "frames": frames, "cores": std::thread::available_parallelism().map_or(1, |n| n.get()) },
         "flows": rows,

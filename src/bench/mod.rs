@@ -80,11 +80,11 @@ fn load_scene(name: &str, source: &str, allow_read: &[PathBuf]) -> Result<(Scene
 }
 
 /// Subdivision of `seed`'s procedural pebble: 20·16² = 5120 triangles, the seed's ~5k.
-const SEED_DETAIL: u32 = 16;
+pub(crate) const SEED_DETAIL: u32 = 16;
 
 /// The source of built-in scene `name` with the bench's substitutions (`seed`'s pebble made with
 /// `detail`).
-fn scene_source(name: &str, opts: &BenchOptions, detail: u32) -> Result<(String, Vec<PathBuf>)> {
+pub(crate) fn scene_source(name: &str, opts: &BenchOptions, detail: u32) -> Result<(String, Vec<PathBuf>)> {
     let (_, source, _) = SCENES.iter().find(|s| s.0 == name).ok_or_else(|| {
         anyhow!("no built-in scene \"{name}\" (scenes: {}, {WATCH} for the edit-to-image latency, {FRAMES} for frames on disk per second)", SCENES.iter().map(|s| s.0).collect::<Vec<_>>().join(", "))
     })?;
@@ -192,7 +192,7 @@ fn beyond_adapter(renderer: &Renderer, source: &mut SceneSource, eval: &EvalOpti
     Ok(renderer.check_limits(&desc).err().map(|e| format!("{e:#}")))
 }
 
-fn median(v: &[f64]) -> f64 {
+pub(crate) fn median(v: &[f64]) -> f64 {
     Spread::of(v).median
 }
 

@@ -7,7 +7,8 @@ One row per scene and adapter: settings, each stage's median GPU time, the whole
 (median and p90), frames per second of GPU time, wall time per frame, and the march and view
 stages as a fraction of the bare kernels on the same adapter. Then, for files that have them, the
 seed scaling sweeps, the photon count against caustic noise curve, the voxelize-only figures and
-`refrakt watch`'s edit-to-image latency. Standard library only.
+`refrakt watch`'s edit-to-image latency and `refrakt render --frames`' frames on disk per second
+(`--scenes frames`). Standard library only.
 """
 
 import json
@@ -116,11 +117,36 @@ def latency_table(report):
                  ["edit", "fast frame first", "then the full frame", "full frame alone"], cells)
 
 
+def frames_table(report):
+    f = report.get("frame_output")
+    if not f:
+        return []
+    cells = []
+    for r in f["flows"]:
+        m = r["ms_per_frame"]
+        cells.append([r["flow"], str(r["frames_in_flight"]), str(r["writers"]), f"**{r['fps']:.1f}**", f"{r['mb_per_frame']:.1f}",
+                      ms(m["gpu"]), ms(m["evaluate"]), ms(m["submit"]), ms(m["gpu_wait"]), ms(m["readback"]), ms(m["queue_wait"]),
+                      ms(m["encode"]), ms(m["write"]), f"{r['bound']['by']} ({r['bound']['ms_per_frame']:.2f} ms)"])
+    enc = f.get("encode")
+    lines = []
+    if enc:
+        size = "×".join(map(str, enc["size"]))
+        cells2 = [[r["format"] + (f" {r['compression']}" + (" half" if r["half"] else "") if r["format"] == "exr" else ""),
+                   f"{r['encode_ms']:.1f}", f"{r['mb']:.2f}", f"{1e3 / r['encode_ms']:.0f}" if r["encode_ms"] > 0 else "—"]
+                  for r in enc["one_core"]]
+        lines = table(f"Encoding one {size} frame of {f['scene']} on one core of {adapter(report)}'s host (median of 3):",
+                      ["file", "encode ms", "MB", "frames/s per core"], cells2) + [""]
+    return lines + table(f"`refrakt render --frames` end to end on {adapter(report)}, {f['settings']['frames']} frames of "
+                 f"{f['scene']}, {f['settings']['cores']} cores (ms per frame; encode and write summed over the writers):",
+                 ["flow", "in flight", "writers", "frames/s", "MB/frame", "GPU", "evaluate", "submit", "GPU wait", "readback",
+                  "queue wait", "encode", "write", "bound by"], cells)
+
+
 def main(paths):
     reports = [json.load(open(p)) for p in paths]
     lines = scenes_table(reports)
     for r in reports:
-        for table in (voxelize_table(r), scaling_table(r), quality_table(r), latency_table(r)):
+        for table in (voxelize_table(r), scaling_table(r), quality_table(r), latency_table(r), frames_table(r)):
             if table:
                 lines += [""] + table
     print("\n".join(lines))

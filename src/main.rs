@@ -12,7 +12,8 @@ use refrakt::gltf::ImportOptions;
 use refrakt::output::{Format, Layers};
 use refrakt::output::png::{PngOptions, ToneMap};
 use refrakt::progress::ProgressMode;
-use refrakt::render::{self, FrameRange, RenderOptions, SceneOptions};
+use refrakt::output::exr::{ExrCodec, ExrSettings};
+use refrakt::render::{self, FrameFlow, FrameRange, RenderOptions, SceneOptions};
 use refrakt::scene::eval::EvalOptions;
 use refrakt::watch::{self, Moment, WatchOptions};
 
@@ -72,7 +73,8 @@ struct BenchArgs {
     /// Write the JSON here as well as to stdout.
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
-    /// Print the ratio of each median time to the ones in an earlier JSON.
+    /// Compare with an earlier run's JSON: print each median time's ratio, and fail when a scene,
+    /// a stage or a frame flow is slower than there by more than noise.
     #[arg(long, value_name = "FILE")]
     compare: Option<PathBuf>,
     #[command(flatten)]
@@ -195,6 +197,38 @@ struct RenderArgs {
     scene_args: SceneArgs,
     #[command(flatten)]
     output: OutputArgs,
+    #[command(flatten)]
+    flow: FlowArgs,
+}
+
+/// How `render` takes frames from the GPU to disk.
+#[derive(Args)]
+struct FlowArgs {
+    /// EXR compression: zip (lossless, small), zips, piz, rle (lossless), dwaa (lossy colors) or
+    /// none (the least CPU: for frame rates the encoders cannot keep up with).
+    #[arg(long, value_enum, default_value_t = ExrCodec::Zip)]
+    exr_compression: ExrCodec,
+    /// Store EXR colors as 16-bit half floats (depth stays 32-bit): half the size and time.
+    #[arg(long)]
+    exr_half: bool,
+    /// Frames on the GPU at once, each read back while the next ones render (1 to 4).
+    #[arg(long, value_name = "N", default_value_t = 3, value_parser = |s: &str| parse_whole(s, 1, refrakt::pipeline::MAX_FRAMES_IN_FLIGHT as u32))]
+    frames_in_flight: u32,
+    /// Threads encoding and writing frames side by side (default: one per core, at most 8; 1
+    /// compresses each EXR on all cores instead).
+    #[arg(long, value_name = "N", value_parser = |s: &str| parse_whole(s, 1, 256))]
+    writers: Option<u32>,
+}
+
+impl FlowArgs {
+    fn flow(&self) -> FrameFlow {
+        FrameFlow {
+            frames_in_flight: self.frames_in_flight as usize,
+            writers: self.writers.map_or_else(refrakt::render::frames::default_writers, |w| w as usize),
+            exr: ExrSettings { codec: self.exr_compression, half: self.exr_half, parallel: false },
+            split: None,
+        }
+    }
 }
 
 #[derive(Args)]
@@ -302,6 +336,7 @@ fn render_options(frames: Option<FrameRange>, time: f64, c: &SceneArgs) -> Resul
         gpus: Vec::new(),
         chunk: 1,
         scene: c.options()?,
+        flow: FrameFlow::default(),
     })
 }
 
@@ -361,8 +396,16 @@ fn run(cli: Cli) -> Result<()> {
             if let Some(path) = &a.compare {
                 let before: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("--compare {}: {e}", path.display()))?)
                     .map_err(|e| anyhow::anyhow!("--compare {}: not a refrakt bench JSON file: {e}", path.display()))?;
-                for line in refrakt::bench::compare(&report, &before) {
+                let comparison = refrakt::bench::compare::compare(&report, &before);
+                for line in &comparison.lines {
                     eprintln!("{line}");
+                }
+                if !comparison.regressions.is_empty() {
+                    anyhow::bail!(
+                        "slower than {} by more than noise:\n  {}",
+                        path.display(),
+                        comparison.regressions.join("\n  ")
+                    );
                 }
             }
             Ok(())
@@ -378,6 +421,7 @@ fn run(cli: Cli) -> Result<()> {
                 adapter: a.output.gpu.adapter.clone(),
                 gpus: a.gpus.as_deref().map(refrakt::gpus::parse_gpus).transpose()?.unwrap_or_default(),
                 chunk: a.chunk,
+                flow: a.flow.flow(),
                 ..render_options(a.frames, a.time, &a.scene_args)?
             };
             render::run(&a.scene, &opts)

@@ -81,3 +81,41 @@ fn a_scene_file_can_be_benchmarked() {
     assert!(s["stages_ms"]["march"].is_null(), "{s}");
     positive(&s["stages_ms"]["view"]["median"], "default.lua view");
 }
+
+/// `--scenes frames`: `refrakt render --frames` end to end under each flow, with the split of
+/// its time; and `--compare`, the guard, fails a run slower than an earlier one beyond noise.
+#[test]
+fn frames_bench_reports_each_flow_and_compare_guards_against_slowing_down() {
+    let dir = tempfile::tempdir().unwrap();
+    let first = dir.path().join("first.json");
+    let bench = |args: &[&str]| Command::new(env!("CARGO_BIN_EXE_refrakt")).args(["bench", "--quick", "--frames", "3"]).args(args).output().unwrap();
+    let out = bench(&["--scenes", "grin,frames", "--out", first.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let mut report: Value = serde_json::from_slice(&std::fs::read(&first).unwrap()).unwrap();
+    let flows = report["frame_output"]["flows"].as_array().unwrap().clone();
+    let names: Vec<&str> = flows.iter().map(|f| f["flow"].as_str().unwrap()).collect();
+    assert_eq!(names, ["exr zip, 2 in flight, 1 writer (as before)", "exr zip", "exr none"]);
+    positive(&report["frame_output"]["encode"]["one_core"][0]["encode_ms"], "encode cost");
+    for f in &flows {
+        let flow = f["flow"].as_str().unwrap();
+        assert_eq!(f["frames"], 3, "{flow}");
+        positive(&f["fps"], &format!("{flow} fps"));
+        positive(&f["mb_per_frame"], &format!("{flow} MB per frame"));
+        for part in ["evaluate", "submit", "readback", "encode", "write", "gpu"] {
+            positive(&f["ms_per_frame"][part], &format!("{flow} {part}"));
+        }
+        assert!(f["bound"]["by"].as_str().is_some_and(|b| !b.is_empty()), "{f}");
+    }
+    // An earlier run ten times faster at the view stage: this one is slower beyond any noise.
+    let view = &mut report["scenes"][0]["stages_ms"]["view"];
+    for q in ["median", "p90"] {
+        view[q] = serde_json::json!(view[q].as_f64().unwrap() / 10.0);
+    }
+    let faster = dir.path().join("faster.json");
+    std::fs::write(&faster, report.to_string()).unwrap();
+    let out = bench(&["--scenes", "grin", "--compare", faster.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(stderr.contains("slower than") && stderr.contains("grin: view"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}

@@ -256,6 +256,7 @@ fn options(frames: Option<&str>, time: f64) -> refrakt::render::RenderOptions {
         gpus: vec![],
         chunk: 1,
         scene,
+        flow: Default::default(),
     }
 }
 

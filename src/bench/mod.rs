@@ -5,6 +5,8 @@
 //! Speed is measured here, never asserted in tests: `tests/bench.rs` only checks that the JSON
 //! is complete and every time positive.
 
+pub mod compare;
+pub mod frames;
 pub mod latency;
 pub mod roofline;
 
@@ -33,6 +35,10 @@ pub const SCENES: &[(&str, &str, &str)] = &[
 /// Not a scene of its own: `--scenes watch` measures `refrakt watch`'s edit-to-image latency on
 /// examples/default.lua ([`latency`]).
 pub const WATCH: &str = "watch";
+
+/// Not a scene of its own: `--scenes frames` measures `refrakt render --frames` end to end on
+/// `seed`, frames on disk per second under several flows and EXR codecs ([`frames`]).
+pub const FRAMES: &str = "frames";
 
 #[derive(Clone, Debug)]
 pub struct BenchOptions {
@@ -75,13 +81,13 @@ fn load_scene(name: &str, source: &str, allow_read: &[PathBuf]) -> Result<(Scene
 }
 
 /// Subdivision of `seed`'s procedural pebble: 20·16² = 5120 triangles, the seed's ~5k.
-const SEED_DETAIL: u32 = 16;
+pub(crate) const SEED_DETAIL: u32 = 16;
 
 /// The source of built-in scene `name` with the bench's substitutions (`seed`'s pebble made with
 /// `detail`).
-fn scene_source(name: &str, opts: &BenchOptions, detail: u32) -> Result<(String, Vec<PathBuf>)> {
+pub(crate) fn scene_source(name: &str, opts: &BenchOptions, detail: u32) -> Result<(String, Vec<PathBuf>)> {
     let (_, source, _) = SCENES.iter().find(|s| s.0 == name).ok_or_else(|| {
-        anyhow!("no built-in scene \"{name}\" (scenes: {}, and {WATCH} for the edit-to-image latency)", SCENES.iter().map(|s| s.0).collect::<Vec<_>>().join(", "))
+        anyhow!("no built-in scene \"{name}\" (scenes: {}, {WATCH} for the edit-to-image latency, {FRAMES} for frames on disk per second)", SCENES.iter().map(|s| s.0).collect::<Vec<_>>().join(", "))
     })?;
     let mut allow = Vec::new();
     let mut mesh = String::new();
@@ -199,7 +205,7 @@ fn beyond_adapter(renderer: &Renderer, source: &mut SceneSource, eval: &EvalOpti
     Ok(renderer.check_limits(&desc).err().map(|e| format!("{e:#}")))
 }
 
-fn median(v: &[f64]) -> f64 {
+pub(crate) fn median(v: &[f64]) -> f64 {
     Spread::of(v).median
 }
 
@@ -344,7 +350,14 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
     let mut quality = Value::Null;
     let mut sweep = Value::Null;
     let mut latency = Value::Null;
+    let mut frame_output = Value::Null;
     for name in &opts.scenes {
+        if name == FRAMES {
+            let eval = if opts.quick { quick_eval() } else { EvalOptions::default() };
+            // (--quick shrinks the frames, not their count: what is measured is the flow.)
+            frame_output = frames::measure(opts, &eval, opts.frames)?;
+            continue;
+        }
         if name == WATCH {
             let eval = if opts.quick { quick_eval() } else { EvalOptions::default() };
             latency = latency::measure(opts, &eval, frames.min(10))?;
@@ -388,26 +401,6 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
         "seed_scaling": sweep,
         "voxelize": voxelize,
         "watch_latency": latency,
+        "frame_output": frame_output,
     }))
-}
-
-/// Ratios of this run's median times to an earlier run's, per scene and stage.
-pub fn compare(now: &Value, before: &Value) -> Vec<String> {
-    let mut lines = Vec::new();
-    let scenes = |v: &Value| v["scenes"].as_array().cloned().unwrap_or_default();
-    for s in scenes(now) {
-        let name = s["name"].as_str().unwrap_or("?");
-        let Some(old) = scenes(before).into_iter().find(|o| o["name"] == s["name"]) else { continue };
-        let ratio = |a: &Value, b: &Value| match (a.as_f64(), b.as_f64()) {
-            (Some(a), Some(b)) if b > 0.0 => format!("{b:.3} → {a:.3} ms ({:.2}×)", a / b),
-            _ => "—".into(),
-        };
-        lines.push(format!("{name}: GPU {}", ratio(&s["gpu_ms"]["median"], &old["gpu_ms"]["median"])));
-        if let Some(stages) = s["stages_ms"].as_object() {
-            for (stage, t) in stages {
-                lines.push(format!("  {stage}: {}", ratio(&t["median"], &old["stages_ms"][stage]["median"])));
-            }
-        }
-    }
-    lines
 }

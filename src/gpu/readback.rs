@@ -37,12 +37,20 @@ impl Staging {
         self.buffer.map_async(wgpu::MapMode::Read, ..len, move |r| {
             let _ = tx.send(r);
         });
-        ctx.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| anyhow!("waiting for the GPU failed: {e}"))?;
-        rx.recv()
-            .map_err(|_| anyhow!("the GPU readback was dropped"))?
-            .map_err(|e| anyhow!("mapping a GPU buffer for reading failed: {e}"))?;
+        // When the submission that filled the buffer is done already (a frame waited for, with
+        // later frames in flight behind it), the map completes at the next poll; waiting for the
+        // device instead would wait for every frame submitted since.
+        ctx.device.poll(wgpu::PollType::Poll).map_err(|e| anyhow!("waiting for the GPU failed: {e}"))?;
+        let mapped = match rx.try_recv() {
+            Ok(mapped) => mapped,
+            Err(_) => {
+                ctx.device
+                    .poll(wgpu::PollType::wait_indefinitely())
+                    .map_err(|e| anyhow!("waiting for the GPU failed: {e}"))?;
+                rx.recv().map_err(|_| anyhow!("the GPU readback was dropped"))?
+            }
+        };
+        mapped.map_err(|e| anyhow!("mapping a GPU buffer for reading failed: {e}"))?;
         let out = {
             let view = self.buffer.get_mapped_range(..len).map_err(|e| anyhow!("{e}"))?;
             f(&view)

@@ -1,8 +1,11 @@
-//! OpenEXR output: one part, 32-bit float channels, ZIP compression (half floats, uncompressed,
-//! for `refrakt watch`'s preview: see [`super::ExrCompression`]). The beauty layer is written as
-//! plain `R G B A` (what every viewer shows); other layers as `<layer>.<channel>`
-//! (`depth.Z`), the naming compositors (Blender, Nuke) split into layers.
+//! OpenEXR output: one part of scan lines in increasing order (so the bytes do not depend on how
+//! many threads compressed them), 32-bit float channels, ZIP compression by default; the codec
+//! and half-float colors are [`ExrSettings`] (half floats, uncompressed, for `refrakt watch`'s
+//! preview: see [`super::ExrCompression`]). The beauty layer is written as plain `R G B A` (what
+//! every viewer shows); other layers as `<layer>.<channel>` (`depth.Z`), the naming compositors
+//! (Blender, Nuke) split into layers.
 
+use std::io::Cursor;
 use std::path::Path;
 
 use anyhow::{Context, Result};
@@ -10,33 +13,113 @@ use exr::prelude::*;
 
 use super::Image;
 
+/// An EXR codec (`--exr-compression`): the lossless ones every OpenEXR reader knows, and DWAA
+/// (lossy, for previews and dailies).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ExrCodec {
+    /// zlib over blocks of 16 scan lines (OpenEXR's ZIP): small, lossless.
+    #[default]
+    Zip,
+    /// zlib over single scan lines (ZIPS): lossless, a little larger than ZIP.
+    Zips,
+    /// Wavelet + Huffman (PIZ): lossless, good on noisy images.
+    Piz,
+    /// Run lengths (RLE): lossless, fast, large on noisy images.
+    Rle,
+    /// DCT over blocks of 32 lines (DWAA): lossy on colors — this encoder codes 32-bit colors
+    /// to about 2 % on noise, and keeps half-float colors (`--exr-half`) to their precision;
+    /// depth is kept exactly.
+    Dwaa,
+    /// Stored as they are: the largest files, the least CPU.
+    None,
+}
+
+impl ExrCodec {
+    fn compression(self) -> Compression {
+        match self {
+            ExrCodec::Zip => Compression::ZIP16,
+            ExrCodec::Zips => Compression::ZIP1,
+            ExrCodec::Piz => Compression::PIZ,
+            ExrCodec::Rle => Compression::RLE,
+            ExrCodec::Dwaa => Compression::DWAA(None),
+            ExrCodec::None => Compression::Uncompressed,
+        }
+    }
+}
+
+/// How an EXR is stored and encoded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ExrSettings {
+    pub codec: ExrCodec,
+    /// Colors as 16-bit floats (2⁻¹¹ relative); depth stays 32-bit, as 10¹⁰ is beyond half
+    /// floats.
+    pub half: bool,
+    /// Compress the blocks of one file on all cores (a still, a preview); off where frames are
+    /// encoded side by side on a pool of their own ([`super::pool`]). The bytes are the same.
+    pub parallel: bool,
+}
+
+impl Default for ExrSettings {
+    fn default() -> Self {
+        super::ExrCompression::Small.into()
+    }
+}
+
+impl From<super::ExrCompression> for ExrSettings {
+    fn from(c: super::ExrCompression) -> Self {
+        match c {
+            super::ExrCompression::Small => Self { codec: ExrCodec::Zip, half: false, parallel: true },
+            super::ExrCompression::Fast => Self { codec: ExrCodec::None, half: true, parallel: false },
+        }
+    }
+}
+
 /// The EXR channel name of a layer's channel.
 pub fn channel_name(layer: &str, channel: &str) -> String {
     if layer == "beauty" { channel.to_string() } else { format!("{layer}.{channel}") }
 }
 
-pub fn write(image: &super::Image, path: &Path, compression: super::ExrCompression) -> Result<()> {
-    let (w, h) = (image.width as usize, image.height as usize);
-    let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
+/// The image's channels, planar, as `exr` takes them.
+fn channels(image: &Image, half: bool) -> Vec<AnyChannel<FlatSamples>> {
+    let mut channels = Vec::new();
     for layer in &image.layers {
         let n = layer.channels.len();
         for (c, name) in layer.channels.iter().enumerate() {
             let values = layer.data.iter().skip(c).step_by(n).copied();
-            let samples = match compression {
-                super::ExrCompression::Fast if layer.name != "depth" => FlatSamples::F16(values.map(half::f16::from_f32).collect()),
-                _ => FlatSamples::F32(values.collect()),
+            let samples = if half && layer.name != "depth" {
+                FlatSamples::F16(values.map(half::f16::from_f32).collect())
+            } else {
+                FlatSamples::F32(values.collect())
             };
             channels.push(AnyChannel::new(Text::from(channel_name(&layer.name, name).as_str()), samples));
         }
     }
+    channels
+}
+
+/// The EXR file of `image`, in memory.
+pub fn encode(image: &Image, settings: ExrSettings) -> Result<Vec<u8>> {
+    let size = (image.width as usize, image.height as usize);
     let attributes =
         LayerAttributes { software_name: Some(Text::from(concat!("refrakt ", env!("CARGO_PKG_VERSION")))), ..Default::default() };
-    let layer = |encoding| exr::image::Layer::new((w, h), attributes, encoding, AnyChannels::sort(channels.into()));
-    let written = match compression {
-        super::ExrCompression::Small => exr::image::Image::from_layer(layer(Encoding::SMALL_LOSSLESS)).write().to_file(path),
-        super::ExrCompression::Fast => exr::image::Image::from_layer(layer(Encoding::UNCOMPRESSED)).write().non_parallel().to_file(path),
+    let encoding = Encoding { compression: settings.codec.compression(), blocks: Blocks::ScanLines, line_order: LineOrder::Increasing };
+    let channels = AnyChannels::sort(channels(image, settings.half).into());
+    let exr_image = exr::image::Image::from_layer(exr::image::Layer::new(size, attributes, encoding, channels));
+    let mut bytes = Cursor::new(Vec::new());
+    let written = if settings.parallel {
+        exr_image.write().to_buffered(&mut bytes)
+    } else {
+        exr_image.write().non_parallel().to_buffered(&mut bytes)
     };
-    written.context("EXR encoding failed")
+    written.with_context(|| format!("EXR encoding ({:?}) failed", settings.codec))?;
+    Ok(bytes.into_inner())
+}
+
+/// Writes `image` to `path` (not atomically: see [`super::write_with`]).
+pub fn write(image: &Image, path: &Path, settings: impl Into<ExrSettings>) -> Result<()> {
+    let bytes = encode(image, settings.into())?;
+    std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// Reads an EXR written by [`write`] back into an [`Image`] (tests, the Blender round trip).

@@ -5,6 +5,7 @@
 
 pub mod exr;
 pub mod png;
+pub mod pool;
 
 use std::path::{Path, PathBuf};
 
@@ -196,7 +197,7 @@ pub fn remove_stale_temporaries(dir: &Path) -> usize {
     removed
 }
 
-/// How EXR files are stored.
+/// How EXR files are stored, by purpose (see [`exr::ExrSettings`] for every choice).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum ExrCompression {
     /// 32-bit floats, ZIP (lossless): small files, for frames that are kept.
@@ -214,13 +215,24 @@ pub fn write(image: &Image, format: Format, path: &Path, png: &png::PngOptions) 
     write_with(image, format, path, png, ExrCompression::Small)
 }
 
+/// The file of `image` in `format`, in memory (what [`write_with`] writes).
+pub fn encode(image: &Image, format: Format, png: &png::PngOptions, exr: impl Into<exr::ExrSettings>) -> Result<Vec<u8>> {
+    match format {
+        Format::Exr => exr::encode(image, exr.into()),
+        Format::Png => png::encode(image, png),
+    }
+}
+
+/// Writes `bytes` to `path` atomically (a temporary file in its folder, then a rename).
+pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_atomically(path, |tmp| std::fs::write(tmp, bytes).with_context(|| format!("cannot write {}", tmp.display())))
+        .with_context(|| format!("writing {}", path.display()))
+}
+
 /// [`write`] with a choice of EXR compression.
-pub fn write_with(image: &Image, format: Format, path: &Path, png: &png::PngOptions, exr: ExrCompression) -> Result<()> {
-    write_atomically(path, |tmp| match format {
-        Format::Exr => exr::write(image, tmp, exr),
-        Format::Png => png::write(image, tmp, png),
-    })
-    .with_context(|| format!("writing {}", path.display()))
+pub fn write_with(image: &Image, format: Format, path: &Path, png: &png::PngOptions, exr: impl Into<exr::ExrSettings>) -> Result<()> {
+    let bytes = encode(image, format, png, exr).with_context(|| format!("writing {}", path.display()))?;
+    write_bytes(path, &bytes)
 }
 
 #[cfg(test)]

@@ -74,19 +74,28 @@ pub fn display(c: [f32; 3], opts: &PngOptions) -> [u8; 3] {
     mapped.map(|v| (srgb_encode(v) * 255.0 + 0.5) as u8)
 }
 
-pub fn write(image: &Image, path: &Path, opts: &PngOptions) -> Result<()> {
+/// The PNG file of `image`'s beauty pass, tone-mapped, in memory.
+pub fn encode(image: &Image, opts: &PngOptions) -> Result<Vec<u8>> {
     let beauty = &image.layers[0].data;
     let channels = if opts.alpha { 4 } else { 3 };
-    let mut bytes = Vec::with_capacity((image.width * image.height) as usize * channels);
+    let mut pixels = Vec::with_capacity((image.width * image.height) as usize * channels);
     for px in beauty.chunks(4) {
-        bytes.extend_from_slice(&display([px[0], px[1], px[2]], opts));
+        pixels.extend_from_slice(&display([px[0], px[1], px[2]], opts));
         if opts.alpha {
-            bytes.push((px[3].clamp(0.0, 1.0) * 255.0 + 0.5) as u8);
+            pixels.push((px[3].clamp(0.0, 1.0) * 255.0 + 0.5) as u8);
         }
     }
     let color = if opts.alpha { image::ExtendedColorType::Rgba8 } else { image::ExtendedColorType::Rgb8 };
-    image::save_buffer_with_format(path, &bytes, image.width, image.height, color, image::ImageFormat::Png)
-        .context("PNG encoding failed")
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    image::write_buffer_with_format(&mut bytes, &pixels, image.width, image.height, color, image::ImageFormat::Png)
+        .context("PNG encoding failed")?;
+    Ok(bytes.into_inner())
+}
+
+/// Writes `image` to `path` (not atomically: see [`super::write_with`]).
+pub fn write(image: &Image, path: &Path, opts: &PngOptions) -> Result<()> {
+    let bytes = encode(image, opts)?;
+    std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))
 }
 
 #[cfg(test)]

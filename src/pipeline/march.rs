@@ -70,7 +70,7 @@ pub struct March {
     bgl: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
     pub stats: wgpu::Buffer,
-    stats_staging: [Staging; 2],
+    stats_staging: [Staging; super::MAX_FRAMES_IN_FLIGHT],
     bound: Option<([u64; 4], wgpu::BindGroup)>,
 }
 
@@ -106,7 +106,7 @@ impl March {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let stats_staging = [0, 1].map(|_| Staging::new(device, STAT_WORDS * 4, "stats readback"));
+        let stats_staging = std::array::from_fn(|_| Staging::new(device, STAT_WORDS * 4, "stats readback"));
         Ok(Self { main, resolve, bgl, params, stats, stats_staging, bound: None })
     }
 

@@ -104,6 +104,10 @@ impl Default for RenderSettings {
     }
 }
 
+/// Most frames [`Renderer::submit`] may have in flight: each one in flight holds a staging buffer
+/// of the whole frame (80 bytes a pixel).
+pub const MAX_FRAMES_IN_FLIGHT: usize = 4;
+
 /// Most photons one frame traces (48 bytes each on the GPU).
 pub const MAX_PHOTONS: u32 = 1 << 26;
 
@@ -136,7 +140,9 @@ pub struct Renderer {
     cache: StageCache,
     /// The readback slot the next submitted frame uses, and which slots hold a frame in flight.
     next_slot: usize,
-    pending: [bool; 2],
+    pending: [bool; MAX_FRAMES_IN_FLIGHT],
+    /// Readback slots in use: frames that may be submitted before the first is finished.
+    frames_in_flight: usize,
 }
 
 /// A frame in flight: which readback slot it uses, what it took from the cache, and the
@@ -230,8 +236,27 @@ impl Renderer {
             view_steps: 0,
             cache: StageCache::default(),
             next_slot: 0,
-            pending: [false; 2],
+            pending: [false; MAX_FRAMES_IN_FLIGHT],
+            frames_in_flight: 2,
         }
+    }
+
+    /// How many frames may be submitted before the first of them is finished (1 to
+    /// [`MAX_FRAMES_IN_FLIGHT`]; 2 by default). What frames show does not depend on it: the GPU
+    /// runs them in the order submitted, and each has readback buffers of its own.
+    pub fn set_frames_in_flight(&mut self, frames: usize) -> Result<()> {
+        if !(1..=MAX_FRAMES_IN_FLIGHT).contains(&frames) {
+            bail!("frames in flight must be 1 to {MAX_FRAMES_IN_FLIGHT}, not {frames}");
+        }
+        if self.pending.iter().any(|&p| p) {
+            bail!("internal: the frames in flight change while frames are in flight; finish them first");
+        }
+        (self.frames_in_flight, self.next_slot) = (frames, 0);
+        Ok(())
+    }
+
+    pub fn frames_in_flight(&self) -> usize {
+        self.frames_in_flight
     }
 
     /// Rebuilds every stage's pipeline from the shader library (for live shader edits). On a
@@ -344,6 +369,9 @@ impl Renderer {
         if self.target.as_ref().is_none_or(|t| (t.width, t.height) != (w, h)) {
             self.target = Some(FrameTarget::new(&self.ctx, w, h)?);
         }
+        if let Some(t) = self.target.as_mut() {
+            t.ensure_slots(&self.ctx, self.frames_in_flight);
+        }
         Ok(())
     }
 
@@ -414,15 +442,17 @@ impl Renderer {
     }
 
     /// Encodes and submits one frame, top to bottom, without waiting for it. Its results come
-    /// back through one of two readback slots, so the caller can submit frame k+1 (after running
-    /// `update` and evaluating the scene for it) before it [`finish`](Self::finish)es frame k.
+    /// back through one of [`frames_in_flight`](Self::set_frames_in_flight) readback slots, so
+    /// the caller can submit frames k+1, k+2, … (after running `update` and evaluating the scene
+    /// for each) before it [`finish`](Self::finish)es frame k. Frames are finished in the order
+    /// they were submitted.
     pub fn submit(&mut self, desc: &FrameDesc) -> Result<Ticket> {
         let slot = self.next_slot;
         if self.pending[slot] {
-            bail!("internal: two frames are already in flight; finish one before submitting another");
+            bail!("internal: {} frame(s) are already in flight; finish one before submitting another", self.frames_in_flight);
         }
         let size_changes = self.target.as_ref().is_some_and(|t| (t.width, t.height) != (desc.camera.width, desc.camera.height));
-        if size_changes && self.pending[1 - slot] {
+        if size_changes && self.pending.iter().any(|&p| p) {
             bail!("internal: the image size changes while a frame is in flight; finish it first");
         }
         self.prepare(desc)?;
@@ -492,7 +522,7 @@ impl Renderer {
             self.cache.traced_photons(photon_key);
         }
         self.pending[slot] = true;
-        self.next_slot = 1 - slot;
+        self.next_slot = (slot + 1) % self.frames_in_flight;
         let submitted = parts::Submitted { parts, photons: if trace { desc.photons } else { 0 }, at: submitted_at };
         Ok(Ticket { slot, photons: trace.then_some(march_params), layers: self.layers, reused, submitted })
     }

@@ -226,8 +226,9 @@ pub struct FrameTarget {
     pub height: u32,
     pub generation: u64,
     pub buffer: wgpu::Buffer,
-    /// One per readback slot, so frame k+1 can be submitted before frame k is read.
-    staging: [Staging; 2],
+    /// One per readback slot, so frames k+1, k+2, … can be submitted before frame k is read
+    /// (allocated as slots are first used: see [`ensure_slots`](Self::ensure_slots)).
+    staging: Vec<Staging>,
 }
 
 impl FrameTarget {
@@ -247,8 +248,15 @@ impl FrameTarget {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             }),
-            staging: [0, 1].map(|_| Staging::new(&ctx.device, size, "frame readback")),
+            staging: Vec::new(),
         })
+    }
+
+    /// Makes sure readback slots `0..slots` have their staging buffers.
+    pub fn ensure_slots(&mut self, ctx: &GpuContext, slots: usize) {
+        while self.staging.len() < slots {
+            self.staging.push(Staging::new(&ctx.device, self.buffer.size(), "frame readback"));
+        }
     }
 
     /// Bytes of the planes that bring `layers` back: the beauty plane comes first.
@@ -264,31 +272,45 @@ impl FrameTarget {
     }
 
     /// The image after the submission with [`encode_readback`](Self::encode_readback) finished.
-    /// The planes are converted into layers straight from the mapped staging buffer: the frame is
-    /// the largest readback (80 bytes a pixel), and copying it whole first doubled its cost.
+    /// The planes are converted into layers straight from the mapped staging buffer (the frame is
+    /// the largest readback, 80 bytes a pixel, and copying it whole first doubled its cost), each
+    /// plane on a thread of its own.
     pub fn read(&self, ctx: &GpuContext, slot: usize, layers: Layers) -> Result<Image> {
         let n = (self.width * self.height) as usize;
+        let planes = match layers {
+            Layers::All => FRAME_PLANES as usize,
+            Layers::Beauty => 1,
+        };
         let layers = self.staging[slot].read_with(ctx, self.readback_bytes(layers), |bytes| {
             let floats: &[f32] = bytemuck::cast_slice(bytes);
             let plane = |k: usize| &floats[4 * n * k..4 * n * (k + 1)];
-            // (flat_map's size hint is unknown, so reserve the exact length up front)
-            let rgb = |k: usize| {
-                let mut out = Vec::with_capacity(3 * n);
-                out.extend(plane(k).chunks_exact(4).flat_map(|c| [c[0], c[1], c[2]]));
-                out
-            };
-            let mut out = vec![Layer::new("beauty", &["R", "G", "B", "A"], plane(0).to_vec())];
-            if layers == Layers::All {
-                out.extend([
-                    Layer::new("depth", &["Z"], plane(1).chunks_exact(4).map(|c| c[0]).collect()),
-                    Layer::new("caustic", &["R", "G", "B"], rgb(2)),
-                    Layer::new("direct", &["R", "G", "B"], rgb(3)),
-                    Layer::new("volume", &["R", "G", "B"], rgb(4)),
-                ]);
+            if planes == 1 {
+                return vec![plane_layer(0, plane(0))];
             }
-            out
+            std::thread::scope(|s| {
+                let threads: Vec<_> = (0..planes).map(|k| s.spawn(move || plane_layer(k, plane(k)))).collect();
+                threads.into_iter().map(|t| t.join().expect("converting a frame plane")).collect()
+            })
         })?;
         Ok(Image { width: self.width, height: self.height, layers })
+    }
+}
+
+/// The layer of frame plane `k` (vec4 per pixel): beauty RGBA, depth, then the caustic, direct
+/// and volume light (RGB).
+fn plane_layer(k: usize, plane: &[f32]) -> Layer {
+    // (flat_map's size hint is unknown, so reserve the exact length up front)
+    let rgb = |name: &str| {
+        let mut out = Vec::with_capacity(plane.len() / 4 * 3);
+        out.extend(plane.chunks_exact(4).flat_map(|c| [c[0], c[1], c[2]]));
+        Layer::new(name, &["R", "G", "B"], out)
+    };
+    match k {
+        0 => Layer::new("beauty", &["R", "G", "B", "A"], plane.to_vec()),
+        1 => Layer::new("depth", &["Z"], plane.chunks_exact(4).map(|c| c[0]).collect()),
+        2 => rgb("caustic"),
+        3 => rgb("direct"),
+        _ => rgb("volume"),
     }
 }
 

@@ -16,8 +16,8 @@ pub struct Profiler {
     query_set: Option<wgpu::QuerySet>,
     resolve: Option<wgpu::Buffer>,
     /// One staging buffer and label list per readback slot (see `Renderer::submit`).
-    staging: [Option<Staging>; 2],
-    slot_labels: [Vec<&'static str>; 2],
+    staging: [Option<Staging>; super::MAX_FRAMES_IN_FLIGHT],
+    slot_labels: [Vec<&'static str>; super::MAX_FRAMES_IN_FLIGHT],
     labels: Vec<&'static str>,
     period_ns: f32,
     /// (stage label, milliseconds) of the last collected frame, in pass order.
@@ -31,8 +31,8 @@ impl Profiler {
             supported: ctx.has_timestamps(),
             query_set: None,
             resolve: None,
-            staging: [None, None],
-            slot_labels: [Vec::new(), Vec::new()],
+            staging: Default::default(),
+            slot_labels: Default::default(),
             labels: Vec::new(),
             period_ns: ctx.queue.get_timestamp_period(),
             last: Vec::new(),
@@ -57,7 +57,7 @@ impl Profiler {
                 usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             }));
-            self.staging = [0, 1].map(|_| Some(Staging::new(&ctx.device, size, "timestamp readback")));
+            self.staging = std::array::from_fn(|_| Some(Staging::new(&ctx.device, size, "timestamp readback")));
         }
         self.enabled = true;
         true

@@ -26,7 +26,7 @@ pub struct View {
     batches: Option<wgpu::Buffer>,
     /// 64-bit count of the ray-equation steps of the last frame (benchmarks).
     pub steps: wgpu::Buffer,
-    steps_staging: [crate::gpu::readback::Staging; 2],
+    steps_staging: [crate::gpu::readback::Staging; super::MAX_FRAMES_IN_FLIGHT],
     /// Bind group and the generations of what it binds.
     bound: Option<([u64; 6], wgpu::BindGroup)>,
 }
@@ -151,7 +151,7 @@ impl View {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let steps_staging = [0, 1].map(|_| crate::gpu::readback::Staging::new(device, 8, "view steps readback"));
+        let steps_staging = std::array::from_fn(|_| crate::gpu::readback::Staging::new(device, 8, "view steps readback"));
         Ok(Self { pipeline, bgl, params, batches: None, steps, steps_staging, bound: None })
     }
 

@@ -1,6 +1,8 @@
 //! `refrakt render`: load a scene, and for each frame run `update`, evaluate the graph, render,
 //! and write the files (atomically, so an interrupted run leaves only whole frames and
-//! `--skip-existing` can resume it).
+//! `--skip-existing` can resume it). The frames are pipelined: see [`frames`].
+
+pub mod frames;
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -13,11 +15,12 @@ use crate::frame::FrameDesc;
 use crate::gltf::{ImportOptions, Player};
 use crate::lua::sandbox::FileAccess;
 use crate::lua::{Limits, ScriptHost};
-use crate::output::{self, Format, Image, Layers, png::PngOptions};
-use crate::pipeline::Renderer;
+use crate::output::{self, Format, Image, png::PngOptions};
 use crate::progress::{Progress, ProgressMode};
 use crate::scene::Scene;
 use crate::scene::eval::{EvalOptions, evaluate, placed_nodes};
+pub use frames::{FrameFlow, FrameSplit};
+use frames::{lock, render_all};
 
 /// Set by Ctrl-C / SIGTERM: the render stops after the frame in hand.
 pub static INTERRUPTED: AtomicBool = AtomicBool::new(false);
@@ -82,6 +85,8 @@ pub struct RenderOptions {
     pub gpus: Vec<String>,
     pub chunk: u32,
     pub scene: SceneOptions,
+    /// Frames in flight, frame writers, EXR compression.
+    pub flow: FrameFlow,
 }
 
 /// A scene that can be evaluated at any time.
@@ -292,167 +297,3 @@ fn render_frames(scene_path: &Path, opts: &RenderOptions, progress: &Arc<Mutex<P
     Ok(())
 }
 
-/// The progress report, shared by the render loop and the frame writer. (A panic while it was
-/// held cannot leave it inconsistent in a way that matters: keep reporting.)
-fn lock<T>(progress: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
-    progress.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
-}
-
-/// A frame on its way out: rendered (or in flight on the GPU), to be written to `paths`.
-struct Outgoing {
-    frame: i64,
-    paths: Vec<(Format, PathBuf)>,
-    png: PngOptions,
-}
-
-/// Writes frames on a thread of its own, so EXR/PNG encoding overlaps the next frame's GPU
-/// work, and reports each frame as soon as its files are in place (so progress follows the
-/// frames, not the loop that submits them); the first error comes back to the render loop.
-struct FrameWriter {
-    jobs: Option<std::sync::mpsc::Sender<(Image, Outgoing)>>,
-    done: std::sync::mpsc::Receiver<Result<()>>,
-    thread: Option<std::thread::JoinHandle<()>>,
-    queued: usize,
-}
-
-impl FrameWriter {
-    /// `gpu`: the renderer's index in `--gpus`, reported with each frame when there are several.
-    fn new(progress: Arc<Mutex<Progress>>, gpu: Option<usize>) -> Self {
-        let (jobs, inbox) = std::sync::mpsc::channel::<(Image, Outgoing)>();
-        let (outbox, done) = std::sync::mpsc::channel();
-        let thread = std::thread::spawn(move || {
-            // Frames overlap (see `render_all`): each is timed from the one before it.
-            let mut previous = Instant::now();
-            for (image, out) in inbox {
-                let result = write_frame(&image, &out.paths, &out.png);
-                if result.is_ok() {
-                    let files: Vec<PathBuf> = out.paths.into_iter().map(|(_, p)| p).collect();
-                    lock(&progress).frame(out.frame, previous.elapsed().as_secs_f64(), &files, gpu);
-                    previous = Instant::now();
-                }
-                let failed = result.is_err();
-                if outbox.send(result).is_err() || failed {
-                    break;
-                }
-            }
-        });
-        Self { jobs: Some(jobs), done, thread: Some(thread), queued: 0 }
-    }
-
-    fn send(&mut self, image: Image, out: Outgoing) -> Result<()> {
-        let jobs = self.jobs.as_ref().ok_or_else(|| anyhow!("the frame writer has stopped"))?;
-        jobs.send((image, out)).map_err(|_| anyhow!("the frame writer stopped after an error"))?;
-        self.queued += 1;
-        Ok(())
-    }
-
-    /// The first error among the frames written so far (waiting for all of them when `wait`).
-    fn check(&mut self, wait: bool) -> Result<()> {
-        while self.queued > 0 {
-            let next = if wait { self.done.recv().ok() } else { self.done.try_recv().ok() };
-            let Some(result) = next else { break };
-            self.queued -= 1;
-            result?;
-        }
-        Ok(())
-    }
-}
-
-impl Drop for FrameWriter {
-    fn drop(&mut self) {
-        self.jobs.take();
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
-
-/// Waits for frame `frame` on the GPU, showing on the progress bar which part it is on.
-fn wait_for(renderer: &Renderer, ticket: &crate::pipeline::Ticket, frame: i64, opts: &RenderOptions, progress: &Mutex<Progress>) -> Result<()> {
-    let numbered = opts.frames.map(|_| frame);
-    renderer.wait(ticket, &mut |p| lock(progress).within_frame(numbered, p))
-}
-
-/// Renders every frame `next` hands out (on the adapter of `opts`); `current` names the frame
-/// in hand when one fails; `gpu` is the renderer's index among several (`--gpus`).
-///
-/// Frames are pipelined: while the GPU renders frame k, the CPU runs `update` and evaluates the
-/// scene for frame k+1 and submits it; frame k is then read back and handed to the writer
-/// thread. Frames are still written in order, and an error leaves every earlier frame whole.
-fn render_all(
-    scene_path: &Path,
-    opts: &RenderOptions,
-    progress: &Arc<Mutex<Progress>>,
-    current: &Mutex<Option<i64>>,
-    next: &mut dyn FnMut() -> Option<i64>,
-    gpu: Option<usize>,
-) -> Result<()> {
-    let mut source = opts.scene.load(scene_path)?;
-    let ctx = crate::gpu::GpuContext::new(opts.adapter.as_deref())?;
-    tracing::info!("adapter: {}", ctx.adapter_name());
-    let mut renderer = Renderer::new(ctx)?;
-    // PNG frames show the beauty pass: read the other layers back only for EXR.
-    renderer.layers = if opts.formats.contains(&Format::Exr) { Layers::All } else { Layers::Beauty };
-    let name = opts
-        .name
-        .clone()
-        .unwrap_or_else(|| scene_path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or("frame".into()));
-    let first = opts.frames.map_or(0, |r| r.first);
-    let mut warned = std::collections::HashSet::new();
-    let mut writer = FrameWriter::new(progress.clone(), gpu);
-    let mut in_flight: Option<(crate::pipeline::Ticket, Outgoing)> = None;
-    let result = (|| -> Result<()> {
-        let mut rendered = 0;
-        while let Some(k) = next() {
-            if INTERRUPTED.load(Ordering::SeqCst) {
-                bail!("interrupted after {rendered} frame(s); the frames written are whole");
-            }
-            let numbered = opts.frames.map(|_| k);
-            let paths = frame_paths(opts, &name, numbered);
-            if opts.skip_existing && paths.iter().all(|(_, p)| p.exists()) {
-                lock(progress).skip(k);
-                continue;
-            }
-            *lock(current) = numbered;
-            rendered += 1;
-            let t = frame_time(numbered, opts);
-            let desc = source.frame_desc(t, &opts.scene.eval).map_err(|e| match numbered {
-                Some(k) if gpu.is_some() => anyhow!(
-                    "frame {k} (t = {t:.4} s): {e:#} (fix the scene and re-run with --skip-existing to render the \
-                     frames not written yet)"
-                ),
-                Some(k) if k > first => anyhow!(
-                    "frame {k} (t = {t:.4} s): {e:#} (frames {first} to {} are written; fix the scene and re-run with \
-                     --skip-existing to go on from frame {k})",
-                    k - 1
-                ),
-                Some(k) => anyhow!("frame {k} (t = {t:.4} s): {e:#}"),
-                None => e,
-            })?;
-            for w in desc.warnings() {
-                if warned.insert(w.clone()) {
-                    tracing::warn!("{w}");
-                }
-            }
-            let ticket = renderer.submit(&desc)?;
-            let mut png = opts.png;
-            png.alpha = !desc.environment.visible;
-            let outgoing = Outgoing { frame: k, paths, png };
-            if let Some((previous, out)) = in_flight.replace((ticket, outgoing)) {
-                wait_for(&renderer, &previous, out.frame, opts, progress)?;
-                writer.send(renderer.finish(previous)?, out)?;
-            }
-            writer.check(false)?;
-        }
-        Ok(())
-    })();
-    // Whatever happened, frames already rendered are written whole before returning.
-    let drained = in_flight.take().map_or(Ok(()), |(ticket, out)| {
-        wait_for(&renderer, &ticket, out.frame, opts, progress)?;
-        renderer.finish(ticket).and_then(|image| writer.send(image, out))
-    });
-    let written = writer.check(true);
-    result?;
-    drained?;
-    written
-}

@@ -7,6 +7,7 @@
 
 pub mod latency;
 pub mod roofline;
+pub mod serve;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -74,11 +75,11 @@ fn load_scene(name: &str, source: &str, allow_read: &[PathBuf]) -> Result<(Scene
 }
 
 /// Subdivision of `seed`'s procedural pebble: 20·16² = 5120 triangles, the seed's ~5k.
-const SEED_DETAIL: u32 = 16;
+pub(crate) const SEED_DETAIL: u32 = 16;
 
 /// The source of built-in scene `name` with the bench's substitutions (`seed`'s pebble made with
 /// `detail`).
-fn scene_source(name: &str, opts: &BenchOptions, detail: u32) -> Result<(String, Vec<PathBuf>)> {
+pub(crate) fn scene_source(name: &str, opts: &BenchOptions, detail: u32) -> Result<(String, Vec<PathBuf>)> {
     let (_, source, _) = SCENES.iter().find(|s| s.0 == name).ok_or_else(|| {
         anyhow!("no built-in scene \"{name}\" (scenes: {}, and {WATCH} for the edit-to-image latency)", SCENES.iter().map(|s| s.0).collect::<Vec<_>>().join(", "))
     })?;
@@ -331,7 +332,13 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
     let mut quality = Value::Null;
     let mut sweep = Value::Null;
     let mut latency = Value::Null;
+    let mut serving = Value::Null;
     for name in &opts.scenes {
+        if name == serve::SERVE {
+            let eval = if opts.quick { quick_eval() } else { EvalOptions::default() };
+            serving = serve::measure(opts, &eval, if opts.quick { 2.0 } else { 5.0 })?;
+            continue;
+        }
         if name == WATCH {
             let eval = if opts.quick { quick_eval() } else { EvalOptions::default() };
             latency = latency::measure(opts, &eval, frames.min(10))?;
@@ -375,6 +382,7 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
         "seed_scaling": sweep,
         "voxelize": voxelize,
         "watch_latency": latency,
+        "serve": serving,
     }))
 }
 

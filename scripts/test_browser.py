@@ -83,10 +83,11 @@ class WebDriver:
             if value:
                 return value
             time.sleep(0.2)
-        fail(f"{what}: not within {timeout} s; page stats: {self.js('return document.getElementById(\"stats\").textContent')!r}")
+        stats = self.js("return document.getElementById('stats').textContent")
+        fail(f"{what}: not within {timeout} s; page stats: {stats!r}")
 
     def drag(self, element, dx, dy, steps=10, step_ms=30):
-        origin = {"element-6066-11e4-a52e-4f735466cecb": element}
+        origin = {"element-6066-11e4-a52e-4f735466cecf": element}
         actions = [{"type": "pointerMove", "duration": 0, "origin": origin, "x": 0, "y": 0}, {"type": "pointerDown", "button": 0}]
         for i in range(1, steps + 1):
             actions.append({"type": "pointerMove", "duration": step_ms, "origin": origin, "x": dx * i // steps, "y": dy * i // steps})
@@ -193,7 +194,7 @@ def main():
             before = wd.js("return document.getElementById('frame').toDataURL('image/png')")
             frames = wd.js("return window.refrakt.frames")
             canvas = wd.s("POST", "/element", {"using": "css selector", "value": "#frame"})
-            canvas = canvas["element-6066-11e4-a52e-4f735466cecb"]
+            canvas = canvas["element-6066-11e4-a52e-4f735466cecf"]
             wd.drag(canvas, 120, 30)
             sent = wd.wait("the drag's camera move", "return window.refrakt.nextId > 1 && window.refrakt.nextId - 1")
             wd.wait("a frame of the orbited camera", f"return window.refrakt.last && window.refrakt.last.input >= {sent} && window.refrakt.frames > {frames}")

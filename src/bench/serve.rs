@@ -83,11 +83,12 @@ async fn phases(url: &str, seconds: f64) -> Result<Value> {
     Ok(json!({ "orbit": orbit, "light_drag": drag }))
 }
 
-/// Waits for the `scene` event and the first frame; returns the first light's name.
+/// Waits for the `scene` event and the first frame (in either order); returns the first light's
+/// name.
 async fn first_light(ws: &mut Stream) -> Result<Option<String>> {
     let mut light = None;
-    let mut scene_seen = false;
-    loop {
+    let (mut scene_seen, mut frame_seen) = (false, false);
+    while !(scene_seen && frame_seen) {
         match next(ws, Duration::from_secs(600)).await? {
             Message::Text(t) => {
                 let e: Value = serde_json::from_str(&t)?;
@@ -100,10 +101,11 @@ async fn first_light(ws: &mut Stream) -> Result<Option<String>> {
                     _ => {}
                 }
             }
-            Message::Binary(_) if scene_seen => return Ok(light),
+            Message::Binary(_) => frame_seen = true,
             _ => {}
         }
     }
+    Ok(light)
 }
 
 async fn next(ws: &mut Stream, timeout: Duration) -> Result<Message> {

@@ -169,14 +169,17 @@ async fn connection(mut socket: WebSocket, shared: Arc<Shared>) {
     let mut warned = false;
     let mut tick = tokio::time::interval(Duration::from_millis(200));
     loop {
+        // Biased, in this order: an event (rare: a scene load, an error) goes before the frame
+        // that follows it, and a flood of incoming messages cannot starve the frames.
         let outgoing = tokio::select! {
-            changed = frames.changed() => match changed {
-                Ok(()) => frames.borrow_and_update().clone().map(Message::binary),
-                Err(_) => return,
-            },
+            biased;
             event = events.recv() => match event {
                 Ok(event) => Some(text_message(&event)),
                 Err(tokio::sync::broadcast::error::RecvError::Lagged(_)) => None,
+                Err(_) => return,
+            },
+            changed = frames.changed() => match changed {
+                Ok(()) => frames.borrow_and_update().clone().map(Message::binary),
                 Err(_) => return,
             },
             incoming = socket.recv() => match incoming {

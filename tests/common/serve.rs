@@ -82,6 +82,9 @@ pub struct Client {
     ws: WebSocketStream<MaybeTlsStream<TcpStream>>,
     /// Everything received so far, for failure messages.
     pub seen: Vec<String>,
+    /// Messages a wait passed over, offered to the next waits first (the server may send an
+    /// event and a frame in either order).
+    skipped: std::collections::VecDeque<Received>,
 }
 
 impl Client {
@@ -94,7 +97,7 @@ impl Client {
             request.headers_mut().insert(name, v.parse().unwrap());
         }
         let ws = rt.block_on(tokio_tungstenite::connect_async(request)).map_err(|e| e.to_string())?.0;
-        Ok(Client { rt, ws, seen: Vec::new() })
+        Ok(Client { rt, ws, seen: Vec::new(), skipped: Default::default() })
     }
 
     pub fn connect(server: &Server) -> Client {
@@ -134,17 +137,35 @@ impl Client {
         }
     }
 
-    /// Waits for a message `want` accepts (others are skipped); panics after [`PATIENCE`].
+    /// Waits for a message `want` accepts, first among those earlier waits passed over (the
+    /// others are kept for later waits); panics after [`PATIENCE`].
     pub fn wait_for<T>(&mut self, what: &str, mut want: impl FnMut(&Received) -> Option<T>) -> T {
+        let earlier = std::mem::take(&mut self.skipped);
+        let mut found = None;
+        for r in earlier {
+            match found.is_none().then(|| want(&r)).flatten() {
+                Some(t) => found = Some(t),
+                None => self.skipped.push_back(r),
+            }
+        }
+        if let Some(t) = found {
+            return t;
+        }
         let until = Instant::now() + PATIENCE;
         while let Some(left) = until.checked_duration_since(Instant::now()) {
-            if let Some(r) = self.next_within(left)
-                && let Some(t) = want(&r)
-            {
-                return t;
+            if let Some(r) = self.next_within(left) {
+                match want(&r) {
+                    Some(t) => return t,
+                    None => self.skipped.push_back(r),
+                }
             }
         }
         panic!("no {what} within {PATIENCE:?}; received:\n{}", self.seen.join("\n"));
+    }
+
+    /// Drops the messages earlier waits passed over.
+    pub fn forget_skipped(&mut self) {
+        self.skipped.clear();
     }
 
     /// The next event of this type.

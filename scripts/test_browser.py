@@ -31,7 +31,7 @@ import zlib
 
 SCENE = """local r = require("refrakt")
 local scene = r.scene{
-  camera = r.camera{ position = {0, 0.5, 3}, target = {0, 0, 0}, fov = 35, size = {96, 54} },
+  camera = r.camera{ position = {0, 0.5, 3}, target = {0, 0, 0}, fov = 35, size = {160, 128} },
   environment = r.environment{ color = {0.15, 0.17, 0.22} },
   volume = { resolution = 32 },
   photons = 4000,

@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use serde_json::{Value, json};
 
-use common::serve::{Client, Received, Server};
+use common::serve::{Client, Received, Server, picture};
 use common::watch::{folder_with, save_by_rename};
 
 /// A glass ball on a floor under a spot light, seen by `CAMERA`: photons land on the floor.
@@ -32,11 +32,6 @@ const SCENE_CAMERA: &str = "position = {0, 0.5, 3}, target = {0, 0, 0}";
 
 fn scene(camera: &str, env: &str) -> String {
     SCENE.replace("CAMERA", camera).replace("ENV", env)
-}
-
-fn jpeg_dims(bytes: &[u8]) -> (u32, u32) {
-    let img = image::load_from_memory_with_format(bytes, image::ImageFormat::Jpeg).expect("a JPEG");
-    (img.width(), img.height())
 }
 
 fn floats(bytes: &[u8]) -> Vec<f32> {
@@ -72,7 +67,7 @@ fn a_camera_move_reruns_only_the_view_pass_and_equals_render_with_that_camera() 
     assert_eq!(info["lights"][0]["kind"], "spot");
     let (first, jpeg) = page.frame("jpeg", |_| true);
     assert_eq!(reused(&first), (false, false), "the first frame builds everything: {first}");
-    assert_eq!(jpeg_dims(&jpeg), (64, 36));
+    assert_eq!(picture(&first, &jpeg).dimensions(), (64, 36));
 
     let pose = json!({ "position": [1.5, 0.75, 2.5], "target": [0.25, 0, 0], "fov": 35 });
     page.send(json!({ "type": "camera", "id": 7, "camera": pose }));
@@ -123,14 +118,13 @@ fn a_lua_error_reaches_the_page_and_the_next_good_save_recovers() {
     page.wait_for("the fix's frame and the ok", |r| {
         match r {
             Received::Event(e) if e["type"] == "ok" => ok = true,
-            Received::Frame { header, payload } if header["frame"].as_u64() > first["frame"].as_u64() => fixed = Some(payload.clone()),
+            Received::Frame { header, payload } if header["frame"].as_u64() > first["frame"].as_u64() => fixed = Some(picture(header, payload)),
             _ => {}
         }
         (ok && fixed.is_some()).then_some(())
     });
-    let jpeg = fixed.unwrap();
     // Pixel (0, 0) sees the environment: now red.
-    let img = image::load_from_memory(&jpeg).unwrap().to_rgb8();
+    let img = fixed.unwrap();
     let px = img.get_pixel(0, 0);
     assert!(px[0] > 150 && px[1] < 100 && px[2] < 100, "the fixed scene's red environment: {px:?}");
 }
@@ -217,11 +211,13 @@ fn display_changes_reencode_and_layers_come_from_the_next_frame() {
     let dir = folder_with(&[("scene.lua", &scene(SCENE_CAMERA, "0.2, 0.3, 0.4"))]);
     let server = Server::start(&dir.path().join("scene.lua"), &[]);
     let mut page = Client::connect(&server);
-    let (first, dark) = page.frame("jpeg", |_| true);
+    let (first, payload) = page.frame("jpeg", |_| true);
+    let dark = picture(&first, &payload);
     page.send(json!({ "type": "display", "layer": "beauty", "exposure": 2.0, "tonemap": "clamp", "quality": 90 }));
-    let (bright, light) = page.frame("jpeg", |h| h["frame"] == first["frame"]);
+    let (bright, payload) = page.frame("jpeg", |h| h["frame"] == first["frame"]);
+    let light = picture(&bright, &payload);
     assert_eq!(bright["layer"], "beauty");
-    let mean = |jpeg: &[u8]| image::load_from_memory(jpeg).unwrap().to_luma8().pixels().map(|p| p[0] as f64).sum::<f64>();
+    let mean = |img: &image::RgbImage| img.pixels().map(|p| p.0.iter().map(|&c| c as f64).sum::<f64>()).sum::<f64>();
     assert!(mean(&light) > mean(&dark) * 1.3, "two stops brighter, without rendering again");
 
     page.send(json!({ "type": "display", "layer": "depth", "exposure": 0.0, "tonemap": "neutral", "quality": 90 }));
@@ -248,13 +244,13 @@ fn a_param_slider_runs_the_script_again_with_its_value() {
     page.wait_for("the new scene event and frame", |r| {
         match r {
             Received::Event(e) if e["type"] == "scene" => told = Some(e["params"][0]["value"].clone()),
-            Received::Frame { header, payload } if header["input"] == 3 => frame = Some(payload.clone()),
+            Received::Frame { header, payload } if header["input"] == 3 => frame = Some(picture(header, payload)),
             _ => {}
         }
         (told.is_some() && frame.is_some()).then_some(())
     });
     assert_eq!(told, Some(json!(0.9)), "the page is told the value in use");
-    let img = image::load_from_memory(&frame.unwrap()).unwrap().to_rgb8();
+    let img = frame.unwrap();
     let px = img.get_pixel(0, 0);
     assert!(px[0] > 200 && px[0] as i32 - px[2] as i32 > 40, "the environment's red follows the slider: {px:?}");
 }

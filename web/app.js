@@ -6,10 +6,13 @@
 const $ = (id) => document.getElementById(id);
 const canvas = $("frame");
 const ctx2d = canvas.getContext("2d");
+// The frame as received, without the lights' dots drawn over it ("save still" saves this).
+const film = document.createElement("canvas");
+const filmCtx = film.getContext("2d");
 const token = new URLSearchParams(location.search).get("token");
 const state = {
   scene: null, camera: null, lights: {}, selected: null, time: 0, playing: false,
-  frames: 0, last: null, arrivals: [], jpeg: null, hdr: null, nextId: 1, outbox: new Map(),
+  frames: 0, last: null, arrivals: [], hdr: null, nextId: 1, outbox: new Map(),
 };
 window.refrakt = state; // for the browser test and the curious
 
@@ -57,15 +60,25 @@ async function onFrame(buffer) {
     $("probe").textContent = "HDR values loaded: point at the image";
     return;
   }
-  const blob = new Blob([payload], { type: "image/jpeg" });
-  const bitmap = await createImageBitmap(blob);
-  state.jpeg = blob;
-  if (canvas.width !== header.width || canvas.height !== header.height) {
-    canvas.width = header.width;
-    canvas.height = header.height;
+  // JPEG strips of rows, one after another (encoded on several cores): decode all, then draw.
+  let offset = 0;
+  const strips = header.strips.map(([y, rows, bytes]) => {
+    const part = payload.subarray(offset, offset + bytes);
+    offset += bytes;
+    return createImageBitmap(new Blob([part], { type: "image/jpeg" })).then((bitmap) => ({ y, bitmap }));
+  });
+  const decoded = await Promise.all(strips);
+  for (const c of [canvas, film]) {
+    if (c.width !== header.width || c.height !== header.height) {
+      c.width = header.width;
+      c.height = header.height;
+    }
   }
-  ctx2d.drawImage(bitmap, 0, 0);
-  bitmap.close();
+  for (const { y, bitmap } of decoded) {
+    filmCtx.drawImage(bitmap, 0, y);
+    bitmap.close();
+  }
+  ctx2d.drawImage(film, 0, 0);
   drawLights();
   state.frames += 1;
   state.last = header;
@@ -192,12 +205,14 @@ $("camera-reset").addEventListener("click", () => {
   showLua();
 });
 $("save").addEventListener("click", () => {
-  if (!state.jpeg) return;
-  const a = document.createElement("a");
-  a.href = URL.createObjectURL(state.jpeg);
-  a.download = `${(state.scene?.name || "refrakt").replace(/\.[^.]*$/, "")}.t${state.time.toFixed(2)}s.jpg`;
-  a.click();
-  setTimeout(() => URL.revokeObjectURL(a.href), 1000);
+  if (!state.frames) return;
+  film.toBlob((blob) => {
+    const a = document.createElement("a");
+    a.href = URL.createObjectURL(blob);
+    a.download = `${(state.scene?.name || "refrakt").replace(/\.[^.]*$/, "")}.t${state.time.toFixed(2)}s.png`;
+    a.click();
+    setTimeout(() => URL.revokeObjectURL(a.href), 1000);
+  }, "image/png");
 });
 $("copy").addEventListener("click", async () => {
   const text = showLua();

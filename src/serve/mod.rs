@@ -163,7 +163,7 @@ pub fn encode_loop(shared: &Shared) {
         if inbox.hdr_requests != hdr_sent {
             hdr_sent = inbox.hdr_requests;
             if let Ok((payload, channels)) = encode::hdr(&frame.image, inbox.display.layer) {
-                let header = header(&frame, &inbox.display, "hdr", channels, frame.times.clone());
+                let header = header(&frame, &inbox.display, "hdr", channels, frame.times.clone(), Vec::new());
                 shared.send_event(Event::Binary(Bytes::from(frame_message(&header, &payload))));
             }
         }
@@ -172,12 +172,12 @@ pub fn encode_loop(shared: &Shared) {
 
 fn encode_jpeg(frame: &Rendered, display: &Display) -> Result<Vec<u8>> {
     let started = std::time::Instant::now();
-    let jpeg = encode::jpeg(&frame.image, display)?;
+    let (jpeg, strips) = encode::jpeg(&frame.image, display)?;
     let times = FrameTimes { encode_ms: 1e3 * started.elapsed().as_secs_f64(), ..frame.times.clone() };
-    Ok(frame_message(&header(frame, display, "jpeg", 3, times), &jpeg))
+    Ok(frame_message(&header(frame, display, "jpeg", 3, times, strips), &jpeg))
 }
 
-fn header(frame: &Rendered, display: &Display, kind: &'static str, channels: u32, times: FrameTimes) -> FrameHeader {
+fn header(frame: &Rendered, display: &Display, kind: &'static str, channels: u32, times: FrameTimes, strips: Vec<[u32; 3]>) -> FrameHeader {
     FrameHeader {
         kind,
         frame: frame.frame,
@@ -186,6 +186,7 @@ fn header(frame: &Rendered, display: &Display, kind: &'static str, channels: u32
         height: frame.image.height,
         layer: display.layer,
         channels,
+        strips,
         time: frame.time,
         reused: frame.reused,
         times,

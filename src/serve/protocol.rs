@@ -8,8 +8,9 @@
 //! - **Server → page**: JSON text events (`scene`: the scene's camera, lights and clock after
 //!   each load; `error`: a Lua, shader or asset error, with file:line, the last good frame staying
 //!   on screen; `ok`: the error is fixed) and binary frames: a little-endian `u32` header length,
-//!   the JSON [`FrameHeader`], then the payload — a JPEG, or (`kind: "hdr"`) the layer's linear
-//!   `f32` values, `channels` per pixel, rows top to bottom.
+//!   the JSON [`FrameHeader`], then the payload — JPEG strips of rows, one after another (the
+//!   header's `strips` say where each goes), or (`kind: "hdr"`) the layer's linear `f32` values,
+//!   `channels` per pixel, rows top to bottom.
 
 use std::collections::BTreeMap;
 
@@ -301,6 +302,8 @@ pub struct FrameHeader {
     pub layer: LayerChoice,
     /// Values per pixel of an `hdr` payload.
     pub channels: u32,
+    /// A `jpeg` payload's strips, one after another: (first row, rows, bytes) each.
+    pub strips: Vec<[u32; 3]>,
     pub time: f64,
     /// Which stages were taken from the frame before: `volume`, `photons`.
     pub reused: crate::pipeline::reuse::Reuse,

@@ -184,3 +184,19 @@ impl Client {
         })
     }
 }
+
+/// A `jpeg` frame message's picture: its strips decoded and stacked.
+pub fn picture(header: &Value, payload: &[u8]) -> image::RgbImage {
+    let (w, h) = (header["width"].as_u64().unwrap() as u32, header["height"].as_u64().unwrap() as u32);
+    let mut out = image::RgbImage::new(w, h);
+    let mut offset = 0;
+    for s in header["strips"].as_array().expect("strips") {
+        let [y, rows, len] = [0, 1, 2].map(|i| s[i].as_u64().unwrap() as u32);
+        let strip = image::load_from_memory_with_format(&payload[offset..offset + len as usize], image::ImageFormat::Jpeg).expect("a JPEG strip").to_rgb8();
+        assert_eq!((strip.width(), strip.height()), (w, rows), "strip at row {y}");
+        image::imageops::replace(&mut out, &strip, 0, y as i64);
+        offset += len as usize;
+    }
+    assert_eq!(offset, payload.len(), "the strips fill the payload");
+    out
+}

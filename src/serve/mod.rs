@@ -113,15 +113,21 @@ impl Shared {
     }
 
     pub fn send_event(&self, event: Event) {
-        if let Event::Text(t) = &event {
-            let mut error = self.error.lock().unwrap_or_else(|e| e.into_inner());
-            if t.contains(r#""type":"error""#) {
-                *error = Some(event.clone());
-            } else if t.contains(r#""type":"ok""#) {
-                *error = None;
-            }
-        }
         let _ = self.events.send(event); // no page connected: nobody to tell
+    }
+
+    /// Tells the pages of an error (kept for pages that connect later); `kept`: the last good
+    /// frame stays on screen.
+    pub fn report_error(&self, message: &str, kept: bool) {
+        let event = Event::text("error", json!({ "message": message, "kept": kept }));
+        *self.error.lock().unwrap_or_else(|e| e.into_inner()) = Some(event.clone());
+        self.send_event(event);
+    }
+
+    /// Tells the pages that the error is gone (a frame rendered).
+    pub fn clear_error(&self) {
+        *self.error.lock().unwrap_or_else(|e| e.into_inner()) = None;
+        self.send_event(Event::text("ok", json!({})));
     }
 
     pub fn set_scene(&self, info: SceneInfo) {
@@ -235,7 +241,7 @@ pub fn start(scene: &Path, opts: &ServeOptions) -> Result<Running> {
     let library = crate::gpu::shaders::ShaderLibrary::for_development();
     let (renderer, failed) = crate::pipeline::Renderer::with_shaders_or_embedded(ctx, library)?;
     if let Some(e) = failed {
-        shared.send_event(Event::text("error", json!({ "message": format!("{e:#} (the shaders built in are used until a save makes these compile)"), "kept": false })));
+        shared.report_error(&format!("{e:#} (the shaders built in are used until a save makes these compile)"), false);
     }
     let mut threads = Vec::new();
     let (path, o, s) = (scene.to_path_buf(), opts.clone(), shared.clone());

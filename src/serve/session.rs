@@ -17,7 +17,7 @@ use glam::Vec3;
 
 use super::protocol::{CameraPose, FrameTimes, LightInfo, SceneInfo, ViewState};
 use super::slot::Taken;
-use super::{Event, Rendered, ServeOptions, Shared};
+use super::{Rendered, ServeOptions, Shared};
 use crate::frame::FrameDesc;
 use crate::output::Layers;
 use crate::pipeline::Renderer;
@@ -119,7 +119,7 @@ impl Session<'_> {
                     self.rewatch();
                 }
                 if std::mem::take(&mut self.failing) {
-                    self.shared.send_event(Event::text("ok", serde_json::json!({})));
+                    self.shared.clear_error();
                 }
             }
             Err(e) => {
@@ -174,7 +174,7 @@ impl Session<'_> {
         self.failing = true;
         let kept = self.last.is_some();
         eprintln!("error: {message}");
-        self.shared.send_event(Event::text("error", serde_json::json!({ "message": message, "kept": kept })));
+        self.shared.report_error(message, kept);
     }
 
     fn rewatch(&mut self) {

@@ -11,4 +11,6 @@ cargo test --locked --no-fail-fast 2>&1 || status=$?
 bash scripts/test_blender.sh 2>&1 || status=$?
 # refrakt-farm (farm/): unit tests and a local Ray cluster rendering with the same binary.
 bash scripts/test_farm.sh 2>&1 || status=$?
+# refrakt serve's page in headless Chromium (installed by the script when missing).
+bash scripts/test_browser.sh 2>&1 || status=$?
 exit "$status"

@@ -20,4 +20,5 @@ pub mod pipeline;
 pub mod progress;
 pub mod render;
 pub mod scene;
+pub mod serve;
 pub mod watch;

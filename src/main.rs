@@ -36,6 +36,9 @@ enum Command {
     Pack(Box<PackArgs>),
     /// Render a scene to a preview file, and again on every save of a file it read.
     Watch(Box<WatchArgs>),
+    /// Serve an interactive page: orbit the camera, drag lights, switch layers, in a browser;
+    /// re-renders on every save as `watch` does.
+    Serve(Box<ServeArgs>),
     /// Print the evaluated scene of each frame as one line of JSON (nodes, camera, lights,
     /// materials, volume); no GPU needed. Schema in docs/gltf.md.
     Dump(Box<DumpArgs>),
@@ -52,7 +55,8 @@ enum Command {
 struct BenchArgs {
     /// Scenes to run: built-in ones (seed, heavy, grin) or scene files (examples/default.lua);
     /// `watch` measures `refrakt watch`'s edit-to-image latency on examples/default.lua (up to
-    /// 10 edits of each kind, --frames).
+    /// 10 edits of each kind, --frames); `serve` the frames/s `refrakt serve` delivers to a
+    /// WebSocket client while orbiting and while dragging a light on `seed`, and where they go.
     #[arg(long, value_delimiter = ',', default_value = "seed,heavy,grin")]
     scenes: Vec<String>,
     /// Tiny sizes and three frames (a smoke test for CPU adapters and CI).
@@ -270,6 +274,31 @@ struct WatchArgs {
 }
 
 #[derive(Args)]
+struct ServeArgs {
+    /// The scene: a .lua script, or a .gltf/.glb file.
+    scene: PathBuf,
+    /// TCP port (0: any free one; the URL printed says which).
+    #[arg(long, default_value_t = 8080)]
+    port: u16,
+    /// Address to listen on. Beyond loopback, the page's URL carries an access token (printed).
+    #[arg(long, default_value = "127.0.0.1")]
+    bind: std::net::IpAddr,
+    /// Start the scene clock here, seconds.
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, allow_hyphen_values = true)]
+    time: f64,
+    /// Milliseconds a file must stay unchanged before a change to it is taken.
+    #[arg(long, value_name = "MS", default_value_t = refrakt::watch::DEFAULT_DEBOUNCE.as_millis() as u64)]
+    debounce: u64,
+    /// JPEG quality of the frames sent, 1 to 100.
+    #[arg(long, default_value_t = 85, value_parser = clap::value_parser!(u8).range(1..=100))]
+    quality: u8,
+    #[command(flatten)]
+    scene_args: SceneArgs,
+    #[command(flatten)]
+    output: OutputArgs,
+}
+
+#[derive(Args)]
 struct DumpArgs {
     /// The scene: a .lua script, or a .gltf/.glb file.
     scene: PathBuf,
@@ -303,6 +332,7 @@ impl SceneArgs {
             allow_read: self.allow_read.clone(),
             limits: refrakt::lua::Limits { time_budget: Duration::from_secs_f64(self.script_timeout), memory_bytes: self.script_memory << 20 },
             gltf: ImportOptions { scene: self.gltf_scene.clone(), animation: self.animation.clone(), size: self.size },
+            params: Default::default(),
         })
     }
 }
@@ -447,6 +477,19 @@ fn run(cli: Cli) -> Result<()> {
             let opts = render_options(a.frames, a.time, &a.scene_args)?;
             refrakt::dump::run(&a.scene, &opts, &mut std::io::stdout().lock())
         }
+        Command::Serve(a) => {
+            check_time(a.time)?;
+            let opts = refrakt::serve::ServeOptions {
+                scene: a.scene_args.options()?,
+                bind: a.bind,
+                port: a.port,
+                adapter: a.output.gpu.adapter.clone(),
+                debounce: Duration::from_millis(a.debounce),
+                time: a.time,
+                display: refrakt::serve::protocol::Display { exposure: a.output.exposure, tonemap: a.output.tonemap, quality: a.quality, ..Default::default() },
+            };
+            refrakt::serve::run(&a.scene, &opts)
+        }
         Command::Watch(a) => {
             let scene = a.scene_args.options()?;
             let moment = match (a.frames, a.frame, a.time) {
@@ -512,7 +555,7 @@ fn main() -> ExitCode {
         eprintln!("refrakt: stopping after the frame in hand; press Ctrl-C again to stop now");
     });
     // `watch` ends only when interrupted, and that is its normal end: no error, but 130.
-    let watching = matches!(cli.command, Command::Watch(_));
+    let watching = matches!(cli.command, Command::Watch(_) | Command::Serve(_));
     match run(cli) {
         Ok(()) if watching => ExitCode::from(130),
         Ok(()) => ExitCode::SUCCESS,

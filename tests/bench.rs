@@ -119,3 +119,30 @@ fn frames_bench_reports_each_flow_and_compare_guards_against_slowing_down() {
     assert!(stderr.contains("slower than") && stderr.contains("grin: view"), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
+
+/// `--scenes serve`: the real server and a WebSocket client; both phases deliver frames, a
+/// camera move never rebuilds the volume or retraces photons, a light move retraces photons on
+/// the volume it keeps, and every time is there.
+#[test]
+fn serve_bench_drives_the_server_and_splits_the_time() {
+    let out = Command::new(env!("CARGO_BIN_EXE_refrakt")).args(["bench", "--quick", "--scenes", "serve"]).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let serve = &report["serve"];
+    assert_eq!(serve["size"], serde_json::json!([96, 54]));
+    for phase in ["orbit", "light_drag"] {
+        let p = &serve[phase];
+        let frames = positive(&p["frames"], "frames");
+        positive(&p["frames_per_second"], "frames/s");
+        assert!(p["moves_sent"].as_f64().unwrap() > frames, "{phase}: more moves than frames (newest wins)");
+        assert_eq!(p["reused_volume"].as_f64(), Some(frames), "{phase}: the volume is never rebuilt");
+        let photons_reused = if phase == "orbit" { frames } else { 0.0 };
+        assert_eq!(p["reused_photons"].as_f64(), Some(photons_reused), "{phase}: photons reused only while orbiting");
+        for what in ["render_ms", "readback_ms", "encode_ms", "delivery_ms", "latency_ms"] {
+            positive(&p[what]["median"], &format!("{phase}.{what}"));
+        }
+        positive(&p["gpu_ms"]["view"]["median"], "view pass");
+    }
+    assert!(serve["orbit"]["gpu_ms"]["photons"].is_null(), "no photon stage while orbiting");
+    positive(&serve["light_drag"]["gpu_ms"]["march"]["median"], "march while dragging a light");
+}

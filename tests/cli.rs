@@ -242,6 +242,7 @@ fn options(frames: Option<&str>, time: f64) -> refrakt::render::RenderOptions {
         allow_read: vec![],
         limits: Default::default(),
         gltf: Default::default(),
+        params: Default::default(),
     };
     refrakt::render::RenderOptions {
         frames: frames.map(|f| f.parse().unwrap()),

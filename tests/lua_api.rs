@@ -222,3 +222,31 @@ fn update_errors_name_their_line() {
     let e = format!("{:#}", host.update(0.5).err().unwrap());
     assert!(e.contains("scene.lua:5:") && e.contains("node.translation must be a vector"), "{e}");
 }
+
+#[test]
+fn param_returns_its_default_and_checks_its_settings() {
+    let (_dir, path) = write_script(
+        "scene.lua",
+        "local r = require(\"refrakt\")\nlocal a = r.param{ name = \"ior\", default = 1.5, min = 1, max = 2 }\n\
+         local b = r.param{ name = \"ior\", default = 1.5, min = 1, max = 2 }\nassert(a == b)\nreturn r.scene{}\n",
+    );
+    let host = load(&path);
+    let params = host.params();
+    assert_eq!(params.len(), 1);
+    assert_eq!((params[0].value, params[0].min, params[0].max, params[0].step), (1.5, 1.0, 2.0, 0.01));
+    let set = std::collections::BTreeMap::from([("ior".to_string(), 7.0)]);
+    let clamped = refrakt::lua::ScriptHost::load_with_params(&path, &[], &Default::default(), &set).unwrap();
+    assert_eq!(clamped.params()[0].value, 2.0, "a value set from outside is clamped to the range");
+
+    let limits = Default::default();
+    for (body, says) in [
+        ("r.param{ name = \"x\", default = 1, min = 2, max = 1 }", "min (2) must be less than max (1)"),
+        ("r.param{ name = \"x\", default = 5, min = 0, max = 1 }", "outside min..max"),
+        ("r.param{ name = \"x\", default = 0, min = 0 }", "param.max"),
+        ("r.param{ name = \"x\", default = 0, min = 0, max = 1, slider = 2 }", "has no field \"slider\""),
+        ("r.param{ name = \"x\", default = 0, min = 0, max = 1 }\nr.param{ name = \"x\", default = 0, min = 0, max = 2 }", "declared twice"),
+    ] {
+        let e = load_error(body, &limits);
+        assert!(e.contains("scene.lua:") && e.contains(says), "{body}: {e}");
+    }
+}

@@ -9,6 +9,7 @@ pub mod compare;
 pub mod frames;
 pub mod latency;
 pub mod roofline;
+pub mod serve;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -351,7 +352,13 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
     let mut sweep = Value::Null;
     let mut latency = Value::Null;
     let mut frame_output = Value::Null;
+    let mut serving = Value::Null;
     for name in &opts.scenes {
+        if name == serve::SERVE {
+            let eval = if opts.quick { quick_eval() } else { EvalOptions::default() };
+            serving = serve::measure(opts, &eval, if opts.quick { 2.0 } else { 5.0 })?;
+            continue;
+        }
         if name == FRAMES {
             let eval = if opts.quick { quick_eval() } else { EvalOptions::default() };
             // (--quick shrinks the frames, not their count: what is measured is the flow.)
@@ -402,5 +409,6 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
         "voxelize": voxelize,
         "watch_latency": latency,
         "frame_output": frame_output,
+        "serve": serving,
     }))
 }

@@ -15,6 +15,7 @@ fn shape(lua: &Lua, init: Shape, t: Option<Table>, required: &[&str]) -> mlua::R
 pub fn module(lua: &Lua) -> mlua::Result<Table> {
     let r = lua.create_table()?;
     r.raw_set("version", env!("CARGO_PKG_VERSION"))?;
+    super::params::install(lua, &r)?;
 
     r.raw_set(
         "scene",

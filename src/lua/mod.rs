@@ -8,6 +8,7 @@ pub mod field;
 pub mod imports;
 pub mod meshes;
 pub mod objects;
+pub mod params;
 pub mod sandbox;
 pub mod vecmath;
 
@@ -70,6 +71,12 @@ fn strip_traceback(m: &str) -> String {
 impl ScriptHost {
     /// Runs the script at `path` and takes the scene it returns.
     pub fn load(path: &Path, allow_read: &[PathBuf], limits: &Limits) -> Result<Self> {
+        Self::load_with_params(path, allow_read, limits, &std::collections::BTreeMap::new())
+    }
+
+    /// [`load`](Self::load), with values for the script's `refrakt.param`s (by name; the
+    /// others take their defaults).
+    pub fn load_with_params(path: &Path, allow_read: &[PathBuf], limits: &Limits, params: &std::collections::BTreeMap<String, f64>) -> Result<Self> {
         let shown = path.display().to_string();
         let source = std::fs::read_to_string(path)
             .map_err(|e| anyhow!("cannot read the scene script {shown}: {e}"))?;
@@ -79,6 +86,7 @@ impl ScriptHost {
         access.record(&path.canonicalize().unwrap_or_else(|_| path.to_path_buf()));
         let lua = sandbox::new_state(access, limits).map_err(|e| anyhow!("cannot start Lua: {e}"))?;
         lua.set_app_data(sandbox::ScriptName(shown.clone()));
+        lua.set_app_data(params::ParamValues(params.clone()));
         install_require(&lua).map_err(|e| anyhow!("cannot start Lua: {e}"))?;
         match Self::scene_of(&lua, &shown, source) {
             Ok((scene, update)) => Ok(Self { lua, scene, update, path: path.to_path_buf() }),
@@ -123,6 +131,11 @@ impl ScriptHost {
 
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// The `refrakt.param`s the script declared, with the values it got.
+    pub fn params(&self) -> Vec<params::Param> {
+        params::declared(&self.lua)
     }
 
     pub fn is_animated(&self) -> bool {

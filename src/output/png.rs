@@ -11,7 +11,8 @@ use anyhow::{Context, Result};
 
 use super::Image;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum ToneMap {
     #[default]
     Neutral,

@@ -58,12 +58,14 @@ pub struct SceneOptions {
     pub limits: Limits,
     /// `--scene` / `--animation` for a glTF scene.
     pub gltf: ImportOptions,
+    /// Values of a script's `refrakt.param`s (`refrakt serve`'s sliders); empty: the defaults.
+    pub params: std::collections::BTreeMap<String, f64>,
 }
 
 impl SceneOptions {
     /// Loads the scene at `path` with these options.
     pub fn load(&self, path: &Path) -> Result<SceneSource> {
-        SceneSource::load_with(path, &self.allow_read, &self.limits, &self.gltf)
+        SceneSource::load_with_params(path, &self.allow_read, &self.limits, &self.gltf, &self.params)
     }
 }
 
@@ -134,6 +136,11 @@ impl SceneSource {
 
     /// Loads a `.lua` script or a `.gltf`/`.glb` file (`gltf` picks its scene and animation).
     pub fn load_with(path: &Path, allow_read: &[PathBuf], limits: &Limits, gltf: &ImportOptions) -> Result<Self> {
+        Self::load_with_params(path, allow_read, limits, gltf, &std::collections::BTreeMap::new())
+    }
+
+    /// [`load_with`](Self::load_with), with values for a script's `refrakt.param`s.
+    pub fn load_with_params(path: &Path, allow_read: &[PathBuf], limits: &Limits, gltf: &ImportOptions, params: &std::collections::BTreeMap<String, f64>) -> Result<Self> {
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
         match ext.as_str() {
             "lua" => {
@@ -144,7 +151,7 @@ impl SceneSource {
                         path.display()
                     );
                 }
-                Ok(SceneSource::Lua(ScriptHost::load(path, allow_read, limits)?))
+                Ok(SceneSource::Lua(ScriptHost::load_with_params(path, allow_read, limits, params)?))
             }
             "gltf" | "glb" => Ok(SceneSource::Gltf(Box::new(GltfScene::load(path, allow_read, gltf)?))),
             _ => bail!("{}: a scene is a .lua script or a .gltf/.glb file", path.display()),
@@ -168,6 +175,14 @@ impl SceneSource {
                 g.player.deform(&g.scene);
                 evaluate(&g.scene, t, opts)
             }
+        }
+    }
+
+    /// A script's `refrakt.param`s (none for a glTF file).
+    pub fn params(&self) -> Vec<crate::lua::params::Param> {
+        match self {
+            SceneSource::Lua(host) => host.params(),
+            SceneSource::Gltf(_) => Vec::new(),
         }
     }
 

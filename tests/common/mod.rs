@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 pub mod fuzz;
 pub mod gltf_builder;
+pub mod serve;
 pub mod watch;
 
 use refrakt::frame::FrameDesc;

@@ -43,7 +43,7 @@ fn options(out: &Path, flow: FrameFlow) -> RenderOptions {
         adapter: None,
         gpus: vec![],
         chunk: 1,
-        scene: SceneOptions { fps: 24.0, eval: Default::default(), allow_read: vec![], limits: Default::default(), gltf: Default::default() },
+        scene: SceneOptions { fps: 24.0, eval: Default::default(), allow_read: vec![], limits: Default::default(), gltf: Default::default(), params: Default::default() },
         flow,
     }
 }

@@ -535,6 +535,11 @@ impl Renderer {
 
     /// Waits for a submitted frame part by part, telling `report` which part the GPU is on
     /// (progress within a frame); [`finish`](Self::finish) then reads it back at once.
+    /// Whether the GPU has finished `ticket`'s frame, so [`finish`](Self::finish) would not wait.
+    pub fn is_finished(&self, ticket: &Ticket) -> Result<bool> {
+        ticket.submitted.is_done(&self.ctx.device)
+    }
+
     pub fn wait(&self, ticket: &Ticket, report: &mut dyn FnMut(&FrameProgress)) -> Result<()> {
         ticket.submitted.wait(&self.ctx.device, report)
     }

@@ -55,6 +55,16 @@ pub struct Submitted {
 }
 
 impl Submitted {
+    /// Whether the GPU has finished every part (without waiting).
+    pub fn is_done(&self, device: &wgpu::Device) -> Result<bool> {
+        let Some((_, last)) = self.parts.last() else { return Ok(true) };
+        match device.poll(wgpu::PollType::Wait { submission_index: Some(last.clone()), timeout: Some(std::time::Duration::ZERO) }) {
+            Ok(_) => Ok(true),
+            Err(wgpu::PollError::Timeout) => Ok(false),
+            Err(e) => bail!("polling the GPU failed: {e}"),
+        }
+    }
+
     /// Waits for each part in turn, calling `report` when a part begins, every
     /// [`REPORT_EVERY`] while it runs, and once all are done.
     pub fn wait(&self, device: &wgpu::Device, report: &mut dyn FnMut(&FrameProgress)) -> Result<()> {

@@ -193,6 +193,13 @@ pub(super) fn render_all(
     let result = (|| -> Result<()> {
         let mut rendered = 0;
         while let Some(k) = next() {
+            // Frames the GPU has finished go to the writers now, not only when the pipeline is
+            // full: each is written and reported as soon as it can be, even while a slow
+            // `update` evaluates the next (the add-on's progress bar reads these reports).
+            while in_flight.front().map(|(t, _)| renderer.is_finished(t)).transpose()?.unwrap_or(false) {
+                let done = in_flight.pop_front().expect("a frame is in flight");
+                retire(&mut renderer, &mut pool, done, opts, progress)?;
+            }
             if INTERRUPTED.load(Ordering::SeqCst) {
                 bail!("interrupted after {rendered} frame(s); the frames written are whole");
             }

@@ -4,7 +4,8 @@
 //
 // - Beer–Lambert: the flux of each channel decays by exp(−σ_t·ds).
 // - Each segment deposits flux × length into the radiance grid over the voxels it crosses (exact
-//   3D DDA), as fixed-point u32 atomics — the fluence that scattering media show as light shafts.
+//   3D DDA, with the flux's decay inside each voxel integrated exactly), as fixed-point u32
+//   atomics — the fluence that scattering media show as light shafts.
 // - At a sharp interface (shared/interface.wgsl) the photon reflects with probability R, the
 //   Fresnel reflectance, and refracts (tinted) otherwise: each branch's expected flux is exact,
 //   so caustics from reflection (the bright patch beside a glass block) appear as well. Inside,
@@ -128,30 +129,71 @@ fn add_caustic(i: u32, v: u32) {
     }
 }
 
-// Deposits flux·length of the segment a → b over the voxels it crosses.
-fn deposit_segment(a: vec3<f32>, b: vec3<f32>, flux: vec3<f32>) {
+// Deposits flux·length of the segment a → b over the voxels it crosses (exact 3D DDA). The flux
+// entering at a is `flux`, and it decays as exp(−σ_t·s) along the segment (σ_t constant over
+// it: a flat octree cell, or one short step), so a voxel crossed from s₀ for a length ℓ gets
+// exactly ∫ flux·exp(−σ_t·s) ds = flux·exp(−σ_t·s₀)·ℓ·(1 − e^{−τ})/τ, τ = σ_t·ℓ. (A straight
+// jump across homogeneous fog spans up to 64 voxels: the mean flux spread evenly would light a
+// shaft uniformly along its length.)
+fn deposit_segment(a: vec3<f32>, b: vec3<f32>, flux: vec3<f32>, extinction: vec3<f32>) {
     let grid = params.grid;
-    let rel = flux / params.flux_unit;
-    let lum = (rel.r + rel.g + rel.b) / 3.0;
     let dir = normalize(b - a);
+    var entering = flux / params.flux_unit;
     var dda = dda_begin((a - grid.origin) / grid.voxel_size, (b - grid.origin) / grid.voxel_size);
     while dda_more(dda) {
         let c = dda.cell;
         let len = dda_advance(&dda);
+        let tau = extinction * (len * grid.voxel_size);
+        let across = exp(-tau);
+        let mean_share = select((1.0 - across) / tau, 1.0 - 0.5 * tau, tau < vec3<f32>(1e-4));
+        let inside = entering * (len * mean_share);
+        entering *= across;
         if any(c < vec3<i32>(0)) || any(c >= vec3<i32>(grid.dims)) {
             continue;
         }
-        let v = 6u * (u32(c.x) + grid.dims.x * (u32(c.y) + grid.dims.y * u32(c.z)));
+        pend(6u * (u32(c.x) + grid.dims.x * (u32(c.y) + grid.dims.y * u32(c.z))), inside, dir);
+    }
+}
+
+// Deposits into the same voxel one after another (the many short steps through glass, the voxel
+// two segments share) are summed in the thread's pending voxel and reach the grid as one set of
+// atomics when the photon moves on: in fog the atomics, not the arithmetic, bound the march.
+struct PendingVoxel {
+    index: u32,
+    flux_length: vec3<f32>,
+    direction: vec3<f32>,
+}
+
+const NO_VOXEL: u32 = 0xffffffffu;
+var<private> pending: PendingVoxel = PendingVoxel(NO_VOXEL, vec3<f32>(0.0), vec3<f32>(0.0));
+
+// Adds flux·length (flux_unit · cell units) travelled along unit dir to voxel word v.
+fn pend(v: u32, flux_length: vec3<f32>, dir: vec3<f32>) {
+    if v != pending.index {
+        flush_pending();
+        pending = PendingVoxel(v, vec3<f32>(0.0), vec3<f32>(0.0));
+    }
+    pending.flux_length += flux_length;
+    pending.direction += dir * ((flux_length.r + flux_length.g + flux_length.b) / 3.0);
+}
+
+fn flush_pending() {
+    let v = pending.index;
+    if v == NO_VOXEL {
+        return;
+    }
+    for (var k = 0u; k < 3u; k++) {
+        add_radiance(v + k, to_fixed(pending.flux_length[k], params.radiance_scale));
+    }
+    if (params.flags & MARCH_FLAG_DEPOSIT_DIRECTION) != 0u {
+        let d = vec3<i32>(pending.direction * params.radiance_scale);
         for (var k = 0u; k < 3u; k++) {
-            add_radiance(v + k, to_fixed(rel[k] * len, params.radiance_scale));
-        }
-        if (params.flags & MARCH_FLAG_DEPOSIT_DIRECTION) != 0u {
-            let d = vec3<i32>(dir * (lum * len * params.radiance_scale));
-            for (var k = 0u; k < 3u; k++) {
+            if d[k] != 0 {
                 atomicAdd(&radiance[v + 3u + k], bitcast<u32>(d[k]));
             }
         }
     }
+    pending.index = NO_VOXEL;
 }
 
 // A refracted photon lands on a receiver: its flux goes to the texel under the hit point.
@@ -227,9 +269,10 @@ fn march_photon(photon: Photon, index: u32) -> u32 {
         if ahead <= jump {
             // A surface comes first: finish the segment on it.
             let p = x0 + d * ahead;
-            let after = flux * exp(-segment_extinction(x0, p, media) * ahead);
+            let extinction = segment_extinction(x0, p, media);
+            let after = flux * exp(-extinction * ahead);
             if (params.flags & MARCH_FLAG_DEPOSIT_RADIANCE) != 0u {
-                deposit_segment(x0, p, 0.5 * (flux + after));
+                deposit_segment(x0, p, flux, extinction);
             }
             path += ahead;
             let hit = ahead_of.hit;
@@ -271,9 +314,10 @@ fn march_photon(photon: Photon, index: u32) -> u32 {
         if path > params.max_path {
             return n_steps + 1u; // trapped by total internal reflection: absorbed (march.rs)
         }
-        let after = flux * exp(-segment_extinction(x0, s.x, media) * length);
+        let extinction = segment_extinction(x0, s.x, media);
+        let after = flux * exp(-extinction * length);
         if (params.flags & MARCH_FLAG_DEPOSIT_RADIANCE) != 0u {
-            deposit_segment(x0, s.x, 0.5 * (flux + after));
+            deposit_segment(x0, s.x, flux, extinction);
         }
         flux = after;
         refracted = refracted || s.g.w - 1.0 > params.eps_refract;
@@ -311,6 +355,7 @@ fn main(
         let photon = photons[i];
         if photon.flags != 0u {
             stat_add(STAT_STEPS, march_photon(photon, i));
+            flush_pending(); // the photon's last voxel
         }
     }
     workgroupBarrier();

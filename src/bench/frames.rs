@@ -79,7 +79,7 @@ fn render(scene: &std::path::Path, eval: &EvalOptions, flow: &Flow, frames: u32,
         adapter: opts.adapter.clone(),
         gpus: vec![],
         chunk: 1,
-        scene: SceneOptions { fps: 24.0, eval: eval.clone(), allow_read: allow_read.to_vec(), limits: Default::default(), gltf: Default::default(), params: Default::default() },
+        scene: SceneOptions::for_bench(eval, allow_read),
         flow: FrameFlow { split: Some(split.clone()), ..flow.flow.clone() },
     };
     crate::render::run(scene, &opts)?;

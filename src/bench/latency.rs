@@ -123,7 +123,7 @@ fn session(opts: &BenchOptions, eval: &EvalOptions, edits: u32, progressive: boo
         png: Default::default(),
         progress: crate::progress::ProgressMode::Quiet,
         adapter: opts.adapter.clone(),
-        scene: SceneOptions { fps: 24.0, eval: eval.clone(), allow_read: Vec::new(), limits: Default::default(), gltf: Default::default(), params: Default::default() },
+        scene: SceneOptions::for_bench(eval, &[]),
         // What `refrakt watch` writes by default: the beauty pass.
         layers: Layers::Beauty,
         progressive,

@@ -19,8 +19,6 @@ use serde_json::{Value, json};
 use tokio_tungstenite::tungstenite::Message;
 
 use super::{BenchOptions, SEED_DETAIL, Spread, scene_source};
-use crate::gltf::ImportOptions;
-use crate::lua::Limits;
 use crate::render::SceneOptions;
 use crate::scene::eval::EvalOptions;
 use crate::serve::protocol::{Display, split_frame_message};
@@ -38,7 +36,7 @@ pub fn measure(opts: &BenchOptions, eval: &EvalOptions, seconds: f64) -> Result<
     let path = dir.path().join("seed.lua");
     std::fs::write(&path, source)?;
     let serve = ServeOptions {
-        scene: SceneOptions { fps: 24.0, eval: eval.clone(), allow_read: allow, limits: Limits::default(), gltf: ImportOptions::default(), params: Default::default() },
+        scene: SceneOptions::for_bench(eval, &allow),
         bind: [127, 0, 0, 1].into(),
         port: 0,
         adapter: opts.adapter.clone(),

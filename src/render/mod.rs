@@ -63,6 +63,19 @@ pub struct SceneOptions {
 }
 
 impl SceneOptions {
+    /// What the benchmarks load their scenes with: the scene clock at 24 frames/s, default
+    /// limits, glTF choices and params.
+    pub fn for_bench(eval: &EvalOptions, allow_read: &[PathBuf]) -> Self {
+        Self {
+            fps: 24.0,
+            eval: eval.clone(),
+            allow_read: allow_read.to_vec(),
+            limits: Limits::default(),
+            gltf: ImportOptions::default(),
+            params: Default::default(),
+        }
+    }
+
     /// Loads the scene at `path` with these options.
     pub fn load(&self, path: &Path) -> Result<SceneSource> {
         SceneSource::load_with_params(path, &self.allow_read, &self.limits, &self.gltf, &self.params)

@@ -40,7 +40,13 @@
 @group(0) @binding(4) var grid_sampler: sampler;
 @group(0) @binding(5) var env_map: texture_2d<f32>;
 @group(0) @binding(6) var env_sampler: sampler;
-@group(0) @binding(7) var<storage, read_write> frame: array<vec4<f32>>;
+// The frame's five planes, one binding each (so a frame needs one plane, not all five, to fit
+// in a binding): beauty RGBA, depth, and the caustic, direct and volume light.
+@group(0) @binding(7) var<storage, read_write> frame_beauty: array<vec4<f32>>;
+@group(0) @binding(30) var<storage, read_write> frame_depth: array<vec4<f32>>;
+@group(0) @binding(31) var<storage, read_write> frame_caustic: array<vec4<f32>>;
+@group(0) @binding(32) var<storage, read_write> frame_direct: array<vec4<f32>>;
+@group(0) @binding(33) var<storage, read_write> frame_volume: array<vec4<f32>>;
 @group(0) @binding(8) var<uniform> octree_params: OctreeParams;
 @group(0) @binding(9) var<storage, read> octree: array<vec4<f32>>;
 @group(0) @binding(10) var<storage, read> bvh_nodes: array<BvhNode>;
@@ -63,7 +69,6 @@
 const FAR_DEPTH: f32 = 1e10;
 const NO_HIT: f32 = 3.4e38;
 const INV_PI: f32 = 0.318309886;
-const FRAME_PLANES: u32 = 5u;
 // Interface events along one camera sample's branches, and the weight below which a branch is
 // not traced (its light would change the pixel by less than 8-bit precision resolves).
 const MAX_EVENTS: u32 = 8u;
@@ -523,22 +528,22 @@ fn shade_pixel(p: vec2<u32>) -> u32 {
     }
     let inv = 1.0 / f32(params.samples);
     let pixel = id.x + id.y * params.width;
-    let plane = params.width * params.height;
-    var planes = array<vec4<f32>, FRAME_PLANES>(
-        vec4<f32>(sum.radiance * inv, coverage * inv),
-        vec4<f32>(sum.depth, 0.0, 0.0, 0.0),
-        vec4<f32>(sum.caustic * inv, 0.0),
-        vec4<f32>(sum.direct * inv, 0.0),
-        vec4<f32>(sum.volume * inv, 0.0),
-    );
+    var beauty = vec4<f32>(sum.radiance * inv, coverage * inv);
+    var depth = sum.depth;
+    var caustic = vec4<f32>(sum.caustic * inv, 0.0);
+    var direct = vec4<f32>(sum.direct * inv, 0.0);
+    var volume = vec4<f32>(sum.volume * inv, 0.0);
     if params.sample_first > 0u {
-        for (var i = 0u; i < FRAME_PLANES; i++) {
-            planes[i] += frame[i * plane + pixel];
-        }
-        planes[1] = vec4<f32>(min(sum.depth, frame[plane + pixel].x), 0.0, 0.0, 0.0);
+        beauty += frame_beauty[pixel];
+        depth = min(depth, frame_depth[pixel].x);
+        caustic += frame_caustic[pixel];
+        direct += frame_direct[pixel];
+        volume += frame_volume[pixel];
     }
-    for (var i = 0u; i < FRAME_PLANES; i++) {
-        frame[i * plane + pixel] = planes[i];
-    }
+    frame_beauty[pixel] = beauty;
+    frame_depth[pixel] = vec4<f32>(depth, 0.0, 0.0, 0.0);
+    frame_caustic[pixel] = caustic;
+    frame_direct[pixel] = direct;
+    frame_volume[pixel] = volume;
     return sum.steps;
 }

@@ -133,3 +133,36 @@ fn many_samples_keep_all_their_light() {
     eprintln!("mean beauty: {few:.5} at 8 samples, {many:.5} at 64");
     assert!((many / few - 1.0).abs() < 0.01, "64 samples {many} vs 8 samples {few}");
 }
+
+/// A frame whose five layers together are larger than one binding — 1080p on adapters that bind
+/// 128 MiB — renders, each layer bound on its own: here an adapter is made to bind 64 KiB and a
+/// 67×53 frame (56 KiB per layer, 280 KiB in all, planes not multiples of the offset alignment)
+/// renders every layer identically to an adapter that binds it whole.
+#[test]
+fn a_frame_larger_than_one_binding_renders_layer_by_layer() {
+    let desc = frame_from_lua(
+        r#"local r = require("refrakt")
+        local scene = r.scene{
+          camera = r.camera{ position = {0, 1.5, 2.5}, target = {0, 0, 0}, fov = 40, size = {67, 53} },
+          environment = r.environment{ preset = "studio" },
+          volume = { resolution = 12 }, photons = 2000, samples = 2,
+        }
+        scene:add(r.node{ name = "ball", shape = r.sphere{ radius = 0.4 }, material = r.glass{ ior = 1.5 } })
+        scene:add(r.node{ name = "floor", translation = {0, -0.4, 0}, shape = r.plane{ size = {3, 3} },
+                          material = r.diffuse{ color = {0.8, 0.8, 0.8} } })
+        scene:add(r.node{ name = "sun", light = r.sun{ direction = {0.3, -1, 0.2}, intensity = 683 } })
+        return scene"#,
+    );
+    let whole = renderer().frame(&desc).unwrap();
+    let mut ctx = refrakt::gpu::GpuContext::new(None).unwrap();
+    ctx.limits.max_storage_buffer_binding_size = 64 << 10;
+    let plane = refrakt::pipeline::resources::FrameTarget::plane_bytes(67, 53);
+    assert!(plane <= 64 << 10 && 5 * plane > 64 << 10, "the case this test is about");
+    let mut small = refrakt::pipeline::Renderer::new(ctx).expect("pipelines compile");
+    let split = small.frame(&desc).unwrap_or_else(|e| panic!("{e:#}"));
+    assert_eq!(whole.layers.len(), split.layers.len());
+    for (a, b) in whole.layers.iter().zip(&split.layers) {
+        assert_eq!(a.name, b.name);
+        assert!(a.data == b.data, "layer {} differs when each layer is bound on its own", a.name);
+    }
+}

@@ -285,12 +285,15 @@ impl Renderer {
         let deposits = if needs_scattering(desc) { desc.volume.voxel_count() * 24 } else { 0 };
         self.check_volume_binding(desc, Grids::largest_binding(desc.volume.dims).max(deposits))?;
         let (w, h) = (desc.camera.width, desc.camera.height);
-        let frame_bytes = FrameTarget::bytes(w, h);
-        if frame_bytes > binding {
+        // Each of the frame's planes is bound on its own; the five share one buffer.
+        let (plane, frame) = (FrameTarget::plane_bytes(w, h), FrameTarget::bytes(&self.ctx, w, h));
+        if plane > binding || frame > self.ctx.limits.max_buffer_size {
             bail!(
-                "a {w}×{h} image needs {} MiB of frame buffer, more than the {} MiB the adapter \"{name}\" \
-                 binds at once; render smaller (--size)",
-                frame_bytes >> 20,
+                "a {w}×{h} image needs {} MiB of frame buffer ({} MiB per layer), more than the adapter \"{name}\" \
+                 allows ({} MiB per buffer, {} MiB per binding); render smaller (--size)",
+                frame >> 20,
+                plane >> 20,
+                self.ctx.limits.max_buffer_size >> 20,
                 binding >> 20
             );
         }

@@ -220,24 +220,39 @@ impl EnvironmentTexture {
 /// Planes of vec4 per pixel the view stage writes: beauty, depth, caustic, direct, volume.
 pub const FRAME_PLANES: u64 = 5;
 
-/// Where the view stage writes the image, and the staging buffer it comes home through.
+/// Where the view stage writes the image, and the staging buffer it comes home through. The
+/// planes lie one after another in one buffer, each bound on its own (a binding must start at a
+/// multiple of the adapter's offset alignment, so each plane starts at one): a frame needs one
+/// plane, not all five, to fit in a binding — 4K on adapters that bind 128 MiB.
 pub struct FrameTarget {
     pub width: u32,
     pub height: u32,
     pub generation: u64,
     pub buffer: wgpu::Buffer,
+    /// Bytes from one plane's start to the next's.
+    plane_stride: u64,
     /// One per readback slot, so frames k+1, k+2, … can be submitted before frame k is read
     /// (allocated as slots are first used: see [`ensure_slots`](Self::ensure_slots)).
     staging: Vec<Staging>,
 }
 
 impl FrameTarget {
-    pub fn bytes(width: u32, height: u32) -> u64 {
-        width as u64 * height as u64 * FRAME_PLANES * 16
+    /// Bytes of one plane: a vec4 of f32 per pixel.
+    pub fn plane_bytes(width: u32, height: u32) -> u64 {
+        width as u64 * height as u64 * 16
+    }
+
+    fn plane_stride(ctx: &GpuContext, width: u32, height: u32) -> u64 {
+        Self::plane_bytes(width, height).next_multiple_of(ctx.limits.min_storage_buffer_offset_alignment as u64)
+    }
+
+    /// Bytes of the whole buffer on this adapter.
+    pub fn bytes(ctx: &GpuContext, width: u32, height: u32) -> u64 {
+        Self::plane_stride(ctx, width, height) * FRAME_PLANES
     }
 
     pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<Self> {
-        let size = Self::bytes(width, height);
+        let size = Self::bytes(ctx, width, height);
         allocating(ctx, &format!("a {width}×{height} frame"), || Self {
             width,
             height,
@@ -248,7 +263,17 @@ impl FrameTarget {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             }),
+            plane_stride: Self::plane_stride(ctx, width, height),
             staging: Vec::new(),
+        })
+    }
+
+    /// The binding of plane `k` (beauty, depth, caustic, direct, volume).
+    pub fn plane(&self, k: u64) -> wgpu::BindingResource<'_> {
+        wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+            buffer: &self.buffer,
+            offset: k * self.plane_stride,
+            size: wgpu::BufferSize::new(Self::plane_bytes(self.width, self.height)),
         })
     }
 
@@ -263,7 +288,7 @@ impl FrameTarget {
     fn readback_bytes(&self, layers: Layers) -> u64 {
         match layers {
             Layers::All => self.buffer.size(),
-            Layers::Beauty => self.buffer.size() / FRAME_PLANES,
+            Layers::Beauty => self.plane_stride,
         }
     }
 
@@ -283,7 +308,8 @@ impl FrameTarget {
         };
         let layers = self.staging[slot].read_with(ctx, self.readback_bytes(layers), |bytes| {
             let floats: &[f32] = bytemuck::cast_slice(bytes);
-            let plane = |k: usize| &floats[4 * n * k..4 * n * (k + 1)];
+            let stride = self.plane_stride as usize / 4;
+            let plane = |k: usize| &floats[stride * k..stride * k + 4 * n];
             if planes == 1 {
                 return vec![plane_layer(0, plane(0))];
             }

@@ -142,6 +142,10 @@ impl View {
                 layout::storage(20, true),
                 layout::storage(21, true),
                 layout::storage(22, true),
+                layout::storage(30, false),
+                layout::storage(31, false),
+                layout::storage(32, false),
+                layout::storage(33, false),
             ],
         )?;
         let params = layout::uniform_buffer::<ViewParams>(device, "view params");
@@ -187,7 +191,11 @@ impl View {
                     wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&grids.sampler) },
                     wgpu::BindGroupEntry { binding: 5, resource: layout::texture_view(&env.view) },
                     wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::Sampler(&env.sampler) },
-                    wgpu::BindGroupEntry { binding: 7, resource: target.buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 7, resource: target.plane(0) },
+                    wgpu::BindGroupEntry { binding: 30, resource: target.plane(1) },
+                    wgpu::BindGroupEntry { binding: 31, resource: target.plane(2) },
+                    wgpu::BindGroupEntry { binding: 32, resource: target.plane(3) },
+                    wgpu::BindGroupEntry { binding: 33, resource: target.plane(4) },
                     wgpu::BindGroupEntry { binding: 8, resource: grids.octree_params.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 9, resource: grids.octree.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 10, resource: receivers.bvh_nodes.buffer.as_entire_binding() },

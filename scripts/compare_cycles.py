@@ -71,7 +71,6 @@ import json
 import math
 import os
 import pathlib
-import shutil
 import struct
 import subprocess
 import sys
@@ -105,7 +104,10 @@ def refrakt_run(binary, scene_dir, command, photons, out_dir):
     argv = [binary] + command + ["--photons", str(photons), "--out", str(out_dir), "--name", name,
                                  "--format", "exr", "--frames", "1..1"]
     t0, c0 = time.perf_counter(), _children_cpu()
-    proc = subprocess.run(argv, cwd=scene_dir, capture_output=True, text=True)
+    try:
+        proc = subprocess.run(argv, cwd=scene_dir, capture_output=True, text=True)
+    except OSError as e:
+        raise SystemExit(f"{binary} cannot be started: {e.strerror}")
     seconds, cpu = time.perf_counter() - t0, _children_cpu() - c0
     if proc.returncode != 0:
         raise SystemExit(f"refrakt failed ({' '.join(argv)}):\n{proc.stderr[-2000:]}")
@@ -128,12 +130,12 @@ def refrakt_series(binary, work, photon_counts, label):
     setup = json.loads((scene_dir / "compare.json").read_text())
     out = work / f"refrakt-{label}"
     out.mkdir(parents=True, exist_ok=True)
-    version = subprocess.run([binary, "--version"], capture_output=True, text=True).stdout.strip()
     rows = []
     for n in photon_counts:
         exr, seconds, cpu = refrakt_run(binary, scene_dir, setup["command"], n, out)
         print(f"refrakt {label}: {n} photons, {seconds:.2f} s ({cpu:.2f} s CPU)", flush=True)
         rows.append({"photons": n, "seconds": seconds, "cpu_seconds": cpu, "image": exr.name})
+    version = subprocess.run([binary, "--version"], capture_output=True, text=True).stdout.strip()
     meta = {"label": label, "binary": str(binary), "version": version, "runs": rows}
     (out / "times.json").write_text(json.dumps(meta, indent=1))
     return out
@@ -163,13 +165,11 @@ def read_exr_channel(path, name):
 
 
 def eroded(mask):
+    """The mask less every pixel with a 4-neighbour outside it (or outside the image)."""
     import numpy as np
 
-    inner = mask.copy()
-    for axis in (0, 1):
-        for shift in (1, -1):
-            inner &= np.roll(mask, shift, axis=axis)
-    return inner
+    m = np.pad(mask, 1, constant_values=False)
+    return mask & m[:-2, 1:-1] & m[2:, 1:-1] & m[1:-1, :-2] & m[1:-1, 2:]
 
 
 def caustic_region(reference, direct, floor):
@@ -216,16 +216,26 @@ def time_to_reach(points, target):
     return None
 
 
-def headline(series):
-    """The lowest relative error every renderer reaches, and a few coarser ones, with the time
-    each needs."""
-    floors = [min(p["relative"] for p in pts) for pts in series.values()]
-    common = max(floors)
-    targets = sorted({common} | {t for t in (1.0, 0.5, 0.25, 0.125, 0.0625) if t > common}, reverse=True)
+def headline(series, no_caustics, law, reference_mean):
+    """The time each renderer needs to reach a few relative errors: each renderer's best, and
+    round levels between; only levels below the error of an image without caustics (a higher
+    one is reached by leaving them out). Interpolated; Cycles' extrapolated by `law` past its
+    last run (marked)."""
+    bests = {min(p["relative"] for p in pts) for pts in series.values()}
+    targets = sorted({t for t in bests | {0.2, 0.15, 0.125} if t < no_caustics and t >= min(bests)}, reverse=True)
     first = {k: min(pts, key=lambda p: p["seconds"]) for k, pts in series.items()}
-    return [{"relative": t, "seconds": {k: time_to_reach(pts, t) for k, pts in series.items()},
-             # reached by the first (fastest) run already: its time is an upper bound
-             "at_most": {k: first[k]["relative"] <= t for k in series}} for t in targets]
+    rows = []
+    for t in targets:
+        row = {"relative": t, "seconds": {}, "at_most": {}, "extrapolated": {}}
+        for k, pts in series.items():
+            seconds, extrapolated = time_to_reach(pts, t), False
+            if seconds is None and k == "Cycles CPU":
+                seconds, extrapolated = law.seconds_to(t * reference_mean), True
+            row["seconds"][k], row["extrapolated"][k] = seconds, extrapolated and seconds is not None
+            # reached by the first (fastest) run already: its time is an upper bound
+            row["at_most"][k] = first[k]["relative"] <= t
+        rows.append(row)
+    return rows
 
 
 # --- the plot: a PNG from numpy, with a 3×5 pixel font (this venv has no matplotlib) ---------
@@ -290,8 +300,9 @@ def short(n):
 COLORS = [(230, 120, 20), (40, 90, 200), (200, 40, 120), (30, 150, 60)]
 
 
-def plot(path, series):
-    """Relative caustic error (y) against wall seconds (x), log-log, one polyline per renderer."""
+def plot(path, series, baseline=None):
+    """Relative caustic error (y) against wall seconds (x), log-log, one polyline per renderer;
+    a dashed line at `baseline` (the error of an image without caustics)."""
     import numpy as np
 
     W, H, L, R, T, B = 720, 440, 70, 20, 40, 50
@@ -299,9 +310,9 @@ def plot(path, series):
     series = {k: [p for p in s if p["relative"] > 0] for k, s in series.items()}
     pts = [p for s in series.values() for p in s]
     xs = [math.log10(p["seconds"]) for p in pts]
-    ys = [math.log10(p["relative"]) for p in pts]
+    ys = [math.log10(p["relative"]) for p in pts] + ([math.log10(baseline)] if baseline else [])
     x0, x1 = math.floor(min(xs)), math.ceil(max(xs))
-    y0, y1 = math.floor(min(ys) * 2) / 2, math.ceil(max(ys) * 2) / 2
+    y0, y1 = math.floor((min(ys) - 0.05) * 2) / 2, math.ceil((max(ys) + 0.05) * 2) / 2
 
     def px(lt, le):
         return L + (lt - x0) / (x1 - x0) * (W - L - R), T + (y1 - le) / (y1 - y0) * (H - T - B)
@@ -325,6 +336,11 @@ def plot(path, series):
                     label = f"{100 * 10.0 ** v:g}%"
                     draw_text(img, L - 8 - 8 * len(label), int(y) - 5, label, (0, 0, 0))
     img[T:H - B, L] = img[H - B, L:W - R] = (0, 0, 0)
+    if baseline:
+        _, y = px(x0, math.log10(baseline))
+        for x in range(L, W - R, 12):
+            img[int(y), x:x + 6] = (90, 90, 90)
+        draw_text(img, L + 6, int(y) - 14, "NO CAUSTICS", (90, 90, 90))
     draw_text(img, W // 2 - 100, H - 22, "WALL TIME (S)", (0, 0, 0))
     draw_text(img, 8, 10, "CAUSTIC RMSE / REFERENCE MEAN", (0, 0, 0))
     lx = W - R - 260
@@ -334,21 +350,41 @@ def plot(path, series):
         coords = [px(math.log10(p["seconds"]), math.log10(p["relative"])) for p in s]
         for a, b in zip(coords, coords[1:]):
             draw_line(img, a, b, color)
+        free = 0  # the first column a label may start at (labels must not overlap)
         for p, (x, y) in zip(s, coords):
             img[int(y) - 3:int(y) + 4, int(x) - 3:int(x) + 4] = color
-            draw_text(img, int(x) + 5, int(y) + 6, short(amount(p)), color)
+            if int(x) + 5 >= free:
+                free = draw_text(img, int(x) + 5, int(y) + 6, short(amount(p)), color) + 4
         img[12 + 16 * k:20 + 16 * k, lx:lx + 16] = color
         draw_text(img, lx + 22, 11 + 16 * k, name, (0, 0, 0))
     write_png(path, img)
 
 
-def png_of_image(path, rgb, exposure=1.0):
-    """An sRGB preview of a linear image."""
+def srgb8(rgb, exposure=0.5):
+    """8-bit sRGB of a linear image."""
     import numpy as np
 
     x = np.clip(rgb * exposure, 0, 1)
     s = np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
-    write_png(path, (s * 255 + 0.5).astype(np.uint8))
+    return (s * 255 + 0.5).astype(np.uint8)
+
+
+def png_of_image(path, rgb):
+    write_png(path, srgb8(rgb))
+
+
+def image_strip(path, ref, region, images):
+    """The reference with the caustic region's outline in red, then each (name, image) beside it."""
+    import numpy as np
+
+    outlined = srgb8(ref)
+    outlined[region & ~eroded(region)] = (255, 40, 40)
+    tiles = [outlined] + [srgb8(im) for _, im in images]
+    strip = np.concatenate(tiles, axis=1)
+    band = np.full((16, strip.shape[1], 3), 255, np.uint8)
+    for k, name in enumerate(["reference"] + [n for n, _ in images]):
+        draw_text(band, k * ref.shape[1] + 3, 3, name, (0, 0, 0), scale=2)
+    write_png(path, np.concatenate([strip, band], axis=0))
 
 
 # --- Blender: the scene, the export, Cycles ------------------------------------------------------
@@ -526,10 +562,37 @@ def cycles_render(bpy, scene, samples, path, diffuse_bounces=1, seed=0):
 
 
 def load_reference(cache):
+    """The reference, its direct light alone, the caustic region, the floor, the seconds it took."""
     import numpy as np
 
     data = np.load(cache)
-    return data["reference"].astype(np.float32), data["region"], data["floor"], float(data["seconds"])
+    return (data["reference"].astype(np.float32), data["direct"].astype(np.float32), data["region"], data["floor"],
+            float(data["seconds"]))
+
+
+class CyclesLaw:
+    """Cycles' error against samples: with independent seeds a run of N samples measures
+    m² = σ²/N + σ²/R against a reference of R samples. σ² is fitted (least squares) to the runs of
+    64 samples and more, where fireflies have averaged out, and so are the seconds per sample."""
+
+    def __init__(self, cycles_points, reference_samples):
+        runs = [p for p in cycles_points if p["samples"] >= 64]
+        self.reference_samples = reference_samples
+        self.sigma2 = None
+        if runs:
+            x = [1 / p["samples"] + 1 / reference_samples for p in runs]
+            self.sigma2 = sum(xi * p["rmse"] ** 2 for xi, p in zip(x, runs)) / sum(xi * xi for xi in x)
+            self.seconds_per_sample = sum(p["seconds"] for p in runs) / sum(p["samples"] for p in runs)
+
+    def reference_noise(self):
+        """The reference's own RMSE."""
+        return math.sqrt(self.sigma2 / self.reference_samples) if self.sigma2 else None
+
+    def seconds_to(self, rmse):
+        """Extrapolated seconds to measure `rmse`; None below the reference's own noise."""
+        if not self.sigma2 or rmse ** 2 <= self.sigma2 / self.reference_samples:
+            return None
+        return self.sigma2 / (rmse ** 2 - self.sigma2 / self.reference_samples) * self.seconds_per_sample
 
 
 def make_reference(bpy, scene, work, cache, samples):
@@ -551,7 +614,8 @@ def make_reference(bpy, scene, work, cache, samples):
     direct = read_exr_rgb(work / "direct.exr")
     floor = read_exr_channel(work / "reference.exr", "ViewLayer.IndexOB.X") == 1
     region = caustic_region(ref, direct, floor)
-    np.savez_compressed(cache, reference=ref.astype(np.float16), region=region, floor=eroded(floor), samples=samples,
+    np.savez_compressed(cache, reference=ref.astype(np.float16), direct=direct.astype(np.float16), region=region,
+                        floor=eroded(floor), samples=samples,
                         seconds=seconds,
                         direct_seconds=direct_seconds)
     print(f"reference: {seconds:.0f} s; caustic region {int(region.sum())} pixels", flush=True)
@@ -562,7 +626,11 @@ def make_reference(bpy, scene, work, cache, samples):
 def table(series, heads, meta):
     lines = [f"Scene: {meta['scene']}. Reference: Cycles, {meta['reference_samples']} samples "
              f"({meta['reference_seconds']:.0f} s), {SIZE[0]}×{SIZE[1]}; caustic region {meta['region_pixels']} pixels, "
-             f"reference mean {meta['reference_mean']:.4g} there.", "",
+             f"reference mean {meta['reference_mean']:.4g} there. Without any caustics (Cycles' direct light alone) the "
+             f"error is {100 * meta['no_caustics']['relative']:.1f} %" + (
+                 f"; the reference's own noise, estimated from Cycles' curve, is an RMSE of "
+                 f"{meta['reference_noise_rmse']:.3g} ({100 * meta['reference_noise_rmse'] / meta['reference_mean']:.1f} %)"
+                 if meta["reference_noise_rmse"] else "") + ".", "",
              "| renderer | photons / samples | wall s | CPU s | caustic RMSE | RMSE / ref. mean | mean / ref. mean | rest of floor: mean / ref. |",
              "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for name, pts in series.items():
@@ -572,11 +640,13 @@ def table(series, heads, meta):
             lines.append(f"| {name} | {what} | {p['seconds']:.2f} | {cpu} | {p['rmse']:.4g} | {100 * p['relative']:.1f} % | "
                          f"{p['level']:.3f} | {p['floor_level']:.3f} |")
     lines += ["", "Time to reach the same caustic error (log-log interpolation along each renderer's best-so-far curve; "
-              "the first row is the lowest error every renderer reaches; ≤: its fastest run is already there):", "",
+              "Cycles' past its last run extrapolated by its fitted m² = σ²/N + σ²/R; only errors below an image's without "
+              "caustics; ≤: that renderer's fastest run is already there):", "",
               "| RMSE / ref. mean | " + " | ".join(f"{n} s" for n in series) + " |",
               "| --- | " + " | ".join("---" for _ in series) + " |"]
     for h in heads:
-        cells = [("≤ " if h["at_most"][n] else "") + f"{h['seconds'][n]:.2f}" if h["seconds"][n] is not None
+        cells = [("≤ " if h["at_most"][n] else "") + f"{h['seconds'][n]:.2f}"
+                 + (" (extrapolated)" if h["extrapolated"][n] else "") if h["seconds"][n] is not None
                  else "not reached" for n in series]
         lines.append(f"| {100 * h['relative']:.1f} % | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
@@ -599,8 +669,8 @@ def cycles_series(bpy, scene, work, sample_counts):
 def scored(folder, ref, region, floor):
     """A series written by cycles_series or refrakt_series, each image scored."""
     meta = json.loads((folder / "times.json").read_text())
-    keep = ("photons", "samples", "seconds", "cpu_seconds")
-    return meta["label"], [
+    keep = ("photons", "samples", "seconds", "cpu_seconds", "image")
+    return meta["label"], meta.get("version") or f"Blender {meta.get('blender')}", [
         {**{k: r[k] for k in keep if k in r}, **score(read_exr_rgb(folder / r["image"]), ref, region, floor)}
         for r in meta["runs"]
     ]
@@ -659,28 +729,37 @@ def compare(args):
     cache, samples = reference_cache(args, out)
     if not cache.is_file():
         raise SystemExit(f"{cache} is missing: run without --score-only first")
-    ref, region, floor, ref_seconds = load_reference(cache)
+    ref, direct, region, floor, ref_seconds = load_reference(cache)
     png_of_image(out / "cycles_reference.png", ref)
 
     folders = [work / "cycles"]
     if not args.skip_refrakt:
         folders.append(work / f"refrakt-{args.label}")
     folders += [pathlib.Path(f) for f in args.refrakt_results]
-    series = {}
+    series, versions = {}, {}
     for folder in folders:
         if not (folder / "times.json").is_file():
             raise SystemExit(f"{folder}/times.json is missing: nothing rendered there yet")
-        label, pts = scored(folder, ref, region, floor)
-        series[label if label == "Cycles CPU" else f"refrakt {label}"] = pts
+        label, version, pts = scored(folder, ref, region, floor)
+        name = label if label == "Cycles CPU" else f"refrakt {label}"
+        series[name], versions[name] = pts, version
 
-    heads = headline(series)
+    law = CyclesLaw(series["Cycles CPU"], samples)
+    noise = law.reference_noise()
+    no_caustics = score(direct, ref, region, floor)
+    heads = headline(series, no_caustics["relative"], law, float(ref[region].mean()))
     meta = {"scene": "glass ball + glass bunny on a white floor, sun (3°) + spot (0.1 m), black world",
             "size": SIZE, "reference_samples": samples, "reference_seconds": ref_seconds,
-            "region_pixels": int(region.sum()), "reference_mean": float(ref[region].mean()), "quick": args.quick}
+            "region_pixels": int(region.sum()), "reference_mean": float(ref[region].mean()), "quick": args.quick,
+            "no_caustics": no_caustics,
+            "reference_noise_rmse": noise, "versions": versions}
     stem = "compare_cycles_quick" if args.quick else "compare_cycles"
     (out / f"{stem}.json").write_text(json.dumps({"meta": meta, "series": series, "headline": heads}, indent=1))
     (out / f"{stem}.md").write_text(table(series, heads, meta))
-    plot(out / f"{stem}.png", series)
+    plot(out / f"{stem}.png", series, baseline=meta["no_caustics"]["relative"])
+    image_strip(out / f"{stem}_images.png", ref, region, [
+        (f"{name.split()[0]} {short(amount(p))}", read_exr_rgb(folder / p["image"]))
+        for (name, pts), folder in zip(series.items(), folders) for p in [max(pts, key=amount)]])
     print(table(series, heads, meta))
 
 

@@ -37,10 +37,12 @@ that see the floor directly (Cycles' object index pass, eroded by one pixel so n
 glass) whose caustic light (reference minus a Cycles render of direct light only, smoothed over
 5×5 pixels) exceeds 10 % of its 99th percentile over the floor.
 
-Outputs (under --out, default docs/images): compare_cycles.json (every point), compare_cycles.md
-(the table and the headline: the time each renderer needs to reach the same caustic error,
-interpolated log-log), compare_cycles.png (error against wall time, log-log; written by the
-numpy PNG writer below, as this venv has no matplotlib), cycles_reference.npz/.png.
+Outputs (under --out: docs/images, or WORK with --quick): compare_cycles.json (every point),
+compare_cycles.md (the table and the headline: the time each renderer needs to reach the same
+caustic error, interpolated log-log), compare_cycles.png (error against wall time, log-log;
+written by the numpy PNG writer below, as this venv has no matplotlib), compare_cycles_images.png
+(the reference with the region outlined, each renderer's largest run); the reference in
+--reference-dir (docs/images): cycles_reference.npz and a preview, cycles_reference.png.
 
 Run with the bpy module's Python (scripts/test_blender.sh sets one up):
 
@@ -676,12 +678,15 @@ def scored(folder, ref, region, floor):
     ]
 
 
-def reference_cache(args, out):
+def reference_cache(args):
+    """The reference's cache file (in --reference-dir) and its samples."""
+    folder = pathlib.Path(args.reference_dir).resolve()
+    folder.mkdir(parents=True, exist_ok=True)
     samples = args.reference_samples or REFERENCE_SAMPLES
-    if args.quick and not args.reference_samples and not (out / "cycles_reference.npz").is_file():
+    if args.quick and not args.reference_samples and not (folder / "cycles_reference.npz").is_file():
         samples = 1024  # no cached reference: a rough one, so --quick stays quick
     name = "cycles_reference.npz" if samples == REFERENCE_SAMPLES else f"cycles_reference_{samples}.npz"
-    return out / name, samples
+    return folder / name, samples
 
 
 def plan(args):
@@ -700,7 +705,7 @@ def counts(text):
     return values
 
 
-def render_all(args, work, out):
+def render_all(args, work):
     """Builds and exports the scene, makes the reference if not cached, renders both series."""
     bpy = blender()
     binary = os.path.abspath(args.refrakt)
@@ -710,7 +715,7 @@ def render_all(args, work, out):
     export_for_refrakt(bpy, scene, work / "scene", binary)
     if args.export_only:
         return
-    cache, samples = reference_cache(args, out)
+    cache, samples = reference_cache(args)
     make_reference(bpy, scene, work, cache, samples)
     cycles_series(bpy, scene, work, sample_counts)
     if not args.skip_refrakt:
@@ -719,18 +724,18 @@ def render_all(args, work, out):
 
 def compare(args):
     work = pathlib.Path(args.work).resolve()
-    out = pathlib.Path(args.out).resolve()
+    out = pathlib.Path(args.out or (work if args.quick else ROOT / "docs" / "images")).resolve()
     out.mkdir(parents=True, exist_ok=True)
     if not args.score_only:
-        render_all(args, work, out)
+        render_all(args, work)
         if args.export_only:
             print(f"exported to {work / 'scene'}")
             return
-    cache, samples = reference_cache(args, out)
+    cache, samples = reference_cache(args)
     if not cache.is_file():
         raise SystemExit(f"{cache} is missing: run without --score-only first")
     ref, direct, region, floor, ref_seconds = load_reference(cache)
-    png_of_image(out / "cycles_reference.png", ref)
+    png_of_image(cache.with_suffix(".png"), ref)
 
     folders = [work / "cycles"]
     if not args.skip_refrakt:
@@ -769,7 +774,9 @@ def main():
     parser.add_argument("--refrakt", help="the refrakt executable (not needed with --score-only)")
     parser.add_argument("--work", default=os.path.join(tempfile.gettempdir(), "refrakt-compare-cycles"),
                         help="folder for the exported scene (WORK/scene) and the renders")
-    parser.add_argument("--out", default=str(ROOT / "docs" / "images"), help="folder for the table, plot and reference")
+    parser.add_argument("--out", help="folder for the table, plot and JSON (default: docs/images; with --quick, WORK)")
+    parser.add_argument("--reference-dir", default=str(ROOT / "docs" / "images"),
+                        help="folder of the cached reference, cycles_reference.npz (default: docs/images)")
     parser.add_argument("--quick", action="store_true", help="fewer, cheaper runs (about 3 minutes)")
     parser.add_argument("--reference-samples", type=int, help=f"Cycles samples of the reference (default {REFERENCE_SAMPLES})")
     parser.add_argument("--refrakt-only", action="store_true",

@@ -74,8 +74,19 @@ const FIXED_SATURATION: u32 = 0x80000000u;
 // wgpu zero-initializes), and one thread per counter adds the workgroup's total to `stats`.
 var<workgroup> workgroup_stats: array<atomic<u32>, 28>;
 
+// The photon being marched (its index) and how many fixed-point values it has rounded so far:
+// the counter its rounding dither hashes.
+var<private> photon_key: u32;
+var<private> roundings: u32;
+
+// Fixed point with dithered rounding: u32(x·scale + U), U uniform in [0, 1), is x·scale in
+// expectation. A frame of N photons shares 2³¹ units, so at 10M photons a mean photon is worth
+// 13 units, and truncating lost 3.5 % of every caustic; the dither, a counter-based random
+// number, loses nothing on average and stays deterministic.
 fn to_fixed(value: f32, scale: f32) -> u32 {
-    return u32(clamp(value * scale, 0.0, 1073741823.0));
+    roundings++;
+    let dither = random01(params.seed ^ 0x6a09e667u, photon_key, roundings);
+    return u32(clamp(value * scale + dither, 0.0, 1073741823.0));
 }
 
 // Adds v to the workgroup's 64-bit counter `stat` (words 2·stat, 2·stat + 1): the carry is
@@ -186,7 +197,7 @@ fn flush_pending() {
         add_radiance(v + k, to_fixed(pending.flux_length[k], params.radiance_scale));
     }
     if (params.flags & MARCH_FLAG_DEPOSIT_DIRECTION) != 0u {
-        let d = vec3<i32>(pending.direction * params.radiance_scale);
+        let d = vec3<i32>(round(pending.direction * params.radiance_scale));
         for (var k = 0u; k < 3u; k++) {
             if d[k] != 0 {
                 atomicAdd(&radiance[v + 3u + k], bitcast<u32>(d[k]));
@@ -354,6 +365,7 @@ fn main(
     if i < params.photon_count {
         let photon = photons[i];
         if photon.flags != 0u {
+            photon_key = i;
             stat_add(STAT_STEPS, march_photon(photon, i));
             flush_pending(); // the photon's last voxel
         }

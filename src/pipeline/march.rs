@@ -38,8 +38,8 @@ pub struct PhotonStats {
 /// voxel deposits `radiance_scale`. Chosen so that every photon of the frame — at up to
 /// `headroom` times the mean flux (importance sampling gives medium-only photons 4× the mean)
 /// — landing in one texel, or crossing one voxel twice, stays below 2³¹, where accumulators
-/// saturate. A mean photon then still deposits ≥ 2¹⁰ units up to 2¹⁶ photons per frame and
-/// ≥ 2⁷ at 2²², so rounding costs less than 1 %.
+/// saturate. A mean photon then deposits 2¹⁰ units at 2¹⁶ photons per frame but only 2 at
+/// 2²⁶, so deposits are rounded with a dither (march.wgsl, `to_fixed`): unbiased at any count.
 pub const MAX_RELATIVE_FLUX: f32 = 16.0;
 
 pub fn flux_scale(photons: u32, headroom: f32) -> f32 {

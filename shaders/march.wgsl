@@ -85,7 +85,8 @@ var<private> roundings: u32;
 // number, loses nothing on average and stays deterministic.
 fn to_fixed(value: f32, scale: f32) -> u32 {
     roundings++;
-    let dither = random01(params.seed ^ 0x6a09e667u, photon_key, roundings);
+    // One hash of (photon, rounding): the dither need not be as good as the photons' numbers.
+    let dither = f32(pcg_hash((photon_key * 0x9e3779b9u) ^ (roundings + params.seed)) >> 8u) * (1.0 / 16777216.0);
     return u32(clamp(value * scale + dither, 0.0, 1073741823.0));
 }
 

@@ -108,9 +108,11 @@ fn an_emissive_plane_shows_its_emission_exactly() {
     let want = Vec3::new(3.0, 1.5, 0.5);
     for (layer, expect) in [("beauty", want), ("direct", want), ("caustic", Vec3::ZERO)] {
         let data = &image.layer(layer).unwrap().data;
+        let channels = data.len() / 256;
         for y in 0..16 {
             for x in 0..16 {
-                let got = rgb(data, 16, x, y);
+                let i = channels * (y * 16 + x);
+                let got = Vec3::new(data[i], data[i + 1], data[i + 2]);
                 assert!((got - expect).abs().max_element() <= 1e-6 * expect.max_element().max(1.0), "{layer} ({x}, {y}): {got} != {expect}");
             }
         }
@@ -311,20 +313,21 @@ fn a_metallic_sphere_matches_the_split_sum_reference() {
                 let p = o + d * (-b - disc.sqrt());
                 let n = p.normalize();
                 let want = split_sum(&dirs, f0, roughness, n, -d);
-                // A different material would be far off: the mirror (roughness 0).
-                let mirror = environment((d - 2.0 * d.dot(n) * n).normalize()) * f0;
+                // A different metal would be far off: steel's grey instead of copper.
+                let steel = split_sum(&dirs, Vec3::splat(0.56), roughness, n, -d);
                 let got = rgb(&beauty, 32, x, y);
                 err += (got - want).abs().element_sum() / 3.0;
-                err_other += (mirror - want).abs().element_sum() / 3.0;
+                err_other += (steel - want).abs().element_sum() / 3.0;
                 count += 1;
             }
         }
         let (mae, mae_other) = (err / count as f32, err_other / count as f32);
-        eprintln!("metal, roughness {roughness}: MAE vs the split sum {mae:.4} over {count} pixels (a mirror would be {mae_other:.4})");
+        eprintln!("metal, roughness {roughness}: MAE vs the split sum {mae:.4} over {count} pixels (steel instead of copper would be {mae_other:.4})");
         assert!(count > 200);
-        // Measured 0.0036 (roughness 0.5) and 0.0043 (0.3) on lavapipe, radiance ~0.5–1: the
-        // prefiltered layers (128×64, half floats) and the facets of the icosphere.
-        assert!(mae < 0.012, "roughness {roughness}: MAE {mae}");
+        // Measured 0.0085 (roughness 0.5) and 0.0070 (0.3) on lavapipe, radiance ~0.3–1.3: the
+        // prefiltered layers (128×64 texels, 64 samples each, half floats), the 32² BRDF table
+        // and the icosphere's facets.
+        assert!(mae < 0.015, "roughness {roughness}: MAE {mae}");
         assert!(mae_other > 3.0 * mae, "the bound must tell materials apart: {mae_other} vs {mae}");
     }
 }

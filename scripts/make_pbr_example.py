@@ -93,7 +93,7 @@ def main():
     glow = g.add("materials", {"name": "Glow", "pbrMetallicRoughness": {"baseColorFactor": [0.05, 0.05, 0.05, 1.0],
                                                                          "metallicFactor": 0.0},
                                "emissiveFactor": [1.0, 0.55, 0.25],
-                               "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 6.0}}})
+                               "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2.5}}})
     screen = g.add("materials", {"name": "Screen", "alphaMode": "MASK", "alphaCutoff": 0.5, "doubleSided": True,
                                  "pbrMetallicRoughness": {"baseColorTexture": {"index": texture(g, png(64, 64, leaves, alpha=True))},
                                                           "metallicFactor": 0.0, "roughnessFactor": 0.8}})
@@ -104,7 +104,7 @@ def main():
         "indices": g.indices([(0, 2, 1), (0, 3, 2)]), "material": tiles}]})
 
     g.json["extensions"] = {"KHR_lights_punctual": {"lights": [
-        {"name": "Key", "type": "spot", "color": [1.0, 0.95, 0.88], "intensity": 5000.0,
+        {"name": "Key", "type": "spot", "color": [1.0, 0.95, 0.88], "intensity": 25000.0,
          "spot": {"innerConeAngle": math.radians(20), "outerConeAngle": math.radians(28)}}]}}
     g.add("cameras", {"name": "Camera", "type": "perspective",
                       "perspective": {"yfov": math.radians(36), "aspectRatio": 16 / 9, "znear": 0.05}})
@@ -125,7 +125,7 @@ def main():
     nodes.append(g.add("nodes", {"name": "Camera", "camera": 0, "translation": eye, "rotation": look_at_quat(eye, [0.0, 0.35, 0.0])}))
     g.add("scenes", {"name": "StillLife", "nodes": nodes,
                      "extras": {"refrakt": {"photons": 400000, "samples": 4, "volume": {"resolution": 128, "margin": 0.05},
-                                            "environment": {"preset": "studio", "intensity": 0.6, "visible": True}}}})
+                                            "environment": {"preset": "studio", "intensity": 0.45, "visible": True}}}})
     g.json["scene"] = 0
     out = ROOT / "examples" / "still_life.glb"
     g.write(out)

@@ -199,9 +199,10 @@ mod tests {
         // A smooth surface seen head-on reflects all (A + B = 1, Fresnel's F0 part being A).
         let [a, b] = at(LUT_SIZE - 1, 0);
         assert!((a + b - 1.0).abs() < 0.02, "A + B = {}", a + b);
-        // A rough one loses energy to multiple scattering (GGX single scatter: 0.6–0.9).
+        // A rough one loses what multiple scattering would return: single-scattering GGX keeps
+        // only about half at roughness 1 and n·v = ½ (0.457 measured here).
         let [a, b] = at(LUT_SIZE / 2, LUT_SIZE - 1);
-        assert!((0.5..0.9).contains(&(a + b)), "A + B = {}", a + b);
+        assert!((0.4..0.55).contains(&(a + b)), "A + B = {}", a + b);
         assert!(lut.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
     }
 

@@ -32,6 +32,7 @@
 #import shared/lights.wgsl
 #import shared/environment.wgsl
 #import shared/hash.wgsl
+#import shared/pbr.wgsl
 
 @group(0) @binding(0) var<uniform> params: ViewParams;
 @group(0) @binding(1) var ior_grid: texture_3d<f32>;
@@ -59,12 +60,16 @@
 @group(0) @binding(17) var direction_grid: texture_3d<f32>;
 // (low, high) words of a 64-bit count of the ray-equation steps taken (benchmarks).
 @group(0) @binding(18) var<storage, read_write> view_steps: array<atomic<u32>>;
-// Two vec4 of texture coordinates per BVH triangle, (uv₀, uv₁) and (uv₂, 0, 0), and the base
-// color textures' texels, 8-bit sRGB RGBA (src/pipeline/receivers.rs).
+// Three vec4 of texture coordinates and tangent per BVH triangle (shared/pbr.wgsl), and the
+// receivers' textures' texels, 8-bit RGBA (src/pipeline/receivers.rs).
 @group(0) @binding(19) var<storage, read> triangle_uvs: array<vec4<f32>>;
 @group(0) @binding(20) var<storage, read> albedo_texels: array<u32>;
 @group(0) @binding(21) var<storage, read> interfaces: array<Interface>;
 @group(0) @binding(22) var<storage, read> triangle_normals: array<vec4<f32>>;
+// The environment prefiltered for glossy receivers and the split-sum table
+// (src/pipeline/specular.rs; read only when VIEW_FLAG_SPECULAR is set).
+@group(0) @binding(23) var env_specular: texture_2d_array<f32>;
+@group(0) @binding(24) var<storage, read> brdf_lut: array<vec2<f32>>;
 
 const FAR_DEPTH: f32 = 1e10;
 const NO_HIT: f32 = 3.4e38;
@@ -146,28 +151,66 @@ fn shadow_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
     return tr;
 }
 
+// Cut-outs and see-through receivers a shadow ray looks past, at most.
+const MAX_SEE_THROUGH: u32 = 8u;
+
+// The light that passes the receivers along p + t·w, t < dist, when some are cut-outs or
+// see-through: each hides its coverage; glass surfaces stop it (its light arrives as photons).
+fn receivers_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> f32 {
+    var t_min = 1e-4;
+    var passed = 1.0;
+    for (var i = 0u; i < MAX_SEE_THROUGH; i++) {
+        let b = bvh_closest_hit(p, w, t_min, dist);
+        if b.triangle == 0xffffffffu {
+            return passed;
+        }
+        let word = bvh_triangles[b.triangle].receiver;
+        if (word & INTERFACE_BIT) != 0u {
+            return 0.0;
+        }
+        passed *= 1.0 - coverage_of(receivers[word], b.triangle, b.u, b.v);
+        if passed <= 0.0 {
+            return 0.0;
+        }
+        t_min = b.t + 1e-4;
+    }
+    return 0.0;
+}
+
 // Visibility of a light from p along w up to dist: opaque receivers and glass surfaces (light
 // through glass arrives as caustic photons), then media.
 fn visibility(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
+    if has(VIEW_FLAG_SEE_THROUGH) {
+        let passed = receivers_transmittance(p, w, dist);
+        if passed <= 0.0 || analytic_any_hit(p, w, 1e-4, dist) {
+            return vec3<f32>(0.0);
+        }
+        return passed * shadow_transmittance(p, w, dist);
+    }
     if bvh_any_hit(p, w, 1e-4, dist) || analytic_any_hit(p, w, 1e-4, dist) {
         return vec3<f32>(0.0);
     }
     return shadow_transmittance(p, w, dist);
 }
 
-// Irradiance at p (facing normal n) from light l, with one shadow sample (k picks it).
-fn direct_irradiance(l: LightGpu, p: vec3<f32>, n: vec3<f32>, k: u32) -> vec3<f32> {
+// Light l as seen from p (one shadow sample, k picks it): the unit direction toward it, its
+// intensity toward p (the sun: its illuminance) and the squared distance it falls off with
+// (1 for the sun), and how far the shadow ray goes.
+struct LightArrival {
+    w: vec3<f32>,
+    intensity: vec3<f32>,
+    dist2: f32,
+    dist: f32,
+}
+
+fn light_arrival(l: LightGpu, p: vec3<f32>, k: u32) -> LightArrival {
     let u = r2(k + 7u);
     if l.kind == LIGHT_SUN {
         var w = -l.direction;
         if l.half_angle > 0.0 {
             w = cone_direction(w, l.right, l.up, l.half_angle, u);
         }
-        let c = dot(n, w);
-        if c <= 0.0 {
-            return vec3<f32>(0.0);
-        }
-        return l.radiant * c * visibility(p, w, NO_HIT);
+        return LightArrival(w, l.radiant, 1.0, NO_HIT);
     }
     var aim = l.position;
     if l.kind == LIGHT_RECT {
@@ -177,10 +220,6 @@ fn direct_irradiance(l: LightGpu, p: vec3<f32>, n: vec3<f32>, k: u32) -> vec3<f3
     let dist2 = dot(to_light, to_light);
     let dist = sqrt(dist2);
     let w = to_light / dist;
-    let c = dot(n, w);
-    if c <= 0.0 {
-        return vec3<f32>(0.0);
-    }
     var intensity: vec3<f32>;
     if l.kind == LIGHT_RECT {
         // A one-sided Lambertian emitter of radiance L: I(θ) = L · A · cos θ (one sample).
@@ -188,10 +227,17 @@ fn direct_irradiance(l: LightGpu, p: vec3<f32>, n: vec3<f32>, k: u32) -> vec3<f3
     } else {
         intensity = light_intensity(l, -w);
     }
-    if all(intensity <= vec3<f32>(0.0)) {
+    return LightArrival(w, intensity, dist2, dist);
+}
+
+// Irradiance at p (facing normal n) from light l, with one shadow sample (k picks it).
+fn direct_irradiance(l: LightGpu, p: vec3<f32>, n: vec3<f32>, k: u32) -> vec3<f32> {
+    let a = light_arrival(l, p, k);
+    let c = dot(n, a.w);
+    if c <= 0.0 || all(a.intensity <= vec3<f32>(0.0)) {
         return vec3<f32>(0.0);
     }
-    return intensity * c / dist2 * visibility(p, w, dist);
+    return a.intensity * c / a.dist2 * visibility(p, a.w, a.dist);
 }
 
 // Bilinear lookup of a chart's filtered caustic irradiance.
@@ -215,57 +261,71 @@ struct Shading {
     direct: vec3<f32>,
 }
 
-// The inverse sRGB transfer function (IEC 61966-2-1): the texels are stored encoded.
-fn srgb_decode(c: vec3<f32>) -> vec3<f32> {
-    return select(pow((c + 0.055) / 1.055, vec3<f32>(2.4)), c / 12.92, c <= vec3<f32>(0.04045));
-}
-
-fn albedo_texel(r: ReceiverGpu, x: i32, y: i32) -> vec3<f32> {
-    let size = vec2<i32>(i32(r.texture_width), i32(r.texture_height));
-    let c = ((vec2<i32>(x, y) % size) + size) % size;
-    return srgb_decode(unpack4x8unorm(albedo_texels[r.texture + u32(c.x + size.x * c.y)]).rgb);
-}
-
-// The receiver's albedo at a hit: its color times its base color texture, looked up at the
-// hit's interpolated texture coordinates, bilinear with repeat — the twin of Texture2d::sample.
-fn albedo_at(hit: SurfaceHit, receiver: u32) -> vec3<f32> {
-    let r = receivers[receiver];
-    if r.texture_width == 0u {
-        return r.albedo;
+// The caustic irradiance at p on the side `facing` of receiver `receiver`, 0 without photons.
+fn caustic_irradiance_at(receiver: u32, p: vec3<f32>, facing: vec3<f32>, back: bool) -> vec3<f32> {
+    if has(VIEW_FLAG_CAUSTICS) {
+        let c = chart_for(receiver, facing, back);
+        if c >= 0 {
+            return caustic_at(charts[u32(c)], p);
+        }
     }
-    let a = triangle_uvs[2u * hit.triangle];
-    let b = triangle_uvs[2u * hit.triangle + 1u];
-    // Möller–Trumbore's (u, v) weigh the second and third corners.
-    let uv = a.xy * (1.0 - hit.u - hit.v) + a.zw * hit.u + b.xy * hit.v;
-    let f = (uv - floor(uv)) * vec2<f32>(f32(r.texture_width), f32(r.texture_height)) - 0.5;
-    let i = vec2<i32>(floor(f));
-    let t = f - floor(f);
-    let top = mix(albedo_texel(r, i.x, i.y), albedo_texel(r, i.x + 1, i.y), t.x);
-    let bottom = mix(albedo_texel(r, i.x, i.y + 1), albedo_texel(r, i.x + 1, i.y + 1), t.x);
-    return r.albedo * mix(top, bottom, t.y);
+    return vec3<f32>(0.0);
 }
 
-// Radiance leaving a receiver toward the camera at the hit, split into caustic and direct.
+// A receiver of the full metallic-roughness model at a hit: the lights through both lobes,
+// the environment by the split sum, the caustics on the diffuse lobe only.
+fn shade_pbr(r: ReceiverGpu, hit: SurfaceHit, uv: vec2<f32>, base: vec3<f32>, q: vec3<f32>, facing: vec3<f32>, d: vec3<f32>, k: u32, e_caustic: vec3<f32>) -> Shading {
+    var s = PbrSurface(base, r.metallic, r.roughness, r.specular, 1.0, pbr_normal(r, hit.triangle, hit.u, hit.v, uv, facing), -d, 0.0);
+    if has_texture(r.metallic_roughness_texture) {
+        let mr = texture_at(r.metallic_roughness_texture, uv);
+        s.roughness *= mr.g;
+        s.metallic *= mr.b;
+    }
+    if has_texture(r.occlusion_texture) {
+        s.occlusion = 1.0 + r.occlusion_strength * (texture_at(r.occlusion_texture, uv).r - 1.0);
+    }
+    s.n_v = clamp(dot(s.n, s.v), 1e-4, 1.0);
+    let env = pbr_environment(s, params.env);
+    var out = LightResponse(env.diffuse * (PI * params.ambient) * s.occlusion, env.specular * s.occlusion);
+    for (var i = 0u; i < params.light_count; i++) {
+        let a = light_arrival(lights[i], q, k);
+        let n_l = dot(s.n, a.w);
+        if n_l <= 0.0 || dot(facing, a.w) <= 0.0 || all(a.intensity <= vec3<f32>(0.0)) {
+            continue;
+        }
+        let e = a.intensity * n_l / a.dist2 * visibility(q, a.w, a.dist);
+        let response = pbr_response(s, a.w, n_l);
+        out.diffuse += response.diffuse * e;
+        out.specular += response.specular * e;
+    }
+    // The caustic light lands on the diffuse lobe, with the share it keeps of the environment's.
+    return Shading(env.diffuse * e_caustic, out.diffuse + out.specular);
+}
+
+// Radiance leaving a receiver toward the camera at the hit, split into caustic and direct
+// (direct: the lights, the environment and the surface's own emission).
 fn shade_receiver(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, k: u32) -> Shading {
     let n = hit.normal;
     let back = dot(n, d) > 0.0;
     let facing = select(n, -n, back);
     let receiver = bvh_triangles[hit.triangle].receiver;
-    let albedo = albedo_at(hit, receiver);
+    let r = receivers[receiver];
+    let uv = hit_uv(hit.triangle, hit.u, hit.v);
+    let base = base_color_at(r, uv).rgb;
+    let emission = emission_at(r, uv);
     // Lift the shading point off the surface so its own triangle does not shadow it.
     let q = p + facing * (1e-4 + 1e-3 * params.grid.voxel_size);
+    let e_caustic = caustic_irradiance_at(receiver, p, facing, back);
+    if has(VIEW_FLAG_SPECULAR) && (r.flags & RECEIVER_PBR) != 0u {
+        let sh = shade_pbr(r, hit, uv, base, q, facing, d, k, e_caustic);
+        return Shading(sh.caustic, sh.direct + emission);
+    }
+    // Lambertian (metallic 0, specular 0): albedo / π.
     var e_direct = PI * params.ambient;
     for (var i = 0u; i < params.light_count; i++) {
         e_direct += direct_irradiance(lights[i], q, facing, k);
     }
-    var e_caustic = vec3<f32>(0.0);
-    if has(VIEW_FLAG_CAUSTICS) {
-        let c = chart_for(receiver, facing, back);
-        if c >= 0 {
-            e_caustic = caustic_at(charts[u32(c)], p);
-        }
-    }
-    return Shading(albedo * INV_PI * e_caustic, albedo * INV_PI * e_direct);
+    return Shading(base * INV_PI * e_caustic, base * INV_PI * e_direct + emission);
 }
 
 struct ViewSample {
@@ -345,17 +405,25 @@ fn end_in_environment(out: ptr<function, ViewSample>, b: Branch) {
     }
 }
 
-// Ends a branch on a receiver: its shading, weighted (and, once it met glass, the bulbs it
-// passed since `start`, the start of its last straight piece).
-fn end_on_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, b: Branch, start: vec3<f32>, k: u32) {
-    first_depth(out, p);
-    let sh = shade_receiver(hit, p, b.d, k);
-    (*out).caustic += b.weight * sh.caustic;
-    (*out).direct += b.weight * sh.direct;
-    (*out).radiance += b.weight * (sh.caustic + sh.direct);
+// A branch meets a receiver: its shading, weighted by the branch and by the receiver's
+// coverage there (and, once it met glass, the bulbs it passed since `start`, the start of its
+// last straight piece). Returns the coverage: below 1 (a cut-out, a see-through surface) the
+// branch goes on past it with the rest of its weight.
+fn meet_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, b: Branch, start: vec3<f32>, k: u32) -> f32 {
     if b.events > 0u {
         (*out).radiance += b.weight * lights_seen(start, b.d, distance(start, p));
     }
+    let cover = coverage_of(receivers[bvh_triangles[hit.triangle].receiver], hit.triangle, hit.u, hit.v);
+    if cover <= 0.0 {
+        return cover;
+    }
+    first_depth(out, p);
+    let sh = shade_receiver(hit, p, b.d, k);
+    let w = b.weight * cover;
+    (*out).caustic += w * sh.caustic;
+    (*out).direct += w * sh.direct;
+    (*out).radiance += w * (sh.caustic + sh.direct);
+    return cover;
 }
 
 // Traces one branch to its end. At an interface it goes on along the transmitted direction and
@@ -404,8 +472,15 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
             if on_surface {
                 let hit = ahead_of.hit;
                 if hit.interface_id == NO_INTERFACE {
-                    end_on_receiver(out, hit, s.x, b, ahead_of.origin, k);
-                    return;
+                    let cover = meet_receiver(out, hit, s.x, b, ahead_of.origin, k);
+                    if cover >= 1.0 {
+                        return;
+                    }
+                    // On past a cut-out or through a see-through surface, unbent.
+                    b.weight *= 1.0 - cover;
+                    s = ray_start(ior_grid, grid_sampler, grid, leave_surface(s.x, hit.normal, b.d, 1e-3 * grid.voxel_size), b.d);
+                    ahead_of.valid = false;
+                    continue;
                 }
                 first_depth(out, s.x);
                 let c = cross_interface(b.d, hit, b.media, facet_numbers(k, b.path));
@@ -453,10 +528,29 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
         }
         b.x = s.x;
     }
-    let hit = surface_after(&ahead_of, b.x, b.d);
-    if is_receiver_hit(hit) {
-        end_on_receiver(out, hit, b.x + b.d * hit.t, b, b.x, k);
-        return;
+    for (var crossed = 0u; crossed < MAX_SEE_THROUGH; crossed++) {
+        let hit = surface_after(&ahead_of, b.x, b.d);
+        if !is_receiver_hit(hit) {
+            break;
+        }
+        let p = b.x + b.d * hit.t;
+        let cover = meet_receiver(out, hit, p, b, b.x, k);
+        if cover >= 1.0 {
+            return;
+        }
+        // Past a cut-out or a see-through surface: on toward the environment, or, when it lay
+        // before the volume, a new branch that marches through it.
+        b.weight *= 1.0 - cover;
+        b.x = leave_surface(p, hit.normal, b.d, 1e-3 * grid.voxel_size);
+        let volume_ahead = ray_box(b.x, b.d, grid.origin, box_max);
+        if volume_ahead.x <= volume_ahead.y && volume_ahead.x > 0.0 {
+            if *top < BRANCH_STACK {
+                (*stack)[*top] = b;
+                *top += 1u;
+            }
+            return;
+        }
+        ahead_of = look_from(b.x, b.d);
     }
     end_in_environment(out, b);
 }

@@ -115,8 +115,15 @@ fn material_json(m: &Material) -> Value {
     match m {
         Material::Glass(g) => json!({ "kind": "glass", "ior": g.ior, "absorption": vec3(g.absorption),
                                       "scattering": vec3(g.scattering), "g": g.g }),
-        Material::Diffuse(d) => json!({ "kind": "diffuse", "color": vec3(d.color),
-                                        "texture": d.texture.as_ref().map(|t| [t.width, t.height]) }),
+        Material::Diffuse(d) => {
+            let size = |t: &Option<std::sync::Arc<crate::scene::Texture2d>>| t.as_ref().map(|t| [t.width, t.height]);
+            json!({ "kind": "diffuse", "color": vec3(d.color), "texture": size(&d.texture),
+                    "metallic": d.metallic, "roughness": d.roughness, "specular": d.specular,
+                    "alpha": d.alpha, "alpha_mode": d.alpha_mode.name(), "alpha_cutoff": d.alpha_cutoff,
+                    "emission": vec3(d.emitted()),
+                    "metallic_roughness_texture": size(&d.metallic_roughness_texture), "normal_texture": size(&d.normal_texture),
+                    "occlusion_texture": size(&d.occlusion_texture), "emission_texture": size(&d.emission_texture) })
+        }
     }
 }
 

@@ -104,7 +104,8 @@ fn a_gltf_volume_glass_sphere_renders_like_the_lua_one() {
 /// repeats twice), textured or plain white.
 fn write_floor(dir: &std::path::Path, name: &str, textured: bool) {
     let mut g = GltfBuilder::new();
-    let mut pbr = json!({ "baseColorFactor": [1.0, 1.0, 1.0, 1.0] });
+    // Lambertian (metallic 0, KHR_materials_specular 0), so textured / white is the texture.
+    let mut pbr = json!({ "baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0 });
     if textured {
         // 4×4 texels of scattered colors, so a shifted or nearest lookup shows.
         let bytes: Vec<u8> = (0..16u32).flat_map(|i| [(i * 53 % 256) as u8, (i * 97 % 256) as u8, (255 - i * 31 % 256) as u8, 255]).collect();
@@ -116,7 +117,8 @@ fn write_floor(dir: &std::path::Path, name: &str, textured: bool) {
         g.push("textures", json!({ "source": 0 }));
         pbr["baseColorTexture"] = json!({ "index": 0 });
     }
-    let m = g.push("materials", json!({ "pbrMetallicRoughness": pbr }));
+    g.uses("KHR_materials_specular", false);
+    let m = g.push("materials", json!({ "pbrMetallicRoughness": pbr, "extensions": { "KHR_materials_specular": { "specularFactor": 0.0 } } }));
     let pos = g.floats(&[-1.0, 0.0, -1.0, 1.0, 0.0, -1.0, 1.0, 0.0, 1.0, -1.0, 0.0, 1.0], "VEC3");
     let uv = g.floats(&[0.0, 0.0, 2.0, 0.0, 2.0, 2.0, 0.0, 2.0], "VEC2");
     let idx = g.uints(&[0, 2, 1, 0, 3, 2], "SCALAR", 5125);

@@ -164,15 +164,31 @@ struct Interface {
 
 struct ReceiverGpu {
     albedo: vec3<f32>,
-    texture: u32,
+    alpha: f32,
     charts_a: vec4<i32>,
     charts_b: vec4<i32>,
     charts_c: vec4<i32>,
-    texture_width: u32,
-    texture_height: u32,
+    emission: vec3<f32>,
+    metallic: f32,
+    roughness: f32,
+    specular: f32,
+    alpha_cutoff: f32,
+    flags: u32,
+    normal_scale: f32,
+    occlusion_strength: f32,
     _pad0: u32,
     _pad1: u32,
+    base_texture: vec4<u32>,
+    metallic_roughness_texture: vec4<u32>,
+    normal_texture: vec4<u32>,
+    occlusion_texture: vec4<u32>,
+    emission_texture: vec4<u32>,
 }
+
+const RECEIVER_PBR: u32 = 1u;
+const RECEIVER_MASK: u32 = 2u;
+const RECEIVER_BLEND: u32 = 4u;
+const TEXEL_SRGB: u32 = 0u;
 
 struct Chart {
     origin: vec2<f32>,
@@ -289,6 +305,8 @@ const FIELD_SAMPLED: u32 = 4u;
 const VIEW_FLAG_MEDIA: u32 = 1u;
 const VIEW_FLAG_SCATTERING: u32 = 2u;
 const VIEW_FLAG_CAUSTICS: u32 = 4u;
+const VIEW_FLAG_SEE_THROUGH: u32 = 8u;
+const VIEW_FLAG_SPECULAR: u32 = 16u;
 
 const MARCH_FLAG_DEPOSIT_RADIANCE: u32 = 1u;
 const MARCH_FLAG_DEPOSIT_DIRECTION: u32 = 2u;

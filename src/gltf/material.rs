@@ -3,7 +3,10 @@
 //! absorption from KHR_materials_volume's attenuation (σ = −ln(attenuationColor) /
 //! attenuationDistance per metre, the Beer–Lambert reading the extension's spec gives), and
 //! refrakt's material extras override that medium where present. Anything else is an opaque
-//! diffuse receiver with the base color (and base color texture) of the metallic-roughness model.
+//! receiver of the metallic-roughness model (`scene::Diffuse`): base colour, metallic,
+//! roughness, their textures, normal and occlusion maps, emission (with
+//! KHR_materials_emissive_strength), alphaMode / alphaCutoff, and KHR_materials_specular's
+//! specular factor.
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -15,13 +18,14 @@ use super::buffers::{self, Location};
 use super::extras;
 use crate::scene::image_header;
 use crate::scene::material::srgb_to_linear;
-use crate::scene::{Diffuse, Glass, Material, Texture2d};
+use crate::scene::{AlphaMode, Diffuse, Glass, Material, Texture2d};
 
 /// A glTF material made into refrakt's, with the smooth boundary width its extras set.
 pub struct Converted {
     pub material: Material,
     pub boundary: Option<f32>,
-    /// Where its base color texture is sampled.
+    /// Where its textures are sampled (one map for all of a material's textures: the first
+    /// texture's, with a warning when another differs).
     pub uv: Option<UvMap>,
 }
 
@@ -57,12 +61,13 @@ pub struct Materials<'a> {
     pub doc: &'a gltf::Document,
     pub buffers: &'a [Vec<u8>],
     pub at: &'a Location<'a>,
-    textures: HashMap<usize, Arc<Texture2d>>,
+    /// Decoded images by (index, sRGB-encoded).
+    textures: HashMap<(usize, bool), Arc<Texture2d>>,
 }
 
 /// The glTF default material (§3.9.6): base color 1, opaque.
 pub fn default_material() -> Converted {
-    Converted { material: Material::Diffuse(Diffuse { color: Vec3::ONE, texture: None }), boundary: None, uv: None }
+    Converted { material: Material::Diffuse(Diffuse::pbr()), boundary: None, uv: None }
 }
 
 impl<'a> Materials<'a> {
@@ -79,18 +84,78 @@ impl<'a> Materials<'a> {
             let glass = self.glass(m, &what, transmission, &medium, warnings)?;
             return Ok(Converted { material: Material::Glass(glass), boundary: medium.boundary, uv: None });
         }
-        let pbr = m.pbr_metallic_roughness();
-        let [r, g, b, _] = pbr.base_color_factor();
-        let color = Vec3::new(r, g, b);
-        if !color.is_finite() {
-            bail!("{}: {what}: baseColorFactor must be finite", self.at.file);
-        }
-        let (texture, uv) = match pbr.base_color_texture() {
-            Some(info) => (Some(self.texture(&info, &what, warnings)?), Some(UvMap::of(&info, self.at.file, &what)?)),
-            None => (None, None),
-        };
-        let diffuse = Diffuse { color: color.clamp(Vec3::ZERO, Vec3::ONE), texture };
+        let (diffuse, uv) = self.receiver(m, &what, warnings)?;
         Ok(Converted { material: Material::Diffuse(diffuse), boundary: medium.boundary, uv })
+    }
+
+    /// An opaque (or cut-out, or see-through) material of the metallic-roughness model.
+    fn receiver(&mut self, m: &gltf::Material, what: &str, warnings: &mut Vec<String>) -> Result<(Diffuse, Option<UvMap>)> {
+        let file = self.at.file;
+        let pbr = m.pbr_metallic_roughness();
+        let [r, g, b, a] = pbr.base_color_factor();
+        let factors = [r, g, b, a, pbr.metallic_factor(), pbr.roughness_factor(), m.alpha_cutoff().unwrap_or(0.5)];
+        if !factors.iter().all(|f| f.is_finite()) {
+            bail!("{file}: {what}: baseColorFactor, metallicFactor, roughnessFactor and alphaCutoff must be finite");
+        }
+        let emission = Vec3::from(m.emissive_factor());
+        let strength = m.emissive_strength().unwrap_or(1.0);
+        if !emission.is_finite() || !strength.is_finite() || strength < 0.0 {
+            bail!("{file}: {what}: emissiveFactor and KHR_materials_emissive_strength must be finite (the strength ≥ 0)");
+        }
+        let mut d = Diffuse {
+            color: Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE),
+            alpha: a.clamp(0.0, 1.0),
+            alpha_mode: match m.alpha_mode() {
+                gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+                gltf::material::AlphaMode::Mask => AlphaMode::Mask,
+                gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+            },
+            alpha_cutoff: m.alpha_cutoff().unwrap_or(0.5).clamp(0.0, 1.0),
+            metallic: pbr.metallic_factor().clamp(0.0, 1.0),
+            roughness: pbr.roughness_factor().clamp(0.0, 1.0),
+            specular: m.specular().map_or(1.0, |s| s.specular_factor()).clamp(0.0, 1.0),
+            emission: emission.max(Vec3::ZERO),
+            emission_strength: strength,
+            ..Diffuse::pbr()
+        };
+        // Each texture with where it is sampled; the material keeps the first one's UV map.
+        let mut maps: Vec<(&str, UvMap)> = Vec::new();
+        let mut load = |this: &mut Self, info: &gltf::texture::Info, role: &'static str, srgb: bool, warnings: &mut Vec<String>| -> Result<Arc<Texture2d>> {
+            maps.push((role, UvMap::of(info, file, what)?));
+            this.texture(info, what, role, srgb, warnings)
+        };
+        if let Some(info) = pbr.base_color_texture() {
+            d.texture = Some(load(self, &info, "base color", true, warnings)?);
+        }
+        if let Some(info) = pbr.metallic_roughness_texture() {
+            d.metallic_roughness_texture = Some(load(self, &info, "metallic-roughness", false, warnings)?);
+        }
+        if let Some(info) = m.emissive_texture() {
+            d.emission_texture = Some(load(self, &info, "emissive", true, warnings)?);
+        }
+        if let Some(n) = m.normal_texture() {
+            d.normal_scale = n.scale();
+            // (The gltf crate does not expose a normal or occlusion texture's
+            // KHR_texture_transform: it is taken to be the other textures'.)
+            let transform = maps.first().map_or(Affine2::IDENTITY, |m| m.1.transform);
+            maps.push(("normal", UvMap { set: n.tex_coord(), transform }));
+            d.normal_texture = Some(self.image_texture(n.texture(), what, "normal", false, warnings)?);
+        }
+        if let Some(o) = m.occlusion_texture() {
+            d.occlusion_strength = o.strength().clamp(0.0, 1.0);
+            let transform = maps.first().map_or(Affine2::IDENTITY, |m| m.1.transform);
+            maps.push(("occlusion", UvMap { set: o.tex_coord(), transform }));
+            d.occlusion_texture = Some(self.image_texture(o.texture(), what, "occlusion", false, warnings)?);
+        }
+        let uv = maps.first().map(|m| m.1);
+        for (role, map) in maps.iter().skip(1).filter(|(_, map)| Some(*map) != uv) {
+            warnings.push(format!(
+                "{file}: {what}: its {role} texture is sampled at another TEXCOORD set or transform ({map:?}) than its {} texture; \
+                 refrakt samples all of a material's textures at the first one's",
+                maps[0].0
+            ));
+        }
+        Ok((d, uv))
     }
 
     fn glass(&self, m: &gltf::Material, what: &str, transmission: f32, medium: &extras::MediumExtras, warnings: &mut Vec<String>) -> Result<Glass> {
@@ -129,21 +194,25 @@ impl<'a> Materials<'a> {
         Ok(glass)
     }
 
-    /// A base color texture, decoded to linear RGB (glTF stores it sRGB-encoded, §3.9.2).
-    fn texture(&mut self, info: &gltf::texture::Info, what: &str, warnings: &mut Vec<String>) -> Result<Arc<Texture2d>> {
-        let texture = info.texture();
+    /// A texture, decoded to linear values: colour textures (base color, emissive) are stored
+    /// sRGB-encoded (§3.9.2), the others linear.
+    fn texture(&mut self, info: &gltf::texture::Info, what: &str, role: &str, srgb: bool, warnings: &mut Vec<String>) -> Result<Arc<Texture2d>> {
+        self.image_texture(info.texture(), what, role, srgb, warnings)
+    }
+
+    fn image_texture(&mut self, texture: gltf::Texture, what: &str, role: &str, srgb: bool, warnings: &mut Vec<String>) -> Result<Arc<Texture2d>> {
         let sampler = texture.sampler();
         if sampler.wrap_s() != gltf::texture::WrappingMode::Repeat || sampler.wrap_t() != gltf::texture::WrappingMode::Repeat {
             warnings.push(format!("{}: {what}: refrakt repeats textures; the sampler's other wrapping mode is not used", self.at.file));
         }
         let image = texture.source().index();
-        if let Some(t) = self.textures.get(&image) {
+        if let Some(t) = self.textures.get(&(image, srgb)) {
             return Ok(t.clone());
         }
         let bytes = buffers::image_bytes(self.doc, self.buffers, image, self.at)?;
-        let decoded = decode_image(&bytes).map_err(|e| anyhow!("{}: images[{image}] (the base color of {what}): {e}", self.at.file))?;
+        let decoded = decode_image(&bytes, srgb).map_err(|e| anyhow!("{}: images[{image}] (the {role} texture of {what}): {e}", self.at.file))?;
         let decoded = Arc::new(decoded);
-        self.textures.insert(image, decoded.clone());
+        self.textures.insert((image, srgb), decoded.clone());
         Ok(decoded)
     }
 }
@@ -186,8 +255,9 @@ fn attenuation(m: &gltf::Material, file: &str, what: &str) -> Result<Vec3> {
 }
 
 /// Decodes a PNG or JPEG texture, its header checked against [`image_header::TEXTURE`] first
-/// (larger claims are refused before any pixel memory is allocated).
-fn decode_image(bytes: &[u8]) -> Result<Texture2d> {
+/// (larger claims are refused before any pixel memory is allocated); RGB sRGB-decoded when
+/// `srgb`, else read as linear, alpha always linear.
+pub fn decode_image(bytes: &[u8], srgb: bool) -> Result<Texture2d> {
     let caps = image_header::TEXTURE;
     image_header::check_encoded(bytes, &caps)?;
     let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format()?;
@@ -196,7 +266,7 @@ fn decode_image(bytes: &[u8]) -> Result<Texture2d> {
     limits.max_image_height = Some(caps.max_side as u32);
     reader.limits(limits);
     let rgba = reader.decode()?.into_rgba8();
-    let linear = |c: u8| srgb_to_linear(c as f32 / 255.0);
+    let linear = |c: u8| if srgb { srgb_to_linear(c as f32 / 255.0) } else { c as f32 / 255.0 };
     Ok(Texture2d {
         width: rgba.width(),
         height: rgba.height(),

@@ -284,18 +284,33 @@ gpu_struct! {
     /// An opaque receiver: its albedo and its caustic charts, one per side a surface faces: slot
     /// 2·axis + (0 for +, 1 for −), plus 6 when it is the back of the triangles that face that
     /// way (the inside of a room) — slots 0–3 in `charts_a`, 4–7 in `charts_b`, 8–11 in
-    /// `charts_c`; −1 where it has none. A base color texture (multiplying the albedo) starts
-    /// at `texture` in the albedo texels, `texture_width` × `texture_height` (width 0: none).
+    /// `charts_c`; −1 where it has none. Then its metallic-roughness material (`scene::Diffuse`)
+    /// and its textures in the receivers' texels.
     pub struct ReceiverGpu {
         pub albedo: [f32; 3],
-        pub texture: u32,
+        pub alpha: f32,
         pub charts_a: [i32; 4],
         pub charts_b: [i32; 4],
         pub charts_c: [i32; 4],
-        pub texture_width: u32,
-        pub texture_height: u32,
+        /// Emitted radiance (× strength).
+        pub emission: [f32; 3],
+        pub metallic: f32,
+        pub roughness: f32,
+        pub specular: f32,
+        pub alpha_cutoff: f32,
+        /// `receiver_flags` bits.
+        pub flags: u32,
+        pub normal_scale: f32,
+        pub occlusion_strength: f32,
         pub _pad0: u32,
         pub _pad1: u32,
+        /// Each texture as (first texel, width, height, encoding: `texel_encoding`); width 0:
+        /// none.
+        pub base_texture: [u32; 4],
+        pub metallic_roughness_texture: [u32; 4],
+        pub normal_texture: [u32; 4],
+        pub occlusion_texture: [u32; 4],
+        pub emission_texture: [u32; 4],
     }
 }
 
@@ -473,6 +488,24 @@ pub mod field_kind {
 }
 
 /// `ViewParams::flags` bits (mirrored in `types.wgsl`).
+pub mod receiver_flags {
+    /// Shaded with the full metallic-roughness model (specular lobes, smooth normals, normal
+    /// map); without it a receiver is Lambertian, as before PBR.
+    pub const PBR: u32 = 1;
+    /// alphaMode MASK: a cut-out.
+    pub const MASK: u32 = 2;
+    /// alphaMode BLEND: see-through.
+    pub const BLEND: u32 = 4;
+}
+
+/// `ReceiverGpu` texture encodings: how a texel's 8-bit channels decode.
+pub mod texel_encoding {
+    /// RGB sRGB-encoded (colour textures), A linear.
+    pub const SRGB: u32 = 0;
+    /// Every channel linear (metallic-roughness, normal, occlusion).
+    pub const LINEAR: u32 = 1;
+}
+
 pub mod view_flags {
     /// Some object absorbs or scatters: sample the medium grid along rays.
     pub const MEDIA: u32 = 1;
@@ -480,6 +513,10 @@ pub mod view_flags {
     pub const SCATTERING: u32 = 2;
     /// Photons were traced: receivers read their caustic maps.
     pub const CAUSTICS: u32 = 4;
+    /// Some receiver is a cut-out or see-through: shadow rays look past them.
+    pub const SEE_THROUGH: u32 = 8;
+    /// Some receiver has a specular lobe: the prefiltered environment is bound.
+    pub const SPECULAR: u32 = 16;
 }
 
 /// `MarchParams::flags` bits.

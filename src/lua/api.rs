@@ -61,6 +61,8 @@ pub fn module(lua: &Lua) -> mlua::Result<Table> {
         "diffuse",
         lua.create_function(|lua, t: Option<Table>| construct(lua, Material::Diffuse(Diffuse::default()), t, &[]))?,
     )?;
+    // The same material with glTF's defaults (metallic 1, roughness 1, specular 1, color 1).
+    r.raw_set("pbr", lua.create_function(|lua, t: Option<Table>| construct(lua, Material::Diffuse(Diffuse::pbr()), t, &[]))?)?;
     r.raw_set("fog", lua.create_function(|lua, t: Option<Table>| construct(lua, Fog::default(), t, &[]))?)?;
 
     // Lights (KHR_lights_punctual units: candela, lux).

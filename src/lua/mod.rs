@@ -9,6 +9,7 @@ pub mod imports;
 pub mod meshes;
 pub mod objects;
 pub mod params;
+pub mod pbr;
 pub mod sandbox;
 pub mod vecmath;
 

@@ -457,7 +457,6 @@ impl LuaObject for Shape {
 // Materials.
 
 const GLASS_FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin"];
-const DIFFUSE_FIELDS: &[&str] = &["color"];
 
 impl LuaObject for Material {
     fn kind(&self) -> &'static str {
@@ -469,7 +468,7 @@ impl LuaObject for Material {
     fn fields(&self) -> &'static [&'static str] {
         match self {
             Material::Glass(_) => GLASS_FIELDS,
-            Material::Diffuse(_) => DIFFUSE_FIELDS,
+            Material::Diffuse(_) => super::pbr::FIELDS,
         }
     }
     fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
@@ -484,7 +483,9 @@ impl LuaObject for Material {
             // Transmittance over one metre (the color a 1 m thick piece has).
             (Material::Glass(g), "color") => vec_value(lua, (-g.absorption).exp()),
             (Material::Glass(_), "distance") => Ok(Value::Number(1.0)),
-            (Material::Diffuse(d), "color") => vec_value(lua, d.color),
+            (Material::Diffuse(d), _) => {
+                super::pbr::get(lua, d, key).unwrap_or_else(|| Err(unknown_field(lua, "diffuse", key, super::pbr::FIELDS)))
+            }
             _ => Err(unknown_field(lua, self.kind(), key, self.fields())),
         }
     }
@@ -530,12 +531,8 @@ impl LuaObject for Material {
                      (the color light takes on after travelling that far); after that, set glass.absorption",
                 ));
             }
-            (Material::Diffuse(d), "color") => {
-                let c = cv::color(lua, name, &value)?;
-                if c.max_element() > 1.0 {
-                    return Err(error_at(lua, format!("{name} is an albedo: components must be from 0 to 1, got {c}")));
-                }
-                d.color = c;
+            (Material::Diffuse(d), _) => {
+                return super::pbr::set(lua, d, "diffuse", key, value).unwrap_or_else(|| Err(unknown_field(lua, kind, key, fields)));
             }
             _ => return Err(unknown_field(lua, kind, key, fields)),
         }

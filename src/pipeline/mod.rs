@@ -18,6 +18,7 @@ pub mod probe;
 pub mod receivers;
 pub mod resources;
 pub mod reuse;
+pub mod specular;
 pub mod timing;
 pub mod view;
 pub mod voxelize;
@@ -357,6 +358,9 @@ impl Renderer {
         self.ensure_grids(desc)?;
         if self.environment.update(&self.ctx, &desc.environment) {
             self.counters.environment_uploads += 1;
+        }
+        if desc.receivers.iter().any(|r| r.diffuse.is_pbr()) {
+            self.environment.update_specular(&self.ctx, &desc.environment);
         }
         if self.receivers.update(&self.ctx, desc) {
             self.counters.receiver_uploads += 1;

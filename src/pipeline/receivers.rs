@@ -11,14 +11,17 @@
 //! The BVH also holds the triangles of sharp glass meshes (`pipeline::interfaces`), so one
 //! closest-hit query finds the next surface of either kind and a shadow ray is stopped by both.
 
+use std::sync::Arc;
+
 use glam::{Vec2, Vec3};
 
 use crate::bvh::{Bvh, Triangle};
+use crate::scene::{AlphaMode, Diffuse, Texture2d};
 use super::resources::GrowableBuffer;
 use crate::frame::{FrameDesc, Receiver};
 use crate::gpu::GpuContext;
 use super::interfaces;
-use crate::gpu::types::{BvhNode, BvhTriangle, Chart, ReceiverGpu, interface_kind};
+use crate::gpu::types::{BvhNode, BvhTriangle, Chart, ReceiverGpu, interface_kind, receiver_flags, texel_encoding};
 
 /// Texels along the longest side of one chart, at most.
 pub const MAX_CHART_SIDE: f32 = 2048.0;
@@ -53,48 +56,163 @@ fn world_triangles(r: &Receiver, index: u32) -> Vec<Triangle> {
         .collect()
 }
 
+/// A receiver's textures in `ReceiverGpu`'s order, each with the encoding its texels take.
+fn textures(d: &Diffuse) -> [(Option<&Arc<Texture2d>>, u32); 5] {
+    use texel_encoding::{LINEAR, SRGB};
+    [
+        (d.texture.as_ref(), SRGB),
+        (d.metallic_roughness_texture.as_ref(), LINEAR),
+        (d.normal_texture.as_ref(), LINEAR),
+        (d.occlusion_texture.as_ref(), LINEAR),
+        (d.emission_texture.as_ref(), SRGB),
+    ]
+}
+
 /// The texture coordinates of a receiver mesh, when it has a texture to use them for.
-fn textured(r: &Receiver) -> Option<(&crate::scene::Texture2d, &[Vec2])> {
-    let t = r.diffuse.texture.as_deref()?;
-    let uvs = r.mesh.uvs.as_deref().filter(|uv| uv.len() == r.mesh.positions.len())?;
-    (t.width > 0 && t.height > 0).then_some((t, uvs))
+fn textured(r: &Receiver) -> Option<&[Vec2]> {
+    let any = textures(&r.diffuse).iter().any(|(t, _)| t.is_some_and(|t| t.width > 0 && t.height > 0));
+    any.then_some(())?;
+    r.mesh.uvs.as_deref().filter(|uv| uv.len() == r.mesh.positions.len())
+}
+
+/// The unit tangent (toward +u) of a triangle and the sign that turns cross(n, tangent) into
+/// the normal map's +Y (toward −v: glTF images have v down); zero where the UVs are degenerate.
+fn triangle_tangent(p: [Vec3; 3], uv: [Vec2; 3]) -> [f32; 4] {
+    let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+    let (d1, d2) = (uv[1] - uv[0], uv[2] - uv[0]);
+    let det = d1.x * d2.y - d1.y * d2.x;
+    if det.abs() < 1e-12 {
+        return [0.0; 4];
+    }
+    let tangent = ((e1 * d2.y - e2 * d1.y) / det).normalize_or_zero();
+    let toward_v = (e2 * d1.x - e1 * d2.x) / det;
+    let n = e1.cross(e2);
+    let sign = if n.cross(tangent).dot(toward_v) > 0.0 { -1.0 } else { 1.0 };
+    tangent.extend(sign).to_array()
 }
 
 fn is_interface(t: &Triangle) -> bool {
     t.receiver & interface_kind::BIT != 0
 }
 
-/// Per BVH triangle (in leaf order), its corners' texture coordinates as two vec4s:
-/// (uv₀, uv₁), (uv₂, 0, 0); zeros for untextured receivers and interfaces.
+/// Vec4s per BVH triangle in `triangle_uvs`.
+pub const UV_VEC4S: usize = 3;
+
+/// Per BVH triangle (in leaf order), its corners' texture coordinates and its tangent as three
+/// vec4s: (uv₀, uv₁), (uv₂, 0, 0), (tangent, sign) (`triangle_tangent`); zeros for
+/// untextured receivers and interfaces.
 fn triangle_uvs(bvh: &Bvh, receivers: &[Receiver]) -> Vec<[f32; 4]> {
-    let mut out = Vec::with_capacity(2 * bvh.triangles.len());
+    let mut out = Vec::with_capacity(UV_VEC4S * bvh.triangles.len());
     for t in &bvh.triangles {
         let receiver = (!is_interface(t)).then(|| &receivers[t.receiver as usize]);
-        let corners = receiver.and_then(|r| textured(r).map(|(_, uv)| r.mesh.triangles[t.index as usize].map(|i| uv[i as usize])));
+        let corners = receiver.and_then(|r| textured(r).map(|uv| r.mesh.triangles[t.index as usize].map(|i| uv[i as usize])));
         let corners = corners.unwrap_or([Vec2::ZERO; 3]);
         out.push([corners[0].x, corners[0].y, corners[1].x, corners[1].y]);
         out.push([corners[2].x, corners[2].y, 0.0, 0.0]);
+        out.push(triangle_tangent(t.v, corners));
     }
     out
 }
 
 /// Per BVH triangle (in leaf order), the unit shading normals at its three corners, one vec4
-/// each: a sharp mesh's smooth normals, a receiver's face normal.
-fn triangle_normals(bvh: &Bvh, interface_normals: &[[Vec3; 3]]) -> Vec<[f32; 4]> {
+/// each: a sharp mesh's smooth normals, a PBR receiver's smooth normals (creases kept as glass
+/// keeps them), a Lambertian receiver's face normal.
+fn triangle_normals(bvh: &Bvh, receivers: &[Receiver], interface_normals: &[[Vec3; 3]]) -> Vec<[f32; 4]> {
+    let smooth: Vec<Option<Vec<[Vec3; 3]>>> = receivers
+        .iter()
+        .map(|r| {
+            r.diffuse.is_pbr().then(|| {
+                let to_world = glam::Mat3::from_mat4(r.world).inverse().transpose();
+                let corners = r.mesh.corner_normals(crate::scene::mesh::GLASS_CREASE_DEGREES.to_radians());
+                corners.into_iter().map(|c| c.map(|n| (to_world * n).normalize_or_zero())).collect()
+            })
+        })
+        .collect();
     bvh.triangles
         .iter()
-        .flat_map(|t| if is_interface(t) { interface_normals[t.index as usize] } else { [t.normal().normalize(); 3] })
+        .flat_map(|t| {
+            if is_interface(t) {
+                return interface_normals[t.index as usize];
+            }
+            match &smooth[t.receiver as usize] {
+                Some(corners) => corners[t.index as usize],
+                None => [t.normal().normalize(); 3],
+            }
+        })
         .map(|n| n.extend(0.0).to_array())
         .collect()
 }
 
-/// A linear color as the 8-bit sRGB RGBA texel the GPU decodes (`unpack4x8unorm`, then the
-/// inverse transfer function): the base color textures' own encoding, 4 bytes a texel.
-fn srgb8(c: [f32; 4]) -> u32 {
+/// Packs one texel for the GPU: RGB sRGB-encoded or linear, A linear, 8 bits each
+/// (`unpack4x8unorm` in the view shader, then the inverse transfer function for sRGB).
+fn pack_texel(c: [f32; 4], encoding: u32) -> u32 {
     let byte = |x: f32| (x.clamp(0.0, 1.0) * 255.0).round() as u32;
-    let e = |x: f32| byte(crate::output::png::srgb_encode(x));
+    let e = |x: f32| if encoding == texel_encoding::SRGB { byte(crate::output::png::srgb_encode(x)) } else { byte(x) };
     e(c[0]) | e(c[1]) << 8 | e(c[2]) << 16 | byte(c[3]) << 24
 }
+
+/// The receivers' textures in one texel array; a texture shared by receivers (with the same
+/// encoding) is stored once.
+#[derive(Default)]
+struct TexelAtlas {
+    texels: Vec<u32>,
+    placed: Vec<(*const Texture2d, u32, u32)>,
+}
+
+impl TexelAtlas {
+    /// (first texel, width, height, encoding); zeros for none.
+    fn place(&mut self, texture: Option<&Arc<Texture2d>>, encoding: u32) -> [u32; 4] {
+        let Some(t) = texture.filter(|t| t.width > 0 && t.height > 0) else { return [0; 4] };
+        let key = Arc::as_ptr(t);
+        let start = match self.placed.iter().find(|(p, e, _)| std::ptr::eq(*p, key) && *e == encoding) {
+            Some(&(_, _, start)) => start,
+            None => {
+                let start = self.texels.len() as u32;
+                self.texels.extend(t.texels.iter().map(|&c| pack_texel(c, encoding)));
+                self.placed.push((key, encoding, start));
+                start
+            }
+        };
+        [start, t.width, t.height, encoding]
+    }
+}
+
+/// A receiver's material as the GPU reads it (charts filled in by `layout`).
+fn receiver_gpu(r: &Receiver, atlas: &mut TexelAtlas) -> ReceiverGpu {
+    let d = &r.diffuse;
+    // Without UVs a texture cannot be looked up: the factors alone shade the surface.
+    let mut tex = textures(d).map(|(t, e)| if textured(r).is_some() { atlas.place(t, e) } else { [0; 4] });
+    let mut flags = 0;
+    if d.is_pbr() {
+        flags |= receiver_flags::PBR;
+    } else {
+        tex[2] = [0; 4]; // (no normal map without the PBR path; is_pbr says there is none)
+    }
+    flags |= match d.alpha_mode {
+        AlphaMode::Opaque => 0,
+        AlphaMode::Mask => receiver_flags::MASK,
+        AlphaMode::Blend => receiver_flags::BLEND,
+    };
+    ReceiverGpu {
+        albedo: d.color.into(),
+        alpha: d.alpha,
+        emission: d.emitted().into(),
+        metallic: d.metallic,
+        roughness: d.roughness,
+        specular: d.specular,
+        alpha_cutoff: d.alpha_cutoff,
+        flags,
+        normal_scale: d.normal_scale,
+        occlusion_strength: d.occlusion_strength,
+        base_texture: tex[0],
+        metallic_roughness_texture: tex[1],
+        normal_texture: tex[2],
+        occlusion_texture: tex[3],
+        emission_texture: tex[4],
+        ..Default::default()
+    }
+}
+
 
 /// CPU-side layout of the receivers: what goes into the GPU buffers.
 pub struct ReceiverLayout {
@@ -102,11 +220,11 @@ pub struct ReceiverLayout {
     pub receivers: Vec<ReceiverGpu>,
     pub charts: Vec<Chart>,
     pub texels: u32,
-    /// Two vec4 of texture coordinates per BVH triangle (see `triangle_uvs`).
+    /// `UV_VEC4S` vec4 of texture coordinates and tangent per BVH triangle (see `triangle_uvs`).
     pub triangle_uvs: Vec<[f32; 4]>,
     /// Three vec4 of corner normals per BVH triangle (see `triangle_normals`).
     pub triangle_normals: Vec<[f32; 4]>,
-    /// Every base color texture's texels, sRGB8-packed, one after another.
+    /// Every texture's texels, 8-bit packed (`pack_texel`), one after another.
     pub albedo_texels: Vec<u32>,
 }
 
@@ -152,9 +270,7 @@ pub fn layout(receivers: &[Receiver], interfaces: (Vec<Triangle>, Vec<[Vec3; 3]>
     let mut charts = Vec::new();
     let mut table = Vec::with_capacity(receivers.len());
     let mut offset = 0u32;
-    let mut albedo_texels = Vec::new();
-    // Receivers sharing a texture share its texels.
-    let mut placed: Vec<(*const crate::scene::Texture2d, u32)> = Vec::new();
+    let mut atlas = TexelAtlas::default();
     for (i, r) in receivers.iter().enumerate() {
         let mut slots = [-1i32; 12];
         for (slot, e) in extents[i].iter().enumerate() {
@@ -174,36 +290,16 @@ pub fn layout(receivers: &[Receiver], interfaces: (Vec<Triangle>, Vec<[Vec3; 3]>
             });
             offset += size.x * size.y;
         }
-        let (texture, size) = match textured(r) {
-            Some((t, _)) => {
-                let start = match placed.iter().find(|(p, _)| std::ptr::eq(*p, t)) {
-                    Some(&(_, start)) => start,
-                    None => {
-                        let start = albedo_texels.len() as u32;
-                        albedo_texels.extend(t.texels.iter().map(|&c| srgb8(c)));
-                        placed.push((t, start));
-                        start
-                    }
-                };
-                (start, [t.width, t.height])
-            }
-            None => (0, [0, 0]),
-        };
         table.push(ReceiverGpu {
-            albedo: r.diffuse.color.into(),
-            texture,
             charts_a: slots[0..4].try_into().expect("4"),
             charts_b: slots[4..8].try_into().expect("4"),
             charts_c: slots[8..12].try_into().expect("4"),
-            texture_width: size[0],
-            texture_height: size[1],
-            _pad0: 0,
-            _pad1: 0,
+            ..receiver_gpu(r, &mut atlas)
         });
     }
     let triangle_uvs = triangle_uvs(&bvh, receivers);
-    let triangle_normals = triangle_normals(&bvh, &interface_normals);
-    ReceiverLayout { bvh, receivers: table, charts, texels: offset, triangle_uvs, triangle_normals, albedo_texels }
+    let triangle_normals = triangle_normals(&bvh, receivers, &interface_normals);
+    ReceiverLayout { bvh, receivers: table, charts, texels: offset, triangle_uvs, triangle_normals, albedo_texels: atlas.texels }
 }
 
 /// The receivers' GPU buffers and the caustic maps sized by their charts. Buffers only grow:
@@ -232,20 +328,18 @@ pub struct Receivers {
     key: Option<(Vec<ReceiverKey>, Vec<(usize, glam::Mat4)>)>,
 }
 
-/// What identifies a receiver: its mesh and texture by pointer, placement, albedo bits.
-type ReceiverKey = (usize, usize, glam::Mat4, [u32; 3]);
+/// What identifies a receiver: its mesh by pointer, placement, material (textures compare by
+/// pointer first).
+type ReceiverKey = (usize, glam::Mat4, Diffuse);
 
 /// What identifies the receivers of a frame.
 fn key_of(desc: &FrameDesc, texel: f32) -> Vec<ReceiverKey> {
     let mut key: Vec<_> = desc
         .receivers
         .iter()
-        .map(|r| {
-            let texture = r.diffuse.texture.as_ref().map_or(0, |t| std::sync::Arc::as_ptr(t) as usize);
-            (std::sync::Arc::as_ptr(&r.mesh) as usize, texture, r.world, r.diffuse.color.to_array().map(f32::to_bits))
-        })
+        .map(|r| (Arc::as_ptr(&r.mesh) as usize, r.world, r.diffuse.clone()))
         .collect();
-    key.push((0, 0, glam::Mat4::from_scale(Vec3::splat(texel)), [0; 3]));
+    key.push((0, glam::Mat4::from_scale(Vec3::splat(texel)), Diffuse::default()));
     key
 }
 
@@ -319,8 +413,7 @@ impl Receivers {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Diffuse, mesh};
-    use std::sync::Arc;
+    use crate::scene::mesh;
 
     fn receiver(m: crate::scene::MeshData, world: glam::Mat4) -> Receiver {
         Receiver { name: "r".into(), mesh: Arc::new(m), world, diffuse: Diffuse::default() }

@@ -156,6 +156,10 @@ pub struct EnvironmentTexture {
     /// Its mean radiance over the sphere (`EnvImage::mean`, a pass over every texel: taken once
     /// per image, not per frame).
     pub mean: glam::Vec3,
+    /// The image prefiltered for glossy receivers (`specular::prefilter`: `specular::LEVELS`
+    /// layers), computed only once a frame has a specular receiver; 1×1 until then.
+    pub specular_view: wgpu::TextureView,
+    specular_of: Option<Arc<EnvImage>>,
 }
 
 impl EnvironmentTexture {
@@ -169,11 +173,20 @@ impl EnvironmentTexture {
             min_filter: wgpu::FilterMode::Linear,
             ..Default::default()
         });
-        Self { texture, view, sampler, generation: next_generation(), uploaded: None, mean: glam::Vec3::ONE }
+        let specular_view = Self::layers(ctx, 1, 1, 1, &[[0.0; 4]]).1;
+        Self { texture, view, sampler, generation: next_generation(), uploaded: None, mean: glam::Vec3::ONE, specular_view, specular_of: None }
     }
 
     fn texture(ctx: &GpuContext, width: u32, height: u32, texels: &[[f32; 4]]) -> (wgpu::Texture, wgpu::TextureView) {
-        let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
+        let (texture, _) = Self::layers(ctx, width, height, 1, texels);
+        let view = texture.create_view(&Default::default());
+        (texture, view)
+    }
+
+    /// A half-float texture of `layers` layers from `texels` (layer after layer); its view as
+    /// a 2D array.
+    fn layers(ctx: &GpuContext, width: u32, height: u32, layers: u32, texels: &[[f32; 4]]) -> (wgpu::Texture, wgpu::TextureView) {
+        let size = wgpu::Extent3d { width, height, depth_or_array_layers: layers };
         let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("environment"),
             size,
@@ -191,8 +204,25 @@ impl EnvironmentTexture {
             wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(width * 8), rows_per_image: Some(height) },
             size,
         );
-        let view = texture.create_view(&Default::default());
+        let view = texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
         (texture, view)
+    }
+
+    /// Prefilters the environment's image for glossy receivers if that was not done for it yet
+    /// (a colour environment needs none: the shader uses its colour); true if it uploaded.
+    pub fn update_specular(&mut self, ctx: &GpuContext, env: &Environment) -> bool {
+        let Some(image) = env.image() else { return false };
+        if self.specular_of.as_ref().is_some_and(|u| Arc::ptr_eq(u, image)) {
+            return false;
+        }
+        use super::specular::{HEIGHT, LEVELS, WIDTH, prefilter};
+        self.specular_view = Self::layers(ctx, WIDTH, HEIGHT, LEVELS, &prefilter(image)).1;
+        self.specular_of = Some(image.clone());
+        self.generation = next_generation();
+        true
     }
 
     /// Uploads the environment's image if it is not the one on the GPU; true if it uploaded.

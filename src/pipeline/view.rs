@@ -27,6 +27,8 @@ pub struct View {
     /// 64-bit count of the ray-equation steps of the last frame (benchmarks).
     pub steps: wgpu::Buffer,
     steps_staging: [crate::gpu::readback::Staging; super::MAX_FRAMES_IN_FLIGHT],
+    /// The split-sum table (`specular::brdf_lut`), constant.
+    brdf_lut: wgpu::Buffer,
     /// Bind group and the generations of what it binds.
     bound: Option<([u64; 6], wgpu::BindGroup)>,
 }
@@ -87,6 +89,12 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
     if inputs.caustics {
         flags |= view_flags::CAUSTICS;
     }
+    if desc.receivers.iter().any(|r| r.diffuse.alpha_mode != crate::scene::AlphaMode::Opaque) {
+        flags |= view_flags::SEE_THROUGH;
+    }
+    if desc.receivers.iter().any(|r| r.diffuse.is_pbr()) {
+        flags |= view_flags::SPECULAR;
+    }
     ViewParams {
         camera: desc.camera.to_gpu(),
         grid: v.to_gpu(),
@@ -142,6 +150,8 @@ impl View {
                 layout::storage(20, true),
                 layout::storage(21, true),
                 layout::storage(22, true),
+                layout::texture(23, wgpu::TextureViewDimension::D2Array),
+                layout::storage(24, true),
                 layout::storage(30, false),
                 layout::storage(31, false),
                 layout::storage(32, false),
@@ -156,7 +166,15 @@ impl View {
             mapped_at_creation: false,
         });
         let steps_staging = std::array::from_fn(|_| crate::gpu::readback::Staging::new(device, 8, "view steps readback"));
-        Ok(Self { pipeline, bgl, params, batches: None, steps, steps_staging, bound: None })
+        let brdf_lut = wgpu::util::DeviceExt::create_buffer_init(
+            device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("brdf lut"),
+                contents: bytemuck::cast_slice(super::specular::brdf_lut()),
+                usage: wgpu::BufferUsages::STORAGE,
+            },
+        );
+        Ok(Self { pipeline, bgl, params, batches: None, steps, steps_staging, brdf_lut, bound: None })
     }
 
     pub fn encode(&mut self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder, profiler: &mut Profiler, desc: &FrameDesc, inputs: &ViewInputs) {
@@ -211,6 +229,8 @@ impl View {
                     wgpu::BindGroupEntry { binding: 20, resource: receivers.albedo_texels.buffer.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 21, resource: receivers.interfaces.buffer.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 22, resource: receivers.triangle_normals.buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 23, resource: layout::texture_view(&env.specular_view) },
+                    wgpu::BindGroupEntry { binding: 24, resource: self.brdf_lut.as_entire_binding() },
                 ],
             });
             self.bound = Some((generations, bg));

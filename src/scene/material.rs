@@ -82,19 +82,119 @@ impl Texture2d {
     }
 }
 
-/// An opaque Lambertian surface: receives direct light (shadowed by refractive objects) and the
-/// caustic light photons bring through them.
+/// How a receiver's alpha (its `alpha` × the base colour texture's alpha) is read: glTF 2.0's
+/// `alphaMode`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum AlphaMode {
+    /// Alpha is ignored: the surface is opaque.
+    #[default]
+    Opaque,
+    /// A cut-out: where alpha < `alpha_cutoff` the surface is not there (rays and shadow rays go
+    /// on to what is behind), elsewhere it is opaque.
+    Mask,
+    /// See-through: the surface covers the fraction alpha of what is behind, which shows
+    /// unbent (no refraction) through the rest.
+    Blend,
+}
+
+impl AlphaMode {
+    /// The glTF / Lua name.
+    pub fn name(self) -> &'static str {
+        match self {
+            AlphaMode::Opaque => "OPAQUE",
+            AlphaMode::Mask => "MASK",
+            AlphaMode::Blend => "BLEND",
+        }
+    }
+
+    /// Parses a glTF / Lua name (either case).
+    pub fn parse(s: &str) -> Option<Self> {
+        [AlphaMode::Opaque, AlphaMode::Mask, AlphaMode::Blend].into_iter().find(|m| m.name().eq_ignore_ascii_case(s))
+    }
+}
+
+/// An opaque receiver: receives direct light (shadowed by refractive objects) and the caustic
+/// light photons bring through them, shaded with glTF 2.0's metallic-roughness model.
+///
+/// With `metallic = 0` and `specular = 0` (refrakt's `diffuse` defaults) the model is exactly
+/// Lambertian: albedo / π, whatever the roughness — `specular` is KHR_materials_specular's
+/// specular factor, which scales the dielectric's Fresnel reflection (f0 = 0.04 · specular,
+/// f90 = specular). glTF materials (and Lua's `pbr`) have `specular = 1`, the full model.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Diffuse {
-    /// Albedo, linear RGB in [0, 1].
+    /// Base colour (albedo of a dielectric, F0 of a metal), linear RGB in [0, 1].
     pub color: Vec3,
-    /// Multiplies `color` (glTF's baseColorTexture), sampled by the mesh's UVs.
+    /// Multiplies `color` (glTF's baseColorTexture), sampled by the mesh's UVs; its alpha
+    /// multiplies `alpha`.
     pub texture: Option<Arc<Texture2d>>,
+    /// Coverage in [0, 1], read as `alpha_mode` says (glTF's baseColorFactor alpha).
+    pub alpha: f32,
+    pub alpha_mode: AlphaMode,
+    /// `Mask`: alpha below this is a hole.
+    pub alpha_cutoff: f32,
+    /// 0 (dielectric) to 1 (metal).
+    pub metallic: f32,
+    /// Perceptual roughness, 0 (mirror) to 1; GGX α = roughness².
+    pub roughness: f32,
+    /// KHR_materials_specular's specular factor, 0 to 1: how much a dielectric reflects.
+    pub specular: f32,
+    /// glTF's metallicRoughnessTexture: roughness × G, metallic × B (linear).
+    pub metallic_roughness_texture: Option<Arc<Texture2d>>,
+    /// Tangent-space normal map (linear, +Y toward decreasing v, as glTF's).
+    pub normal_texture: Option<Arc<Texture2d>>,
+    /// Scales the normal map's x and y.
+    pub normal_scale: f32,
+    /// Ambient occlusion (R, linear): darkens the environment's light.
+    pub occlusion_texture: Option<Arc<Texture2d>>,
+    /// 0 (ignore the occlusion texture) to 1.
+    pub occlusion_strength: f32,
+    /// Emitted radiance, linear RGB (W·m⁻²·sr⁻¹, as the environment's), before `emission_strength`.
+    pub emission: Vec3,
+    /// Multiplies `emission` (KHR_materials_emissive_strength).
+    pub emission_strength: f32,
+    /// Multiplies `emission` (glTF's emissiveTexture, sRGB-encoded like the base colour).
+    pub emission_texture: Option<Arc<Texture2d>>,
 }
 
 impl Default for Diffuse {
     fn default() -> Self {
-        Self { color: Vec3::splat(0.8), texture: None }
+        Self {
+            color: Vec3::splat(0.8),
+            texture: None,
+            alpha: 1.0,
+            alpha_mode: AlphaMode::Opaque,
+            alpha_cutoff: 0.5,
+            metallic: 0.0,
+            roughness: 1.0,
+            specular: 0.0,
+            metallic_roughness_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
+            occlusion_texture: None,
+            occlusion_strength: 1.0,
+            emission: Vec3::ZERO,
+            emission_strength: 1.0,
+            emission_texture: None,
+        }
+    }
+}
+
+impl Diffuse {
+    /// glTF's metallic-roughness material with its defaults (base colour 1, metallic 1,
+    /// roughness 1, specular 1): `refrakt.pbr{…}` and glTF files.
+    pub fn pbr() -> Self {
+        Self { color: Vec3::ONE, metallic: 1.0, specular: 1.0, ..Self::default() }
+    }
+
+    /// Whether the surface needs more than the Lambertian shading: a specular lobe (metal or
+    /// dielectric Fresnel) or a normal map. Receivers without one are shaded as before PBR.
+    pub fn is_pbr(&self) -> bool {
+        self.metallic > 0.0 || self.specular > 0.0 || self.normal_texture.is_some()
+    }
+
+    /// The emitted radiance at full texture: `emission × emission_strength`.
+    pub fn emitted(&self) -> Vec3 {
+        self.emission * self.emission_strength
     }
 }
 

@@ -1,0 +1,202 @@
+// Receivers' materials: glTF 2.0's metallic-roughness model (scene::Diffuse, ReceiverGpu).
+//
+// - Textures: each is (first texel, width, height, encoding) in `albedo_texels`, 8-bit RGBA,
+//   bilinear with repeat, looked up at the hit's interpolated UVs (`triangle_uvs`, three vec4
+//   per BVH triangle: (uv₀, uv₁), (uv₂, –), (tangent, sign)).
+// - BRDF (glTF 2.0 spec, appendix B, with KHR_materials_specular's weight s):
+//   dielectric = (1 − F_d)·c/π + F_d·D·V,  F_d = Schlick(0.04·s, s, v·h)
+//   metal      = F_m·D·V,                  F_m = Schlick(c, 1, v·h)
+//   f = mix(dielectric, metal, metallic), D = GGX, V = Smith height-correlated, α = roughness².
+// - The environment's specular light by the split sum (src/pipeline/specular.rs): the
+//   prefiltered environment along the mirror direction × (F0·A + F90·B) from the BRDF table.
+//
+// Expects the stage to declare `receivers`, `albedo_texels`, `triangle_uvs`, `triangle_normals`,
+// `env_map`, `env_sampler`, `env_specular` (texture_2d_array, SPECULAR_LEVELS layers) and
+// `brdf_lut` (array<vec2<f32>>, BRDF_LUT_SIZE²), and to import types, environment and
+// interface (shading_normal).
+
+const SPECULAR_LEVELS: f32 = 5.0;
+const BRDF_LUT_SIZE: u32 = 32u;
+// Perceptual roughness the lights see at least: a GGX lobe of α → 0 is a delta that a point
+// light never meets (its highlight would vanish, not sharpen).
+const MIN_LIGHT_ROUGHNESS: f32 = 0.03;
+
+// The inverse sRGB transfer function (IEC 61966-2-1): colour texels are stored encoded.
+fn srgb_decode(c: vec3<f32>) -> vec3<f32> {
+    return select(pow((c + 0.055) / 1.055, vec3<f32>(2.4)), c / 12.92, c <= vec3<f32>(0.04045));
+}
+
+fn has_texture(t: vec4<u32>) -> bool {
+    return t.y != 0u;
+}
+
+fn texel_of(t: vec4<u32>, x: i32, y: i32) -> vec4<f32> {
+    let size = vec2<i32>(i32(t.y), i32(t.z));
+    let c = ((vec2<i32>(x, y) % size) + size) % size;
+    let v = unpack4x8unorm(albedo_texels[t.x + u32(c.x + size.x * c.y)]);
+    if t.w == TEXEL_SRGB {
+        return vec4<f32>(srgb_decode(v.rgb), v.a);
+    }
+    return v;
+}
+
+// Bilinear lookup with repeat addressing — the twin of Texture2d::sample.
+fn texture_at(t: vec4<u32>, uv: vec2<f32>) -> vec4<f32> {
+    let f = (uv - floor(uv)) * vec2<f32>(f32(t.y), f32(t.z)) - 0.5;
+    let i = vec2<i32>(floor(f));
+    let w = f - floor(f);
+    let top = mix(texel_of(t, i.x, i.y), texel_of(t, i.x + 1, i.y), w.x);
+    let bottom = mix(texel_of(t, i.x, i.y + 1), texel_of(t, i.x + 1, i.y + 1), w.x);
+    return mix(top, bottom, w.y);
+}
+
+// The texture coordinates at a receiver hit (Möller–Trumbore's (u, v) weigh the second and
+// third corners).
+fn hit_uv(triangle: u32, u: f32, v: f32) -> vec2<f32> {
+    let a = triangle_uvs[3u * triangle];
+    let b = triangle_uvs[3u * triangle + 1u];
+    return a.xy * (1.0 - u - v) + a.zw * u + b.xy * v;
+}
+
+// Base colour (rgb) and alpha at a hit: the factors times the base colour texture.
+fn base_color_at(r: ReceiverGpu, uv: vec2<f32>) -> vec4<f32> {
+    if !has_texture(r.base_texture) {
+        return vec4<f32>(r.albedo, r.alpha);
+    }
+    let t = texture_at(r.base_texture, uv);
+    return vec4<f32>(r.albedo * t.rgb, r.alpha * t.a);
+}
+
+// The fraction of what is behind a receiver that it hides at a hit: 1 when opaque, 0 or 1 for
+// a cut-out (MASK), alpha when see-through (BLEND).
+fn coverage_of(r: ReceiverGpu, triangle: u32, u: f32, v: f32) -> f32 {
+    if (r.flags & (RECEIVER_MASK | RECEIVER_BLEND)) == 0u {
+        return 1.0;
+    }
+    let alpha = base_color_at(r, hit_uv(triangle, u, v)).a;
+    if (r.flags & RECEIVER_MASK) != 0u {
+        return select(0.0, 1.0, alpha >= r.alpha_cutoff);
+    }
+    return clamp(alpha, 0.0, 1.0);
+}
+
+// The emitted radiance at a hit.
+fn emission_at(r: ReceiverGpu, uv: vec2<f32>) -> vec3<f32> {
+    if has_texture(r.emission_texture) {
+        return r.emission * texture_at(r.emission_texture, uv).rgb;
+    }
+    return r.emission;
+}
+
+// The shading normal of a PBR receiver at a hit, on the side `facing` (the geometric normal
+// toward the viewer): its smooth normal, bent by its normal map.
+fn pbr_normal(r: ReceiverGpu, triangle: u32, u: f32, v: f32, uv: vec2<f32>, facing: vec3<f32>) -> vec3<f32> {
+    var n = shading_normal(triangle, u, v);
+    let flip = dot(n, facing) < 0.0;
+    if has_texture(r.normal_texture) {
+        let tangent = triangle_uvs[3u * triangle + 2u];
+        let t = tangent.xyz - n * dot(n, tangent.xyz);
+        if dot(t, t) > 1e-12 {
+            let tu = normalize(t);
+            let b = tangent.w * cross(n, tu);
+            var m = texture_at(r.normal_texture, uv).xyz * 2.0 - 1.0;
+            m = vec3<f32>(m.xy * r.normal_scale, m.z);
+            n = normalize(tu * m.x + b * m.y + n * m.z);
+        }
+    }
+    return select(n, -n, flip);
+}
+
+// Schlick's Fresnel from f0 to f90 at v·h.
+fn schlick(f0: vec3<f32>, f90: f32, v_h: f32) -> vec3<f32> {
+    let x = 1.0 - clamp(v_h, 0.0, 1.0);
+    let x2 = x * x;
+    return f0 + (vec3<f32>(f90) - f0) * (x2 * x2 * x);
+}
+
+fn ggx_d(n_h: f32, alpha: f32) -> f32 {
+    let a2 = alpha * alpha;
+    let f = n_h * n_h * (a2 - 1.0) + 1.0;
+    return a2 / (PI * f * f);
+}
+
+fn smith_visibility(n_l: f32, n_v: f32, alpha: f32) -> f32 {
+    let a2 = alpha * alpha;
+    let s = n_l * sqrt(n_v * n_v * (1.0 - a2) + a2) + n_v * sqrt(n_l * n_l * (1.0 - a2) + a2);
+    return select(0.0, 0.5 / s, s > 0.0);
+}
+
+// A PBR surface point: what the lights and the environment need.
+struct PbrSurface {
+    base: vec3<f32>,
+    metallic: f32,
+    roughness: f32,
+    specular: f32,
+    occlusion: f32,
+    n: vec3<f32>,
+    v: vec3<f32>,
+    n_v: f32,
+}
+
+// The BRDF's two parts for light arriving along w: (diffuse weight per irradiance ×π: the
+// share the diffuse lobe keeps, times (1 − metallic)), and the specular lobe's value.
+struct LightResponse {
+    diffuse: vec3<f32>,
+    specular: vec3<f32>,
+}
+
+fn pbr_response(s: PbrSurface, w: vec3<f32>, n_l: f32) -> LightResponse {
+    let h = normalize(w + s.v);
+    let v_h = dot(s.v, h);
+    let alpha = max(s.roughness, MIN_LIGHT_ROUGHNESS) * max(s.roughness, MIN_LIGHT_ROUGHNESS);
+    let lobe = ggx_d(max(dot(s.n, h), 0.0), alpha) * smith_visibility(n_l, s.n_v, alpha);
+    let f_d = schlick(vec3<f32>(0.04 * s.specular), s.specular, v_h);
+    let f_m = schlick(s.base, 1.0, v_h);
+    let diffuse = s.base * INV_PI * (1.0 - f_d) * (1.0 - s.metallic);
+    let specular = lobe * mix(f_d, f_m, s.metallic);
+    return LightResponse(diffuse, specular);
+}
+
+// (A, B) of the split sum at n·v and roughness: bilinear between the table's entry centres.
+fn brdf_ab(n_v: f32, roughness: f32) -> vec2<f32> {
+    let last = f32(BRDF_LUT_SIZE - 1u);
+    let f = clamp(vec2<f32>(n_v, roughness) * f32(BRDF_LUT_SIZE) - 0.5, vec2<f32>(0.0), vec2<f32>(last));
+    let i = vec2<u32>(floor(f));
+    let j = min(i + 1u, vec2<u32>(BRDF_LUT_SIZE - 1u));
+    let t = f - floor(f);
+    let row0 = mix(brdf_lut[i.y * BRDF_LUT_SIZE + i.x], brdf_lut[i.y * BRDF_LUT_SIZE + j.x], t.x);
+    let row1 = mix(brdf_lut[j.y * BRDF_LUT_SIZE + i.x], brdf_lut[j.y * BRDF_LUT_SIZE + j.x], t.x);
+    return mix(row0, row1, t.y);
+}
+
+// The environment's radiance along r convolved with the GGX lobe of `roughness`: the image
+// itself at 0, the prefiltered layers at 0.2 … 1, linear in between.
+fn prefiltered_environment(env: EnvParams, r: vec3<f32>, roughness: f32) -> vec3<f32> {
+    if env.kind == 0u {
+        return env.color * env.intensity;
+    }
+    let lod = clamp(roughness, 0.0, 1.0) * SPECULAR_LEVELS;
+    let uv = env_uv(env, r);
+    let layer = min(floor(lod), SPECULAR_LEVELS - 1.0);
+    let t = lod - layer;
+    var lower: vec3<f32>;
+    if layer < 1.0 {
+        lower = textureSampleLevel(env_map, env_sampler, uv, 0.0).rgb;
+    } else {
+        lower = textureSampleLevel(env_specular, env_sampler, uv, i32(layer) - 1, 0.0).rgb;
+    }
+    let upper = textureSampleLevel(env_specular, env_sampler, uv, i32(layer), 0.0).rgb;
+    return mix(lower, upper, t) * env.color * env.intensity;
+}
+
+// The environment's light leaving the surface: (the diffuse lobe's share of an irradiance, as
+// `LightResponse.diffuse`; the specular radiance), before occlusion.
+fn pbr_environment(s: PbrSurface, env: EnvParams) -> LightResponse {
+    let ab = brdf_ab(s.n_v, s.roughness);
+    let e_dielectric = s.specular * (0.04 * ab.x + ab.y);
+    let e_metal = s.base * ab.x + ab.y;
+    let r = reflect(-s.v, s.n);
+    let specular = prefiltered_environment(env, r, s.roughness) * mix(vec3<f32>(e_dielectric), e_metal, s.metallic);
+    let diffuse = s.base * INV_PI * (1.0 - e_dielectric) * (1.0 - s.metallic);
+    return LightResponse(diffuse, specular);
+}

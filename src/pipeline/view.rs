@@ -87,6 +87,10 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
     if inputs.caustics {
         flags |= view_flags::CAUSTICS;
     }
+    let spectrum = desc.spectrum();
+    if spectrum.spectral {
+        flags |= view_flags::SPECTRAL;
+    }
     ViewParams {
         camera: desc.camera.to_gpu(),
         grid: v.to_gpu(),
@@ -107,6 +111,7 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
         ambient: ambient.into(),
         camera_media_lo: camera_media[0],
         camera_media_hi: camera_media[1],
+        grid_dispersion: spectrum.grid_dispersion,
         ..Default::default()
     }
 }

@@ -396,10 +396,15 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
             renderer.settings.never_deposit = false;
             report["march_ms_without_deposits"] = json!(bare.stages.get("march").map(|v| Spread::of(v)));
         }
-        scenes.push(report);
         if is_seed(name) && opts.quality {
-            quality = quality_curve(&mut renderer, &mut scene, &eval, run.desc.photons)?;
+            // Each scene's caustic noise against its own 64× reference; `seed_quality` keeps seed's.
+            let curve = quality_curve(&mut renderer, &mut scene, &eval, run.desc.photons)?;
+            if name == "seed" {
+                quality = curve.clone();
+            }
+            report["quality"] = curve;
         }
+        scenes.push(report);
         if name == "seed" && opts.scaling {
             sweep = scaling(&mut renderer, &mut scene, &eval, frames.min(5), opts)?;
         }

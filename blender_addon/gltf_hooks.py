@@ -82,6 +82,9 @@ class RefraktGltfExtension:
             # Transmission alone is thin-walled in glTF; Cycles' glass is a solid, so say so (the
             # thickness is a hint for rasterizers; refrakt traces the real geometry).
             self._add(ext, "KHR_materials_volume", {"thicknessFactor": 1.0})
+        abbe = blender_material.refrakt.abbe
+        if abbe > 0 and _has(ext, "KHR_materials_transmission"):
+            self._add(ext, "KHR_materials_dispersion", {"dispersion": 20.0 / abbe})
         if medium and any(medium.get("absorption", ())) and _has(ext, "KHR_materials_transmission"):
             color, distance = extras.attenuation(medium["absorption"])
             # Thickness matters only to rasterizers that fake refraction; without one a viewer

@@ -273,6 +273,17 @@ class RefraktMaterialSettings(bpy.types.PropertyGroup):
         ),
         default="AUTO",
     )
+    # Neither Blender 4.x nor 5.0 has a dispersion setting on its glass BSDFs (checked with bpy
+    # 4.5.15 and 5.0.1), so it lives here and goes out as KHR_materials_dispersion.
+    abbe: FloatProperty(
+        name="Abbe Number",
+        description="Dispersion of the glass as its Abbe number V_d (crown glass 59, flint 36, diamond 55, "
+        "lower disperses more); 0: none. Exported as KHR_materials_dispersion (20 / V_d)",
+        default=0.0,
+        min=0.0,
+        soft_min=5.0,
+        soft_max=100.0,
+    )
 
 
 class RefraktViewLayerSettings(bpy.types.PropertyGroup):

@@ -227,6 +227,7 @@ class MATERIAL_PT_refrakt(PropertiesPanel, bpy.types.Panel):
                 layout.label(text=w, icon="ERROR")
         layout.prop(s, "boundary")
         layout.prop(s, "surface")
+        layout.prop(s, "abbe")
 
 
 READING_TITLES = {

@@ -13,6 +13,7 @@
 // chart), `filter_charts` (one thread per texel).
 
 #import shared/types.wgsl
+#import shared/spectrum.wgsl
 
 @group(0) @binding(0) var<uniform> params: CausticParams;
 @group(0) @binding(1) var<storage, read> charts: array<Chart>;
@@ -149,6 +150,10 @@ fn filter_charts(@builtin(global_invocation_id) id: vec3<u32>) {
             previous = next;
             r *= 2;
         }
+    }
+    if params.spectral != 0u {
+        // Spectral photons deposited XYZ (shared/spectrum.wgsl).
+        result = vec4<f32>(xyz_to_rgb(result.rgb), result.w);
     }
     caustic_irradiance[chart.offset + id.x + chart.width * id.y] = result;
 }

@@ -20,6 +20,10 @@
 // one texel or voxel stays below 2³¹; beyond that an accumulator saturates (the add is undone
 // and counted in the statistics), it never wraps.
 //
+// With dispersion in the frame (MARCH_FLAG_SPECTRAL) each photon carries one wavelength and its
+// flux becomes the XYZ of that wavelength (`spectral_flux`); indices, tints and absorption are
+// taken at it, and the caustics stage and `resolve` turn the XYZ sums into linear sRGB.
+//
 // `resolve` turns the radiance grid into the filtered textures the view pass samples.
 
 #import shared/types.wgsl
@@ -247,15 +251,37 @@ const NO_HIT: f32 = 3.4e38;
 const MAX_EVENTS: u32 = 64u;
 
 // Extinction over a segment: the grid's media at its midpoint and the interface medium the
-// photon is inside.
+// photon is inside (at the photon's wavelength, when it has one).
 fn segment_extinction(a: vec3<f32>, b: vec3<f32>, media: Media) -> vec3<f32> {
-    return sample_grid(extinction_grid, grid_sampler, params.grid, 0.5 * (a + b)).rgb + media.absorption;
+    return at_wavelength(sample_grid(extinction_grid, grid_sampler, params.grid, 0.5 * (a + b)).rgb + media.absorption);
+}
+
+// A spectral photon's wavelength and flux: photon i takes the i-th point of a golden-ratio
+// sequence (exact in 32-bit fixed point; any run of consecutive photons covers the spectrum
+// evenly), shifted per frame seed, mapped through the visible-wavelength density — or spread
+// uniformly over [band_min, band_max] — and carries x̄ȳz̄(λ)·S(λ)/p(λ) of its light's rgb flux,
+// whose expectation is that flux's XYZ. Sets the path's wavelength for the interfaces and the
+// grid. An RGB frame's photons keep their flux as it is.
+fn spectral_flux(flux: vec3<f32>, index: u32) -> vec3<f32> {
+    if (params.flags & MARCH_FLAG_SPECTRAL) == 0u {
+        return flux;
+    }
+    let u = fract(f32(index * 0x9e3779b9u) * 2.3283064e-10 + random01(params.seed, 0u, 200u));
+    var lambda = sample_wavelength(u);
+    var pdf = wavelength_pdf(lambda);
+    if params.band_max > 0.0 {
+        lambda = mix(params.band_min, params.band_max, u);
+        pdf = 1.0 / (params.band_max - params.band_min);
+    }
+    path_wavelength = lambda;
+    grid_dispersion_scale = dispersion_scale(params.grid_dispersion, lambda);
+    return cmf(lambda) * (uplift(flux, lambda) / (pdf * Y_INTEGRAL));
 }
 
 // One photon (the index-th of the frame) from its light to where it ends; returns the steps it
 // took.
 fn march_photon(photon: Photon, index: u32) -> u32 {
-    var flux = photon.flux;
+    var flux = spectral_flux(photon.flux, index);
     stat_flux(STAT_EMITTED, flux);
     let grid = params.grid;
     var d = photon.dir;
@@ -303,7 +329,7 @@ fn march_photon(photon: Photon, index: u32) -> u32 {
                 flux *= c.reflected_share;
             } else {
                 d = c.transmitted;
-                flux *= c.tint * c.transmitted_share;
+                flux *= at_wavelength(c.tint) * c.transmitted_share;
                 media = c.beyond;
             }
             refracted = true;
@@ -396,6 +422,8 @@ fn resolve(@builtin(global_invocation_id) id: vec3<u32>) {
     let lum = (sums.r + sums.g + sums.b) / 3.0;
     // The luminance-weighted mean direction: its length (≤ 1) says how collimated the light is.
     let mean_dir = select(vec3<f32>(0.0), dir_sum / lum, lum > 0.0);
-    textureStore(fluence_grid, id, vec4<f32>(fluence, 0.0));
+    // Spectral photons deposited XYZ.
+    let rgb = select(fluence, xyz_to_rgb(fluence), (params.flags & MARCH_FLAG_SPECTRAL) != 0u);
+    textureStore(fluence_grid, id, vec4<f32>(rgb, 0.0));
     textureStore(direction_grid, id, vec4<f32>(mean_dir, 0.0));
 }

@@ -81,6 +81,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let grid = params.grid;
     let ray = rays[r];
+    path_wavelength = ray.wavelength;
+    grid_dispersion_scale = dispersion_scale(ray.grid_dispersion, ray.wavelength);
     let span = ray_box(ray.origin, ray.dir, grid.origin, grid_box_max(grid));
     let base = r * params.records_per_ray;
     var s = ray_start(ior_grid, grid_sampler, grid, ray.origin + ray.dir * max(span.x, 0.0), ray.dir);

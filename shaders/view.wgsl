@@ -21,6 +21,7 @@
 // beauty = caustic + direct + volume + the environment seen through (and around) the media.
 // Each pixel averages `samples` rays at fixed sub-pixel offsets (the R2 sequence), so edges are
 // antialiased, soft shadows are sampled, and an unchanged pixel renders identically every frame.
+// With dispersion in the frame, each sample also carries a wavelength (`sample_wavelength_of`).
 
 #import shared/types.wgsl
 #import shared/grid.wgsl
@@ -469,6 +470,7 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
             if is_medium(s.g, extinction) {
                 first_depth(out, x0);
             }
+            path_dispersed = path_dispersed || (grid_dispersion_scale != 1.0 && s.g.w - 1.0 > params.eps_refract);
             if on_surface {
                 let hit = ahead_of.hit;
                 if hit.interface_id == NO_INTERFACE {
@@ -555,7 +557,37 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
     end_in_environment(out, b);
 }
 
+// Dispersion (VIEW_FLAG_SPECTRAL): camera sample k of a pixel carries one wavelength — a hero
+// wavelength per pixel (hashed), with the pixel's other samples as its companions, spaced
+// evenly over the spectrum (the rotation of Wilkie et al. 2014's hero wavelengths). Dispersive
+// glass sends each wavelength its own way, so each companion is traced as a sample of its own.
+fn sample_wavelength_of(k: u32) {
+    path_dispersed = false;
+    if !has(VIEW_FLAG_SPECTRAL) {
+        return;
+    }
+    let u = fract(random01(0x5bd1e995u, pixel_key, 0u) + f32(k) / f32(params.samples));
+    path_wavelength = sample_wavelength(u);
+    grid_dispersion_scale = dispersion_scale(params.grid_dispersion, path_wavelength);
+}
+
+// A sample that met dispersion becomes what its wavelength contributes: its rgb as a spectrum
+// at λ, through the colour matching functions, back to rgb (its mean over λ is that rgb). A
+// sample that met none keeps its rgb exactly, so only what dispersion touched is spectral.
+fn spectral_sample(s: ViewSample) -> ViewSample {
+    if !path_dispersed {
+        return s;
+    }
+    var out = s;
+    out.radiance = xyz_to_rgb(sample_xyz(s.radiance, path_wavelength));
+    out.caustic = xyz_to_rgb(sample_xyz(s.caustic, path_wavelength));
+    out.direct = xyz_to_rgb(sample_xyz(s.direct, path_wavelength));
+    out.volume = xyz_to_rgb(sample_xyz(s.volume, path_wavelength));
+    return out;
+}
+
 fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
+    sample_wavelength_of(k);
     var out = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
     var stack: array<Branch, BRANCH_STACK>;
     var top = 0u;
@@ -570,7 +602,7 @@ fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
         branch = stack[top];
     }
     out.radiance += out.volume;
-    return out;
+    return spectral_sample(out);
 }
 
 // The ray-equation steps of this workgroup's pixels, (low, high) words: one global add per

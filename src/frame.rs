@@ -127,6 +127,15 @@ impl IndexSamples {
     }
 }
 
+/// How a frame carries light (`FrameDesc::spectrum`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Spectrum {
+    /// Some glass disperses: photons and camera samples carry wavelengths.
+    pub spectral: bool,
+    /// KHR dispersion (20/V_d) of the media in the index grid.
+    pub grid_dispersion: f32,
+}
+
 /// One analytic index field in world space.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FieldDesc {
@@ -158,6 +167,8 @@ pub struct FieldDesc {
     pub roughness: f32,
     /// A sharp surface that is a thin shell with no inside (a bubble: `Glass::thin`).
     pub thin: bool,
+    /// KHR dispersion, 20/V_d (`Glass::dispersion`); 0: none.
+    pub dispersion: f32,
 }
 
 impl FieldDesc {
@@ -329,6 +340,15 @@ impl FrameDesc {
                 ));
             }
         }
+        let grid = self.grid_dispersions();
+        if grid.iter().any(|&(_, d)| d != grid[0].1) {
+            let names: Vec<String> = grid.iter().map(|(n, d)| format!("\"{n}\" {d}")).collect();
+            out.push(format!(
+                "gradient-index and voxelized media share one dispersion per frame, the largest: {} (objects with a sharp \
+                 surface keep their own)",
+                names.join(", ")
+            ));
+        }
         if self.photons == 0 && !self.lights.is_empty() && (!self.receivers.is_empty() || self.fog.is_some()) {
             out.push("photons = 0: no caustics or light shafts are traced (set scene.photons or --photons)".into());
         }
@@ -356,6 +376,22 @@ impl FrameDesc {
         if let (EnvironmentSource::Image { image, .. }, Some(old)) = (&mut self.environment.source, earlier.environment.image()) {
             share_if_equal(image, &[old]);
         }
+    }
+
+    /// Whether the frame's light is spectral (some glass disperses), and the dispersion of the
+    /// media in the index grid: gradient-index fields and voxelized solids share one per frame,
+    /// the largest among them (`warnings` says when they differ); sharp glass keeps its own on
+    /// its interface record.
+    pub fn spectrum(&self) -> Spectrum {
+        let sharp = self.fields.iter().filter(|f| f.sharp).map(|f| f.dispersion).chain(self.meshes.iter().filter(|m| m.sharp).map(|m| m.glass.dispersion));
+        let grid_dispersion = self.grid_dispersions().iter().map(|&(_, d)| d).fold(0.0, f32::max);
+        Spectrum { spectral: grid_dispersion > 0.0 || sharp.fold(0.0, f32::max) > 0.0, grid_dispersion }
+    }
+
+    /// (name, dispersion) of each object whose index is in the grid, not on a sharp surface.
+    fn grid_dispersions(&self) -> Vec<(&str, f32)> {
+        let fields = self.fields.iter().filter(|f| !f.sharp).map(|f| (f.name.as_str(), f.dispersion));
+        fields.chain(self.meshes.iter().filter(|m| !m.sharp).map(|m| (m.name.as_str(), m.glass.dispersion))).collect()
     }
 
     /// Whether anything absorbs or scatters (so rays must sample the medium grids).

@@ -53,7 +53,7 @@ enum Command {
 
 #[derive(Args)]
 struct BenchArgs {
-    /// Scenes to run: built-in ones (seed, heavy, grin) or scene files (examples/default.lua);
+    /// Scenes to run: built-in ones (seed, seed-dispersion, heavy, grin) or scene files (examples/default.lua);
     /// `watch` measures `refrakt watch`'s edit-to-image latency on examples/default.lua (up to
     /// 10 edits of each kind, --frames); `serve` the frames/s `refrakt serve` delivers to a
     /// WebSocket client while orbiting and while dragging a light on `seed`, and where they go.

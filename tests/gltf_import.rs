@@ -107,10 +107,10 @@ fn a_scene_is_chosen_by_name_or_the_files_default() {
 fn material_scene(materials: &[(&str, serde_json::Value)]) -> GltfBuilder {
     let mut g = GltfBuilder::new();
     // Required extensions refrakt reads are accepted; unknown ones used (not required) warn.
-    for ext in ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume"] {
+    for ext in ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume", "KHR_materials_dispersion"] {
         g.uses(ext, true);
     }
-    g.uses("KHR_materials_dispersion", false);
+    g.uses("KHR_materials_specular", false);
     let mut roots = Vec::new();
     for (i, (name, m)) in materials.iter().enumerate() {
         let mi = g.push("materials", m.clone());
@@ -132,6 +132,7 @@ fn transmission_ior_and_volume_make_glass_with_beer_lambert_absorption() {
         ("glass", json!({ "extensions": {
             "KHR_materials_transmission": { "transmissionFactor": 1.0 },
             "KHR_materials_ior": { "ior": 1.33 },
+            "KHR_materials_dispersion": { "dispersion": 0.625 },
             "KHR_materials_volume": { "thicknessFactor": 0.1, "attenuationColor": c, "attenuationDistance": d } } })),
         ("clear", json!({ "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } } })),
         ("override", json!({ "extensions": {
@@ -145,13 +146,14 @@ fn transmission_ior_and_volume_make_glass_with_beer_lambert_absorption() {
     let s = load(&g.write_glb(&dir.path().join("m.glb"))).scene;
     let Material::Glass(glass) = material_of(&s, "glass") else { panic!("glass") };
     assert_eq!(glass.ior, 1.33);
+    assert_eq!(glass.dispersion, 0.625, "KHR_materials_dispersion: 20/V_d as it is");
     // Beer–Lambert: exp(−σ d) = c, per channel, computed here in f64.
     for (k, &ck) in c.iter().enumerate() {
         let sigma = -(ck as f64).ln() / d as f64;
         assert!((glass.absorption[k] as f64 - sigma).abs() < 1e-5 * sigma, "channel {k}: {} vs {sigma}", glass.absorption[k]);
     }
     let Material::Glass(clear) = material_of(&s, "clear") else { panic!("clear") };
-    assert_eq!((clear.ior, clear.absorption), (1.5, Vec3::ZERO), "KHR_materials_ior's default and no volume");
+    assert_eq!((clear.ior, clear.absorption, clear.dispersion), (1.5, Vec3::ZERO, 0.0), "KHR_materials_ior's default, no volume, no dispersion");
     let Material::Glass(o) = material_of(&s, "override") else { panic!("override") };
     assert_eq!((o.absorption, o.scattering, o.g), (Vec3::new(0.4, 0.2, 0.0), Vec3::splat(0.1), 0.3), "extras win over the volume");
     let shape = s.find("override").unwrap().borrow().shape.as_ref().unwrap().borrow().clone();
@@ -162,7 +164,21 @@ fn transmission_ior_and_volume_make_glass_with_beer_lambert_absorption() {
     assert_eq!(paint.color, Vec3::new(0.2, 0.4, 0.6));
     let path = dir.path().join("m.glb");
     let import = refrakt::gltf::import(&path, "m.glb", &refrakt::lua::sandbox::FileAccess::new(dir.path(), &[]).unwrap(), &ImportOptions::default()).unwrap();
-    assert!(import.warnings.iter().any(|w| w.contains("KHR_materials_dispersion is not supported")), "{:?}", import.warnings);
+    assert!(import.warnings.iter().any(|w| w.contains("KHR_materials_specular is not supported")), "{:?}", import.warnings);
+    assert!(!import.warnings.iter().any(|w| w.contains("KHR_materials_dispersion")), "{:?}", import.warnings);
+}
+
+#[test]
+fn a_negative_or_non_numeric_dispersion_is_refused_with_its_material() {
+    for bad in [json!(-0.5), json!("strong")] {
+        let g = material_scene(&[("prism", json!({ "extensions": {
+            "KHR_materials_transmission": { "transmissionFactor": 1.0 },
+            "KHR_materials_dispersion": { "dispersion": bad } } }))]);
+        let dir = tempfile::tempdir().unwrap();
+        let path = g.write_glb(&dir.path().join("m.glb"));
+        let e = format!("{:#}", load_with(&path, &ImportOptions::default()).err().expect("refused"));
+        assert!(e.contains("KHR_materials_dispersion dispersion") && e.contains("m.glb"), "{e}");
+    }
 }
 
 #[test]

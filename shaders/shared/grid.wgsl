@@ -25,12 +25,21 @@ fn ray_box(origin: vec3<f32>, dir: vec3<f32>, box_min: vec3<f32>, box_max: vec3<
     return vec2<f32>(max(max(lo.x, lo.y), lo.z), min(min(hi.x, hi.y), hi.z));
 }
 
+// Dispersion of the gradient-index media along the path being traced: n(λ) − 1 = (n − 1)·k,
+// ∇n(λ) = ∇n·k, k = (n(λ) − 1)/(n_d − 1) from KHR_materials_dispersion's formula at the
+// path's wavelength (see spectrum.wgsl). 1 (no dispersion) leaves the grid's values as they are.
+var<private> grid_dispersion_scale: f32 = 1.0;
+
 // (∇n, n) at x, trilinearly filtered from the rgba16float ior_grid.
 fn sample_ior(ior_grid: texture_3d<f32>, lin: sampler, grid: GridParams, x: vec3<f32>) -> vec4<f32> {
     if !in_grid(grid, x) {
         return vec4<f32>(0.0, 0.0, 0.0, 1.0);
     }
-    return textureSampleLevel(ior_grid, lin, grid_uvw(grid, x), 0.0);
+    let g = textureSampleLevel(ior_grid, lin, grid_uvw(grid, x), 0.0);
+    if grid_dispersion_scale == 1.0 {
+        return g;
+    }
+    return vec4<f32>(g.xyz * grid_dispersion_scale, 1.0 + (g.w - 1.0) * grid_dispersion_scale);
 }
 
 // Any trilinearly filtered rgba grid (extinction, scattering), zero outside the box.

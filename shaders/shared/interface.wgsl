@@ -10,9 +10,14 @@
 // interfaces it has entered (crossing a surface of the object on top leaves it; any other
 // enters it), so nested objects (ice in water) work to a depth of MEDIA_DEPTH.
 //
+// With dispersion, the index of each medium is the one at the path's wavelength
+// (shared/spectrum.wgsl: `path_wavelength`, 0 for an RGB path, which keeps `ior` exactly).
+//
 // Expects the stage to declare `interfaces: array<Interface>`, `triangle_normals:
 // array<vec4<f32>>` (3 per BVH triangle), and what shared/bvh.wgsl needs. The CPU twin is
 // src/cpu/interface.rs.
+
+#import shared/spectrum.wgsl
 
 const NO_INTERFACE: u32 = 0xffffffffu;
 const MEDIA_DEPTH: u32 = 4u;
@@ -167,7 +172,7 @@ fn media_top(m: Media) -> Media {
     out.absorption = vec3<f32>(0.0);
     if out.depth > 0u {
         let f = interfaces[media_id(out, out.depth - 1u)];
-        out.ior = f.ior;
+        out.ior = interface_ior(f);
         out.absorption = f.absorption;
     }
     return out;
@@ -198,6 +203,11 @@ fn media_crossed(m: Media, i: u32) -> Media {
         out.depth += 1u;
     }
     return media_top(out);
+}
+
+// An interface's index at the path's wavelength.
+fn interface_ior(f: Interface) -> f32 {
+    return ior_at(f.ior, f.dispersion, path_wavelength);
 }
 
 // Unpolarized Fresnel reflectance for cos θᵢ (> 0) and η = n₂/n₁; 1 past the critical angle.
@@ -275,7 +285,10 @@ fn cross_interface(d: vec3<f32>, hit: SurfaceHit, media: Media, u: vec2<f32>) ->
     let thin = (f.kind & INTERFACE_THIN) != 0u;
     // A sheet's far side is the medium it stands in; its own glass sets the reflectance.
     var beyond = media;
-    var eta = f.ior / media.ior;
+    var eta = interface_ior(f) / media.ior;
+    if f.dispersion > 0.0 && path_wavelength > 0.0 {
+        path_dispersed = true;
+    }
     if !thin {
         beyond = media_crossed(media, hit.interface_id);
         eta = beyond.ior / media.ior;

@@ -50,7 +50,7 @@ struct ViewParams {
     camera_media_hi: u32,
     sample_first: u32,
     sample_count: u32,
-    _pad0: u32,
+    grid_dispersion: f32,
     _pad1: u32,
 }
 
@@ -124,9 +124,9 @@ struct ProbeParams {
 
 struct ProbeRay {
     origin: vec3<f32>,
-    _pad0: f32,
+    wavelength: f32,
     dir: vec3<f32>,
-    _pad1: f32,
+    grid_dispersion: f32,
 }
 
 struct ProbeRecord {
@@ -160,6 +160,10 @@ struct Interface {
     ior: f32,
     absorption: vec3<f32>,
     roughness: f32,
+    dispersion: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 struct ReceiverGpu {
@@ -275,6 +279,10 @@ struct MarchParams {
     receiver_count: u32,
     max_path: f32,
     seed: u32,
+    grid_dispersion: f32,
+    band_min: f32,
+    band_max: f32,
+    _pad0: u32,
 }
 
 struct CausticParams {
@@ -283,7 +291,7 @@ struct CausticParams {
     fixed_radius: u32,
     max_radius: u32,
     flux_unit: f32,
-    _pad0: u32,
+    spectral: u32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -307,9 +315,11 @@ const VIEW_FLAG_SCATTERING: u32 = 2u;
 const VIEW_FLAG_CAUSTICS: u32 = 4u;
 const VIEW_FLAG_SEE_THROUGH: u32 = 8u;
 const VIEW_FLAG_SPECULAR: u32 = 16u;
+const VIEW_FLAG_SPECTRAL: u32 = 32u;
 
 const MARCH_FLAG_DEPOSIT_RADIANCE: u32 = 1u;
 const MARCH_FLAG_DEPOSIT_DIRECTION: u32 = 2u;
+const MARCH_FLAG_SPECTRAL: u32 = 4u;
 
 const LIGHT_POINT: u32 = 0u;
 const LIGHT_SPOT: u32 = 1u;

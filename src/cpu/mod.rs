@@ -7,3 +7,4 @@ pub mod interface;
 pub mod mesh;
 pub mod octree;
 pub mod ray;
+pub mod spectrum;

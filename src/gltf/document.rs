@@ -13,6 +13,7 @@ use gltf::json::validation::Validate;
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
+    "KHR_materials_dispersion",
     "KHR_materials_ior",
     "KHR_materials_specular",
     "KHR_materials_transmission",

@@ -187,6 +187,7 @@ impl<'a> Materials<'a> {
         if let Some(g) = medium.g {
             glass.g = g;
         }
+        glass.dispersion = dispersion(m, file, what)?;
         if transmission > 0.0 {
             glass.roughness = transmission_roughness(m, file, what, warnings)?;
             glass.thin = medium.thin.or(thin_walled(m));
@@ -240,6 +241,19 @@ fn thin_walled(m: &gltf::Material) -> Option<bool> {
         Some(v) if v.thickness_factor() > 0.0 || v.attenuation_distance().is_finite() => None,
         _ => Some(true),
     }
+}
+
+/// KHR_materials_dispersion: `dispersion` = 20/V_d (default 0, none), any value ≥ 0.
+fn dispersion(m: &gltf::Material, file: &str, what: &str) -> Result<f32> {
+    let Some(ext) = m.extension_value("KHR_materials_dispersion") else { return Ok(0.0) };
+    let d = match ext.get("dispersion") {
+        None => return Ok(0.0),
+        Some(v) => v.as_f64().ok_or_else(|| anyhow!("{file}: {what}: KHR_materials_dispersion dispersion must be a number, got {v}"))?,
+    };
+    if !(0.0..=20.0).contains(&d) {
+        bail!("{file}: {what}: KHR_materials_dispersion dispersion is {d}; it is 20/V_d (V_d the Abbe number), from 0 (none) to 20");
+    }
+    Ok(d as f32)
 }
 
 /// KHR_materials_volume: white light turns attenuationColor c after attenuationDistance d, so

@@ -100,7 +100,8 @@ gpu_struct! {
         /// (all of `samples` in one dispatch, except on CPU adapters: `view::samples_per_dispatch`).
         pub sample_first: u32,
         pub sample_count: u32,
-        pub _pad0: u32,
+        /// KHR dispersion (20/V_d) of the gradient-index media in the grid (spectral frames).
+        pub grid_dispersion: f32,
         pub _pad1: u32,
     }
 }
@@ -215,12 +216,14 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// A ray handed to the probe kernel: world-space origin and unit direction.
+    /// A ray handed to the probe kernel: world-space origin and unit direction; with a
+    /// `wavelength` (nm, > 0) it sees dispersive glass at that wavelength, and the grid's
+    /// gradient-index media with KHR dispersion `grid_dispersion` (`shared/spectrum.wgsl`).
     pub struct ProbeRay {
         pub origin: [f32; 3],
-        pub _pad0: f32,
+        pub wavelength: f32,
         pub dir: [f32; 3],
-        pub _pad1: f32,
+        pub grid_dispersion: f32,
     }
 }
 
@@ -277,6 +280,11 @@ gpu_struct! {
         pub absorption: [f32; 3],
         /// GGX roughness (α = roughness²); 0 is a polished surface.
         pub roughness: f32,
+        /// KHR dispersion, 20/V_d: the index at wavelength λ is `cpu::spectrum::ior_at`; 0: none.
+        pub dispersion: f32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+        pub _pad2: u32,
     }
 }
 
@@ -442,6 +450,13 @@ gpu_struct! {
         /// The frame's photon seed: interface events draw reflect-or-refract from
         /// hash(seed, photon, event).
         pub seed: u32,
+        /// KHR dispersion (20/V_d) of the gradient-index media in the grid, for spectral photons.
+        pub grid_dispersion: f32,
+        /// Spectral photons' wavelengths: uniform in [band_min, band_max] nm when band_max > 0
+        /// (narrow-band tests), else over the visible spectrum (`cpu::spectrum`).
+        pub band_min: f32,
+        pub band_max: f32,
+        pub _pad0: u32,
     }
 }
 
@@ -456,7 +471,8 @@ gpu_struct! {
         pub max_radius: u32,
         /// W per fixed-point unit of deposited flux.
         pub flux_unit: f32,
-        pub _pad0: u32,
+        /// 1: the deposits are XYZ of spectral photons, written out as linear sRGB.
+        pub spectral: u32,
         pub _pad1: u32,
         pub _pad2: u32,
     }
@@ -517,6 +533,8 @@ pub mod view_flags {
     pub const SEE_THROUGH: u32 = 8;
     /// Some receiver has a specular lobe: the prefiltered environment is bound.
     pub const SPECULAR: u32 = 16;
+    /// Some glass disperses: each camera sample carries a wavelength (`shaders/view.wgsl`).
+    pub const SPECTRAL: u32 = 32;
 }
 
 /// `MarchParams::flags` bits.
@@ -526,6 +544,8 @@ pub mod march_flags {
     /// Also deposit the photons' mean direction (only needed when a scattering medium is
     /// anisotropic, g ≠ 0: an isotropic phase function does not look at it). Half the atomics.
     pub const DEPOSIT_DIRECTION: u32 = 2;
+    /// Some glass disperses: each photon carries one wavelength and XYZ flux.
+    pub const SPECTRAL: u32 = 4;
 }
 
 /// Light kinds (`LightGpu::kind`).

@@ -456,7 +456,7 @@ impl LuaObject for Shape {
 // ---------------------------------------------------------------------------------------------
 // Materials.
 
-const GLASS_FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin"];
+const GLASS_FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin", "dispersion", "abbe"];
 
 impl LuaObject for Material {
     fn kind(&self) -> &'static str {
@@ -480,6 +480,9 @@ impl LuaObject for Material {
             (Material::Glass(g), "tint") => vec_value(lua, g.tint),
             (Material::Glass(g), "roughness") => Ok(number_value(g.roughness)),
             (Material::Glass(g), "thin") => Ok(g.thin.map_or(Value::Nil, Value::Boolean)),
+            (Material::Glass(g), "dispersion") => Ok(number_value(g.dispersion)),
+            // The Abbe number V_d = 20/dispersion; nil without dispersion.
+            (Material::Glass(g), "abbe") => Ok(if g.dispersion > 0.0 { number_value(20.0 / g.dispersion) } else { Value::Nil }),
             // Transmittance over one metre (the color a 1 m thick piece has).
             (Material::Glass(g), "color") => vec_value(lua, (-g.absorption).exp()),
             (Material::Glass(_), "distance") => Ok(Value::Number(1.0)),
@@ -521,6 +524,16 @@ impl LuaObject for Material {
                     }
                 }
             }
+            (Material::Glass(g), "dispersion") => {
+                g.dispersion = cv::number_in(lua, name, &value, Some(0.0), Some(20.0), "20/V_d (KHR_materials_dispersion), from 0 (none) to 20")? as f32
+            }
+            (Material::Glass(g), "abbe") => {
+                let abbe = match value {
+                    Value::Nil => 0.0,
+                    _ => cv::number_in(lua, name, &value, Some(1.0), Some(1e6), "an Abbe number V_d ≥ 1 (crown glass 59, flint 36, diamond 55), or nil for none")?,
+                };
+                g.dispersion = crate::cpu::spectrum::dispersion_from_abbe(abbe as f32);
+            }
             (Material::Glass(g), "g") => {
                 g.g = cv::number_in(lua, name, &value, Some(-0.99), Some(0.99), "a number from −0.99 to 0.99")? as f32
             }
@@ -555,6 +568,9 @@ pub fn new_glass(lua: &Lua, table: Option<Table>) -> mlua::Result<Obj<Material>>
                     color = Some(cv::color(lua, FieldName { what: "glass", field: "color" }, &v)?);
                 }
                 Some("distance") => distance = cv::positive(lua, FieldName { what: "glass", field: "distance" }, &v)?,
+                Some("abbe") if t.contains_key("dispersion")? => {
+                    return Err(error_at(lua, "give glass either abbe (V_d) or dispersion (20/V_d), not both"));
+                }
                 _ => rest.raw_set(k, v)?,
             }
         }

@@ -49,7 +49,7 @@ impl Caustics {
     }
 
     /// `flux_unit`: watts per fixed-point unit of deposited flux.
-    pub fn encode(&mut self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder, profiler: &mut Profiler, receivers: &Receivers, filter: CausticFilter, flux_unit: f32) {
+    pub fn encode(&mut self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder, profiler: &mut Profiler, receivers: &Receivers, filter: CausticFilter, flux_unit: f32, spectral: bool) {
         let charts = &receivers.layout.charts;
         if charts.is_empty() {
             return;
@@ -64,6 +64,7 @@ impl Caustics {
             fixed_radius,
             max_radius: MAX_RADIUS,
             flux_unit,
+            spectral: spectral as u32,
             ..Default::default()
         };
         ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));

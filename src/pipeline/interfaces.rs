@@ -33,6 +33,7 @@ pub fn table(desc: &FrameDesc) -> Vec<Interface> {
         ior: m.glass.ior,
         absorption: m.glass.absorption.into(),
         roughness: m.glass.roughness,
+        dispersion: m.glass.dispersion,
         ..Default::default()
     });
     analytic.chain(meshes).chain(std::iter::once(Interface::default())).collect()
@@ -52,6 +53,8 @@ fn analytic_record(f: &FieldDesc) -> Interface {
         ior: f.ior,
         absorption: f.absorption.into(),
         roughness: f.roughness,
+        dispersion: f.dispersion,
+        ..Default::default()
     }
 }
 

@@ -9,6 +9,7 @@ use super::photons::{EPS_REFRACT, Photons};
 use super::receivers::Receivers;
 use super::resources::{GRID_FORMAT, Grids, RadianceGrid};
 use super::timing::Profiler;
+use crate::frame::Spectrum;
 use crate::gpu::GpuContext;
 use crate::gpu::readback::Staging;
 use crate::gpu::shaders::ShaderLibrary;
@@ -207,12 +208,25 @@ impl March {
     }
 
     /// The statistics of the frame submitted into readback `slot`, in watts.
+    /// Makes `params` spectral when the frame disperses (`FrameDesc::spectrum`): photons carry
+    /// wavelengths, over the visible spectrum or uniformly over `band` (nm; tests).
+    pub fn with_spectrum(params: MarchParams, spectrum: Spectrum, band: Option<(f32, f32)>) -> MarchParams {
+        if !spectrum.spectral {
+            return params;
+        }
+        let (band_min, band_max) = band.unwrap_or((0.0, 0.0));
+        MarchParams { flags: params.flags | march_flags::SPECTRAL, grid_dispersion: spectrum.grid_dispersion, band_min, band_max, ..params }
+    }
+
     pub fn read_stats(&self, ctx: &GpuContext, params: &MarchParams, slot: usize) -> Result<PhotonStats> {
         let bytes = self.stats_staging[slot].read(ctx, STAT_WORDS * 4)?;
         let words: &[u32] = bytemuck::cast_slice(&bytes);
         let wide = |k: usize| (words[2 * k] as u64 | ((words[2 * k + 1] as u64) << 32)) as f64;
+        let spectral = params.flags & march_flags::SPECTRAL != 0;
         let watts = |first: usize| {
-            [0, 1, 2].map(|c| wide(first + c) * params.flux_unit as f64 / params.flux_scale as f64)
+            let sums = [0, 1, 2].map(|c| wide(first + c) * params.flux_unit as f64 / params.flux_scale as f64);
+            // Spectral photons' sums are XYZ.
+            if spectral { crate::cpu::spectrum::xyz_to_rgb(glam::DVec3::from(sums).as_vec3()).as_dvec3().to_array() } else { sums }
         };
         Ok(PhotonStats { emitted: watts(0), received: watts(3), caustic: watts(6), escaped: watts(9), saturated: wide(12) as u64, steps: wide(13) as u64 })
     }

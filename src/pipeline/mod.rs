@@ -30,7 +30,7 @@ use glam::UVec3;
 use crate::frame::FrameDesc;
 use crate::gpu::GpuContext;
 use crate::gpu::shaders::ShaderLibrary;
-use crate::gpu::types::MarchParams;
+use crate::gpu::types::{MarchParams, march_flags};
 use crate::output::{Image, Layers};
 use caustics::CausticFilter;
 use lights::LightBuffers;
@@ -90,6 +90,8 @@ pub struct RenderSettings {
     /// Skip the volume and photon stages when their inputs equal the last frame's (see
     /// [`reuse`]); off, every frame runs every stage (benchmarks time each stage).
     pub reuse_unchanged: bool,
+    /// Spectral photons only in this band, nm (tests); `None`: the visible spectrum.
+    pub wavelength_band: Option<(f32, f32)>,
 }
 
 impl Default for RenderSettings {
@@ -101,6 +103,7 @@ impl Default for RenderSettings {
             never_deposit: false,
             fixed_point_headroom: march::MAX_RELATIVE_FLUX,
             reuse_unchanged: true,
+            wavelength_band: None,
         }
     }
 }
@@ -474,10 +477,8 @@ impl Renderer {
             self.radiance.as_ref().expect("prepared"),
             self.target.as_ref().expect("prepared"),
         );
-        let march_params = MarchParams {
-            seed: self.settings.photon_seed,
-            ..march::March::params(grids, desc.photons, flux_unit, deposit, anisotropic_scattering(desc), desc.receivers.len() as u32, self.settings.fixed_point_headroom)
-        };
+        let base = MarchParams { seed: self.settings.photon_seed, ..march::March::params(grids, desc.photons, flux_unit, deposit, anisotropic_scattering(desc), desc.receivers.len() as u32, self.settings.fixed_point_headroom) };
+        let march_params = march::March::with_spectrum(base, desc.spectrum(), self.settings.wavelength_band);
         let (volume_key, photon_key) = self.stage_keys(desc);
         let mut reused = self.reuse_of(&volume_key, &photon_key);
         reused.photons &= photons;
@@ -499,7 +500,8 @@ impl Renderer {
             self.photons.encode(&self.ctx, &mut enc, &mut self.profiler, grids, &self.lights, desc.photons, seed, scattering); // lights, octree → photons
             self.march.encode(&self.ctx, &mut enc, &mut self.profiler, &march_params, grids, &self.photons, receivers, radiance); // photons, grids, receivers → radiance, caustic atlas
             let filter_unit = flux_unit / march_params.flux_scale;
-            self.caustics.encode(&self.ctx, &mut enc, &mut self.profiler, receivers, self.settings.caustic_filter, filter_unit); // caustic atlas → caustic irradiance
+            let spectral = march_params.flags & march_flags::SPECTRAL != 0; // XYZ deposits
+            self.caustics.encode(&self.ctx, &mut enc, &mut self.profiler, receivers, self.settings.caustic_filter, filter_unit, spectral); // caustic atlas → caustic irradiance
             self.march.encode_stats_readback(&mut enc, slot);
             self.counters.photon_traces += 1;
             parts.push((Part::Photons, self.submit_part(&mut enc)));

@@ -95,6 +95,10 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
     if desc.receivers.iter().any(|r| r.diffuse.is_pbr()) {
         flags |= view_flags::SPECULAR;
     }
+    let spectrum = desc.spectrum();
+    if spectrum.spectral {
+        flags |= view_flags::SPECTRAL;
+    }
     ViewParams {
         camera: desc.camera.to_gpu(),
         grid: v.to_gpu(),
@@ -115,6 +119,7 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
         ambient: ambient.into(),
         camera_media_lo: camera_media[0],
         camera_media_hi: camera_media[1],
+        grid_dispersion: spectrum.grid_dispersion,
         ..Default::default()
     }
 }

@@ -263,6 +263,7 @@ fn field_of(node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) 
         tint: glass.tint,
         roughness: glass.roughness,
         thin,
+        dispersion: glass.dispersion,
         bounds: world_bounds(&world, half_size),
     }
 }

@@ -27,6 +27,11 @@ pub struct Glass {
     /// mesh (closed: a solid; open and flat: a sheet; open and curved: a voxelized solid — the
     /// last two with a warning that it was a guess).
     pub thin: Option<bool>,
+    /// Dispersion as KHR_materials_dispersion writes it: 20/V_d, V_d the Abbe number; 0 is
+    /// none. The index at wavelength λ is then n(λ) = max(n + (n − 1)·dispersion/20 ·
+    /// (523655/λ² − 1.5168), 1) (`cpu::spectrum::ior_at`); gradient-index media disperse the
+    /// same way around their local n. Any dispersion in a frame makes its light spectral.
+    pub dispersion: f32,
 }
 
 impl Glass {
@@ -40,7 +45,7 @@ impl Glass {
 
 impl Default for Glass {
     fn default() -> Self {
-        Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0, tint: Vec3::ONE, roughness: 0.0, thin: None }
+        Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0, tint: Vec3::ONE, roughness: 0.0, thin: None, dispersion: 0.0 }
     }
 }
 

@@ -111,6 +111,17 @@ def test_principled_glass_reaches_khr_materials(addon, saved_blend):
     pbr = glass["pbrMetallicRoughness"]
     assert pbr.get("roughnessFactor", 1.0) == pytest.approx(0.25, rel=1e-6)
     assert pbr["baseColorFactor"][:3] == pytest.approx([0.9, 0.8, 0.7], rel=1e-6)
+    assert "KHR_materials_dispersion" not in ext, "no Abbe number set: no dispersion"
+
+
+def test_the_abbe_number_goes_out_as_khr_materials_dispersion(addon, saved_blend):
+    """Blender's glass BSDFs have no dispersion setting; the material's refrakt Abbe number
+    travels as KHR_materials_dispersion's 20 / V_d, on glass only."""
+    scenes.round_trip_scene()
+    bpy.data.materials["Glass"].refrakt.abbe = 36.0
+    _, gltf = export(saved_blend)
+    assert gltf.material("Glass")["extensions"]["KHR_materials_dispersion"]["dispersion"] == pytest.approx(20 / 36, rel=1e-6)
+    assert "KHR_materials_dispersion" in gltf.json["extensionsUsed"]
 
 
 def test_scene_and_node_extras(addon, saved_blend):

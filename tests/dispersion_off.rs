@@ -1,6 +1,7 @@
 //! No dispersion ⇒ the images of today. The references in `tests/data/dispersion/` were written
 //! by this test (`REFRAKT_WRITE_REFERENCE=1`) on the code before dispersion existed (commit
-//! aead4a8, lavapipe), so a change that alters the non-dispersive path — a spectral photon, a
+//! aead4a8, lavapipe; the caustic chart again at 12121ff, after fixed-point deposits began to
+//! round with a dither, still before dispersion was merged), so a change that alters the non-dispersive path — a spectral photon, a
 //! wavelength-dependent index where none was asked for — fails here bit for bit.
 //!
 //! The scenes avoid receivers' shading and fog on purpose (other work changes those): the view

@@ -1,8 +1,9 @@
-"""Hooks that Blender's glTF exporter calls for each scene, node and material while this add-on
+"""Hooks that Blender's glTF exporter calls for each scene, node, mesh and material while this add-on
 is enabled (it looks for `glTF2ExportUserExtension` on every enabled add-on's module). So the
 refrakt settings travel as extras whether the export comes from refrakt's operator or from
 File > Export > glTF, and glass made with Blender's Glass BSDF and volume nodes reaches
-KHR_materials_* with the meaning Cycles gives those nodes."""
+KHR_materials_* with the meaning Cycles gives those nodes, and faces without a material look as
+they do in Cycles."""
 
 import functools
 
@@ -15,13 +16,15 @@ warnings = extras.Warnings()
 # Exceptions raised in the hooks: the exporter would only log them and go on without our
 # extras, so they are kept here and the export operator fails with them.
 failures = []
+# The name of the material given to faces that have none in Blender.
+DEFAULT_SURFACE = "Blender default surface"
 
 
 def _guarded(hook):
     @functools.wraps(hook)
-    def run(self, gltf2_object, blender_object, export_settings):
+    def run(self, gltf2_object, blender_object, *rest):
         try:
-            hook(self, gltf2_object, blender_object, export_settings)
+            hook(self, gltf2_object, blender_object, *rest)
         except Exception as e:  # noqa: BLE001 (reported to the user by the export operator)
             name = getattr(blender_object, "name", "?")
             failures.append(f"{hook.__name__} on '{name}': {type(e).__name__}: {e}")
@@ -49,6 +52,7 @@ class RefraktGltfExtension:
         from io_scene_gltf2.io.com.gltf2_io_extensions import Extension
 
         self.Extension = Extension
+        self.default_surface = None
         warnings.clear()
         failures.clear()
 
@@ -61,6 +65,30 @@ class RefraktGltfExtension:
     def gather_node_hook(self, gltf2_node, blender_object, export_settings):
         if blender_object is not None:
             _set_refrakt_extras(gltf2_node, extras.node_extras(blender_object, bpy.context.scene))
+
+    @_guarded
+    def gather_mesh_hook(self, gltf2_mesh, blender_mesh, blender_object, vertex_groups, modifiers, materials, export_settings):
+        # A face without a material is shaded by Cycles with its default surface, a diffuse BSDF
+        # of colour 0.8. glTF's default material (spec §3.9.6) is a rough metal instead, which
+        # would take away the diffuse light and every caustic on it: write Cycles' surface.
+        for primitive in gltf2_mesh.primitives:
+            if primitive.material is None:
+                primitive.material = self._default_surface()
+
+    def _default_surface(self):
+        """Cycles' default surface as a glTF material, one per export: base colour 0.8, not
+        metallic, no specular lobe (KHR_materials_specular's factor 0), so purely Lambertian."""
+        if self.default_surface is None:
+            from io_scene_gltf2.io.com import gltf2_io
+
+            pbr = gltf2_io.MaterialPBRMetallicRoughness(
+                base_color_factor=[0.8, 0.8, 0.8, 1.0], base_color_texture=None, extensions=None, extras=None,
+                metallic_factor=0.0, metallic_roughness_texture=None, roughness_factor=1.0)
+            self.default_surface = gltf2_io.Material(
+                alpha_cutoff=None, alpha_mode=None, double_sided=True, emissive_factor=None, emissive_texture=None,
+                extensions={"KHR_materials_specular": self.Extension("KHR_materials_specular", {"specularFactor": 0.0}, False)},
+                extras=None, name=DEFAULT_SURFACE, normal_texture=None, occlusion_texture=None, pbr_metallic_roughness=pbr)
+        return self.default_surface
 
     @_guarded
     def gather_material_hook(self, gltf2_material, blender_material, export_settings):

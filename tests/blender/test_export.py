@@ -81,6 +81,24 @@ def test_lights_camera_and_glass(addon, saved_blend):
         assert name in gltf.json["extensionsUsed"]
 
 
+def test_an_object_without_a_material_keeps_cycles_default_surface(addon, saved_blend):
+    """Cycles shades a mesh without a material with a diffuse BSDF of colour 0.8; glTF's default
+    material is a rough metal (no diffuse light, no caustics on it). The export writes Cycles'."""
+    scenes.round_trip_scene()
+    assert not any(slot.material for slot in bpy.data.objects["Cube"].material_slots)
+    _, gltf = export(saved_blend)
+    primitive = gltf.json["meshes"][gltf.node("Cube")["mesh"]]["primitives"][0]
+    surface = gltf.json["materials"][primitive["material"]]
+    assert surface["name"] == submodule("gltf_hooks").DEFAULT_SURFACE
+    assert surface["pbrMetallicRoughness"]["baseColorFactor"] == pytest.approx([0.8, 0.8, 0.8, 1.0])
+    assert surface["pbrMetallicRoughness"]["metallicFactor"] == 0
+    assert surface["extensions"]["KHR_materials_specular"]["specularFactor"] == 0
+    assert "KHR_materials_specular" in gltf.json["extensionsUsed"]
+    # The ball keeps its own glass.
+    ball = gltf.json["meshes"][gltf.node("Ball")["mesh"]]["primitives"][0]
+    assert gltf.json["materials"][ball["material"]]["name"] == "Glass"
+
+
 def test_light_radius_reaches_the_node_extras(addon, saved_blend):
     """Blender's light Radius (shadow_soft_size) of point and spot lights travels as
     nodes[i].extras.refrakt.light_radius (KHR_lights_punctual has no size); suns have none."""

@@ -4,7 +4,8 @@
 use glam::Vec3;
 use mlua::{Lua, Table};
 
-use super::objects::{Obj, construct, new_glass, new_node};
+use super::glass::new_glass;
+use super::objects::{Obj, construct, new_node};
 use crate::scene::{Camera, Diffuse, Environment, Fog, Light, LightKind, Material, Scene, Shape, VolumeSettings};
 
 fn shape(lua: &Lua, init: Shape, t: Option<Table>, required: &[&str]) -> mlua::Result<Obj<Shape>> {

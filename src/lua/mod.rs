@@ -5,6 +5,7 @@
 pub mod api;
 pub mod convert;
 pub mod field;
+pub mod glass;
 pub mod imports;
 pub mod meshes;
 pub mod objects;

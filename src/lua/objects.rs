@@ -15,7 +15,7 @@ use super::convert::{self as cv, FieldName, error_at, unknown_field};
 use super::sandbox::FileAccess;
 use crate::scene::environment::{self, EnvironmentSource};
 use crate::scene::light::LUMENS_PER_WATT;
-use crate::scene::{Camera, Environment, Fog, Glass, Light, LightKind, Material, Node, Origin, Scene, Shape, Shared, VolumeSettings, shared};
+use crate::scene::{Camera, Environment, Fog, Light, LightKind, Material, Node, Origin, Scene, Shape, Shared, VolumeSettings, shared};
 
 /// A scene-graph value a script can read and write field by field.
 pub trait LuaObject: Sized + 'static {
@@ -118,7 +118,7 @@ pub(crate) fn decimal(x: f32) -> f64 {
     x.to_string().parse().unwrap_or(x as f64)
 }
 
-fn number_value(x: f32) -> Value {
+pub fn number_value(x: f32) -> Value {
     Value::Number(decimal(x))
 }
 
@@ -456,134 +456,36 @@ impl LuaObject for Shape {
 // ---------------------------------------------------------------------------------------------
 // Materials.
 
-const GLASS_FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin", "dispersion", "abbe"];
-
 impl LuaObject for Material {
     fn kind(&self) -> &'static str {
         match self {
             Material::Glass(_) => "glass",
+            // (`refrakt.pbr{…}` and a diffuse given a specular lobe or a normal map)
+            Material::Diffuse(d) if d.is_pbr() => "pbr",
             Material::Diffuse(_) => "diffuse",
         }
     }
     fn fields(&self) -> &'static [&'static str] {
         match self {
-            Material::Glass(_) => GLASS_FIELDS,
+            Material::Glass(_) => super::glass::FIELDS,
             Material::Diffuse(_) => super::pbr::FIELDS,
         }
     }
     fn get(&self, lua: &Lua, key: &str) -> mlua::Result<Value> {
-        match (self, key) {
-            (Material::Glass(g), "ior") => Ok(number_value(g.ior)),
-            (Material::Glass(g), "absorption") => vec_value(lua, g.absorption),
-            (Material::Glass(g), "scattering") => vec_value(lua, g.scattering),
-            (Material::Glass(g), "g") => Ok(number_value(g.g)),
-            (Material::Glass(g), "tint") => vec_value(lua, g.tint),
-            (Material::Glass(g), "roughness") => Ok(number_value(g.roughness)),
-            (Material::Glass(g), "thin") => Ok(g.thin.map_or(Value::Nil, Value::Boolean)),
-            (Material::Glass(g), "dispersion") => Ok(number_value(g.dispersion)),
-            // The Abbe number V_d = 20/dispersion; nil without dispersion.
-            (Material::Glass(g), "abbe") => Ok(if g.dispersion > 0.0 { number_value(20.0 / g.dispersion) } else { Value::Nil }),
-            // Transmittance over one metre (the color a 1 m thick piece has).
-            (Material::Glass(g), "color") => vec_value(lua, (-g.absorption).exp()),
-            (Material::Glass(_), "distance") => Ok(Value::Number(1.0)),
-            (Material::Diffuse(d), _) => {
-                super::pbr::get(lua, d, key).unwrap_or_else(|| Err(unknown_field(lua, "diffuse", key, super::pbr::FIELDS)))
-            }
-            _ => Err(unknown_field(lua, self.kind(), key, self.fields())),
-        }
+        let value = match self {
+            Material::Glass(g) => super::glass::get(lua, g, key),
+            Material::Diffuse(d) => super::pbr::get(lua, d, key),
+        };
+        value.unwrap_or_else(|| Err(unknown_field(lua, self.kind(), key, self.fields())))
     }
     fn set(&mut self, lua: &Lua, key: &str, value: Value) -> mlua::Result<()> {
-        let kind = self.kind();
-        let fields = self.fields();
-        let name = FieldName { what: kind, field: key };
-        match (self, key) {
-            (Material::Glass(g), "ior") => {
-                g.ior = cv::number_in(lua, name, &value, Some(1.0), Some(4.0), "a number from 1 to 4")? as f32
-            }
-            (Material::Glass(g), "absorption") => g.absorption = cv::color(lua, name, &value)?,
-            (Material::Glass(g), "scattering") => g.scattering = cv::color(lua, name, &value)?,
-            (Material::Glass(g), "tint") => {
-                let c = cv::color(lua, name, &value)?;
-                if c.max_element() > 1.0 {
-                    return Err(error_at(lua, &format!("glass.tint is a fraction of the light passed per surface, each channel from 0 to 1 (got {c})")));
-                }
-                g.tint = c;
-            }
-            (Material::Glass(g), "roughness") => {
-                g.roughness = cv::number_in(lua, name, &value, Some(0.0), Some(1.0), "a number from 0 (polished) to 1")? as f32
-            }
-            (Material::Glass(g), "thin") => {
-                g.thin = match value {
-                    Value::Nil => None,
-                    Value::Boolean(b) => Some(b),
-                    other => {
-                        return Err(error_at(
-                            lua,
-                            &format!("glass.thin is true (a sheet), false (a solid) or nil (decided by the mesh), got {}", other.type_name()),
-                        ));
-                    }
-                }
-            }
-            (Material::Glass(g), "dispersion") => {
-                g.dispersion = cv::number_in(lua, name, &value, Some(0.0), Some(20.0), "20/V_d (KHR_materials_dispersion), from 0 (none) to 20")? as f32
-            }
-            (Material::Glass(g), "abbe") => {
-                let abbe = match value {
-                    Value::Nil => 0.0,
-                    _ => cv::number_in(lua, name, &value, Some(1.0), Some(1e6), "an Abbe number V_d ≥ 1 (crown glass 59, flint 36, diamond 55), or nil for none")?,
-                };
-                g.dispersion = crate::cpu::spectrum::dispersion_from_abbe(abbe as f32);
-            }
-            (Material::Glass(g), "g") => {
-                g.g = cv::number_in(lua, name, &value, Some(-0.99), Some(0.99), "a number from −0.99 to 0.99")? as f32
-            }
-            (Material::Glass(_), "color" | "distance") => {
-                return Err(error_at(
-                    lua,
-                    "glass.color and glass.distance are set together in refrakt.glass{color = {…}, distance = …} \
-                     (the color light takes on after travelling that far); after that, set glass.absorption",
-                ));
-            }
-            (Material::Diffuse(d), _) => {
-                return super::pbr::set(lua, d, "diffuse", key, value).unwrap_or_else(|| Err(unknown_field(lua, kind, key, fields)));
-            }
-            _ => return Err(unknown_field(lua, kind, key, fields)),
-        }
-        Ok(())
+        let (kind, fields) = (self.kind(), self.fields());
+        let done = match self {
+            Material::Glass(g) => super::glass::set(lua, g, key, value),
+            Material::Diffuse(d) => super::pbr::set(lua, d, kind, key, value),
+        };
+        done.unwrap_or_else(|| Err(unknown_field(lua, kind, key, fields)))
     }
-}
-
-/// `refrakt.glass{…}`: `color` + `distance` (glTF's attenuation color and distance) become
-/// absorption = −ln(color) / distance.
-pub fn new_glass(lua: &Lua, table: Option<Table>) -> mlua::Result<Obj<Material>> {
-    let mut color = None;
-    let mut distance = 1.0f32;
-    let rest = lua.create_table()?;
-    if let Some(t) = table {
-        for pair in t.pairs::<Value, Value>() {
-            let (k, v) = pair?;
-            let key = match &k { Value::String(s) => s.to_str().ok().map(|x| x.to_string()), _ => None };
-            match key.as_deref() {
-                Some("color") => {
-                    color = Some(cv::color(lua, FieldName { what: "glass", field: "color" }, &v)?);
-                }
-                Some("distance") => distance = cv::positive(lua, FieldName { what: "glass", field: "distance" }, &v)?,
-                Some("abbe") if t.contains_key("dispersion")? => {
-                    return Err(error_at(lua, "give glass either abbe (V_d) or dispersion (20/V_d), not both"));
-                }
-                _ => rest.raw_set(k, v)?,
-            }
-        }
-    }
-    let obj = construct(lua, Material::Glass(Glass::default()), Some(rest), &[])?;
-    if let (Some(c), Material::Glass(g)) = (color, &mut *obj.0.borrow_mut()) {
-        if g.absorption != Vec3::ZERO {
-            return Err(error_at(lua, "give glass either absorption or color + distance, not both"));
-        }
-        g.absorption = Glass::absorption_from(c, distance)
-            .ok_or_else(|| error_at(lua, "glass.color must have components in (0, 1] (the transmitted fraction)"))?;
-    }
-    Ok(obj)
 }
 
 // ---------------------------------------------------------------------------------------------

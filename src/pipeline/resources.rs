@@ -173,19 +173,18 @@ impl EnvironmentTexture {
             min_filter: wgpu::FilterMode::Linear,
             ..Default::default()
         });
-        let specular_view = Self::layers(ctx, 1, 1, 1, &[[0.0; 4]]).1;
+        let specular_view = Self::array_view(&Self::layers(ctx, 1, 1, 1, &[[0.0; 4]]));
         Self { texture, view, sampler, generation: next_generation(), uploaded: None, mean: glam::Vec3::ONE, specular_view, specular_of: None }
     }
 
     fn texture(ctx: &GpuContext, width: u32, height: u32, texels: &[[f32; 4]]) -> (wgpu::Texture, wgpu::TextureView) {
-        let (texture, _) = Self::layers(ctx, width, height, 1, texels);
+        let texture = Self::layers(ctx, width, height, 1, texels);
         let view = texture.create_view(&Default::default());
         (texture, view)
     }
 
-    /// A half-float texture of `layers` layers from `texels` (layer after layer); its view as
-    /// a 2D array.
-    fn layers(ctx: &GpuContext, width: u32, height: u32, layers: u32, texels: &[[f32; 4]]) -> (wgpu::Texture, wgpu::TextureView) {
+    /// A half-float texture of `layers` layers from `texels` (layer after layer).
+    fn layers(ctx: &GpuContext, width: u32, height: u32, layers: u32, texels: &[[f32; 4]]) -> wgpu::Texture {
         let size = wgpu::Extent3d { width, height, depth_or_array_layers: layers };
         let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("environment"),
@@ -204,11 +203,12 @@ impl EnvironmentTexture {
             wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(width * 8), rows_per_image: Some(height) },
             size,
         );
-        let view = texture.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
-        (texture, view)
+        texture
+    }
+
+    /// A view of all of a texture's layers as a 2D array (even of one layer).
+    fn array_view(texture: &wgpu::Texture) -> wgpu::TextureView {
+        texture.create_view(&wgpu::TextureViewDescriptor { dimension: Some(wgpu::TextureViewDimension::D2Array), ..Default::default() })
     }
 
     /// Prefilters the environment's image for glossy receivers if that was not done for it yet
@@ -219,7 +219,7 @@ impl EnvironmentTexture {
             return false;
         }
         use super::specular::{HEIGHT, LEVELS, WIDTH, prefilter};
-        self.specular_view = Self::layers(ctx, WIDTH, HEIGHT, LEVELS, &prefilter(image)).1;
+        self.specular_view = Self::array_view(&Self::layers(ctx, WIDTH, HEIGHT, LEVELS, &prefilter(image)));
         self.specular_of = Some(image.clone());
         self.generation = next_generation();
         true

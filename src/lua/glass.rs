@@ -1,0 +1,125 @@
+//! Glass in Lua: `refrakt.glass{…}` (`scene::Glass`) — a refractive, absorbing, scattering
+//! medium, or with `thin = true` a sheet — and its fields read and written by name.
+
+use glam::Vec3;
+use mlua::{Lua, Table, Value};
+
+use super::convert::{self as cv, FieldName, error_at};
+use super::objects::{Obj, construct, number_value, vec_value};
+use crate::scene::{Glass, Material};
+
+pub const FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin", "dispersion", "abbe"];
+
+/// Glass field `key` of `g`; None when glass has no such field.
+pub fn get(lua: &Lua, g: &Glass, key: &str) -> Option<mlua::Result<Value>> {
+    Some(match key {
+        "ior" => Ok(number_value(g.ior)),
+        "absorption" => vec_value(lua, g.absorption),
+        "scattering" => vec_value(lua, g.scattering),
+        "g" => Ok(number_value(g.g)),
+        "tint" => vec_value(lua, g.tint),
+        "roughness" => Ok(number_value(g.roughness)),
+        "thin" => Ok(g.thin.map_or(Value::Nil, Value::Boolean)),
+        "dispersion" => Ok(number_value(g.dispersion)),
+        // The Abbe number V_d = 20/dispersion; nil without dispersion.
+        "abbe" => Ok(if g.dispersion > 0.0 { number_value(20.0 / g.dispersion) } else { Value::Nil }),
+        // Transmittance over one metre (the color a 1 m thick piece has).
+        "color" => vec_value(lua, (-g.absorption).exp()),
+        "distance" => Ok(Value::Number(1.0)),
+        _ => return None,
+    })
+}
+
+/// Sets glass field `key` of `g`; None when glass has no such field.
+pub fn set(lua: &Lua, g: &mut Glass, key: &str, value: Value) -> Option<mlua::Result<()>> {
+    FIELDS.contains(&key).then(|| set_field(lua, g, key, value))
+}
+
+fn set_field(lua: &Lua, g: &mut Glass, key: &str, value: Value) -> mlua::Result<()> {
+    let name = FieldName { what: "glass", field: key };
+    match key {
+        "ior" => {
+            g.ior = cv::number_in(lua, name, &value, Some(1.0), Some(4.0), "a number from 1 to 4")? as f32
+        }
+        "absorption" => g.absorption = cv::color(lua, name, &value)?,
+        "scattering" => g.scattering = cv::color(lua, name, &value)?,
+        "tint" => {
+            let c = cv::color(lua, name, &value)?;
+            if c.max_element() > 1.0 {
+                return Err(error_at(lua, &format!("glass.tint is a fraction of the light passed per surface, each channel from 0 to 1 (got {c})")));
+            }
+            g.tint = c;
+        }
+        "roughness" => {
+            g.roughness = cv::number_in(lua, name, &value, Some(0.0), Some(1.0), "a number from 0 (polished) to 1")? as f32
+        }
+        "thin" => {
+            g.thin = match value {
+                Value::Nil => None,
+                Value::Boolean(b) => Some(b),
+                other => {
+                    return Err(error_at(
+                        lua,
+                        &format!("glass.thin is true (a sheet), false (a solid) or nil (decided by the mesh), got {}", other.type_name()),
+                    ));
+                }
+            }
+        }
+        "dispersion" => {
+            g.dispersion = cv::number_in(lua, name, &value, Some(0.0), Some(20.0), "20/V_d (KHR_materials_dispersion), from 0 (none) to 20")? as f32
+        }
+        "abbe" => {
+            let abbe = match value {
+                Value::Nil => 0.0,
+                _ => cv::number_in(lua, name, &value, Some(1.0), Some(1e6), "an Abbe number V_d ≥ 1 (crown glass 59, flint 36, diamond 55), or nil for none")?,
+            };
+            g.dispersion = crate::cpu::spectrum::dispersion_from_abbe(abbe as f32);
+        }
+        "g" => {
+            g.g = cv::number_in(lua, name, &value, Some(-0.99), Some(0.99), "a number from −0.99 to 0.99")? as f32
+        }
+        "color" | "distance" => {
+            return Err(error_at(
+                lua,
+                "glass.color and glass.distance are set together in refrakt.glass{color = {…}, distance = …} \
+                 (the color light takes on after travelling that far); after that, set glass.absorption",
+            ));
+        }
+        _ => unreachable!("set_field is called for glass fields only"),
+    }
+    Ok(())
+}
+
+/// `refrakt.glass{…}`: `color` + `distance` (glTF's attenuation color and distance) become
+/// absorption = −ln(color) / distance.
+pub fn new_glass(lua: &Lua, table: Option<Table>) -> mlua::Result<Obj<Material>> {
+    let mut color = None;
+    let mut distance = 1.0f32;
+    let rest = lua.create_table()?;
+    if let Some(t) = table {
+        for pair in t.pairs::<Value, Value>() {
+            let (k, v) = pair?;
+            let key = match &k { Value::String(s) => s.to_str().ok().map(|x| x.to_string()), _ => None };
+            match key.as_deref() {
+                Some("color") => {
+                    color = Some(cv::color(lua, FieldName { what: "glass", field: "color" }, &v)?);
+                }
+                Some("distance") => distance = cv::positive(lua, FieldName { what: "glass", field: "distance" }, &v)?,
+                Some("abbe") if t.contains_key("dispersion")? => {
+                    return Err(error_at(lua, "give glass either abbe (V_d) or dispersion (20/V_d), not both"));
+                }
+                _ => rest.raw_set(k, v)?,
+            }
+        }
+    }
+    let obj = construct(lua, Material::Glass(Glass::default()), Some(rest), &[])?;
+    if let (Some(c), Material::Glass(g)) = (color, &mut *obj.0.borrow_mut()) {
+        if g.absorption != Vec3::ZERO {
+            return Err(error_at(lua, "give glass either absorption or color + distance, not both"));
+        }
+        g.absorption = Glass::absorption_from(c, distance)
+            .ok_or_else(|| error_at(lua, "glass.color must have components in (0, 1] (the transmitted fraction)"))?;
+    }
+    Ok(obj)
+}
+

@@ -1,8 +1,11 @@
 //! No dispersion ⇒ the images of today. The references in `tests/data/dispersion/` were written
 //! by this test (`REFRAKT_WRITE_REFERENCE=1`) on the code before dispersion existed (commit
 //! aead4a8, lavapipe; the caustic chart again at 12121ff, after fixed-point deposits began to
-//! round with a dither, still before dispersion was merged), so a change that alters the non-dispersive path — a spectral photon, a
-//! wavelength-dependent index where none was asked for — fails here bit for bit.
+//! round with a dither, still before dispersion was merged, and once more when the caustic filter
+//! began to spread each texel's deposits over its own footprint — the photon statistics stayed
+//! identical, the chart's sum fell 2.7 % to what its photons brought), so a change that alters
+//! the non-dispersive path — a spectral photon, a wavelength-dependent index where none was asked
+//! for — fails here bit for bit.
 //!
 //! The scenes avoid receivers' shading and fog on purpose (other work changes those): the view
 //! scene is glass (a sharp ball, a gradient-index Luneburg lens) against the environment, the

@@ -151,10 +151,12 @@ fn compare(name: &str, got: &[f32], exact: &[f32], voxel: f32) -> Comparison {
     c
 }
 
-/// Bounds (measured on lavapipe: ball −1.1 % power, 6.6 % pixel error, 2.3 % over 3×3, peak
-/// −0.4 %, fine detail 1.1× the reference's, centroid 0.06 voxel; bunny +0.9 %, 31 %, 12.3 %,
-/// +9.7 %, 1.8×, 0.7 voxel (a quarter of a reference pixel); the bunny's caustic is faint and
-/// spread, so 1M photons leave more noise per pixel).
+/// Bounds (measured on lavapipe: ball −0.5 % power, 7.0 % pixel error, 2.3 % over 3×3, peak
+/// +0.5 %, fine detail 1.1× the reference's, centroid 0.07 voxel; bunny +1.4 %, 33 %, 12.9 %,
+/// +12.5 %, 1.8×, 0.75 voxel (a quarter of a reference pixel); the bunny's caustic is faint and
+/// spread, so 1M photons leave more noise per pixel). The bunny came out +3.5 % while the caustic
+/// filter gathered (each texel with the footprint its own neighbourhood asked for), which counted
+/// light beside bright caustics twice; it spreads each texel's deposits over its own footprint now.
 fn check(c: &Comparison, power: f32, pixel: f32, smooth: f32, peak: f32, shift: f32) {
     assert!((c.power / c.power_ref - 1.0).abs() < power, "power {} vs {}", c.power, c.power_ref);
     assert!(c.pixel_error < pixel, "pixel error {}", c.pixel_error);
@@ -171,18 +173,7 @@ fn a_glass_balls_caustic_matches_mitsuba() {
     check(&c, 0.02, 0.10, 0.04, 0.05, 0.5);
 }
 
-/// Ignored: a known defect of the caustic filter, found with this test (the 2026-12-02 note on
-/// issue #20). The photons are right — the flux reaching the floor matches Mitsuba 3 path class
-/// by path class (bunny with flat normals, whole 6 m floor, photon statistics against Mitsuba's
-/// ptracer with max_depth 3…6: paths of up to 1, 2, 3, 4 and any number of interface events
-/// 0.0092, 0.1056, 0.1096, 0.1211, 0.1311 W vs 0.0091, 0.1056, 0.1097, 0.1212, 0.1313 W) — but the adaptive gather (shaders/caustics.wgsl) lets a
-/// sparse texel's footprint reach into a bright caustic nearby, which then counts again there:
-/// the filtered map holds more energy than its photons (+3.5 % here, +7.5 % with flat normals,
-/// where the map over the 2 m square exceeds the photons over the whole 6 m floor). The ball's
-/// compact caustic hides it. Fix: a splat-equivalent filter (each photon's energy spread over
-/// its own footprint), then run this test again (`cargo test --test mitsuba_caustics -- --ignored`).
 #[test]
-#[ignore = "known defect: the adaptive caustic filter adds energy around bright caustics (+3.5 % here; see the doc comment)"]
 fn the_glass_bunnys_caustic_matches_mitsuba() {
     let bunny = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/assets/bunny.obj");
     let glass = format!(

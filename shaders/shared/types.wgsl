@@ -292,8 +292,15 @@ struct CausticParams {
     max_radius: u32,
     flux_unit: f32,
     spectral: u32,
-    _pad1: u32,
+    direct_radius: u32,
     _pad2: u32,
+}
+
+struct CausticLevel {
+    index: u32,
+    radius: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 const INTERFACE_NONE: u32 = 0u;

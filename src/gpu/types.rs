@@ -473,8 +473,20 @@ gpu_struct! {
         pub flux_unit: f32,
         /// 1: the deposits are XYZ of spectral photons, written out as linear sRGB.
         pub spectral: u32,
-        pub _pad1: u32,
+        /// Footprint levels of half-size up to this are summed texel by texel, without a table.
+        pub direct_radius: u32,
         pub _pad2: u32,
+    }
+}
+
+gpu_struct! {
+    /// One footprint size of the caustic filter: the level's place in the list of sizes and the
+    /// half-size of its square in texels (a uniform per level, bound as group 1).
+    pub struct CausticLevel {
+        pub index: u32,
+        pub radius: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
     }
 }
 
@@ -612,5 +624,6 @@ mod tests {
         check::<PhotonParams>(&module);
         check::<MarchParams>(&module);
         check::<CausticParams>(&module);
+        check::<CausticLevel>(&module);
     }
 }

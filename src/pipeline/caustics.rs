@@ -1,5 +1,6 @@
 //! Stage 5b, caustics (`shaders/caustics.wgsl`): the receivers' caustic maps from photon
-//! deposits to irradiance, with a footprint that adapts to the photon density.
+//! deposits to irradiance, with a footprint that adapts to the photon density and a filter that
+//! keeps every photon's energy (each texel's deposits are spread over its own footprint).
 
 use anyhow::Result;
 
@@ -8,7 +9,7 @@ use super::receivers::Receivers;
 use super::timing::Profiler;
 use crate::gpu::GpuContext;
 use crate::gpu::shaders::ShaderLibrary;
-use crate::gpu::types::CausticParams;
+use crate::gpu::types::{CausticLevel, CausticParams};
 
 /// How caustic maps are filtered.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -28,24 +29,77 @@ impl Default for CausticFilter {
 /// Largest half-size (texels) the adaptive footprint grows to.
 pub const MAX_RADIUS: u32 = 64;
 
+/// Footprints of half-size up to this are summed texel by texel (at most 25 reads) instead of
+/// through a summed-area table of their level, which costs two scans of the whole atlas.
+pub const DIRECT_RADIUS: u32 = 2;
+
+/// The footprint sizes a filter spreads over, in the shader's level order: {0, 1, 2, 4, …,
+/// MAX_RADIUS} for the adaptive filter, the one square of a fixed one.
+pub fn level_radii(filter: CausticFilter) -> Vec<u32> {
+    match filter {
+        CausticFilter::Adaptive { .. } => std::iter::once(0).chain((0..).map(|k| 1 << k).take_while(|&r| r <= MAX_RADIUS)).collect(),
+        CausticFilter::Fixed { radius } => vec![radius.max(1)],
+    }
+}
+
+fn bind(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
+}
+
 pub struct Caustics {
+    load: wgpu::ComputePipeline,
     rows: wgpu::ComputePipeline,
     columns: wgpu::ComputePipeline,
-    filter: wgpu::ComputePipeline,
+    choose: wgpu::ComputePipeline,
+    spread: wgpu::ComputePipeline,
+    gather: wgpu::ComputePipeline,
     bgl: wgpu::BindGroupLayout,
+    level_bgl: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
     bound: Option<(u64, wgpu::BindGroup)>,
+    /// One uniform and bind group per (level index, radius), made once.
+    levels: Vec<(CausticLevel, wgpu::Buffer, wgpu::BindGroup)>,
 }
 
 impl Caustics {
     pub fn new(device: &wgpu::Device, shaders: &ShaderLibrary) -> Result<Self> {
-        let entries =
-            [layout::uniform(0), layout::storage(1, true), layout::storage(2, true), layout::storage(3, false), layout::storage(4, false)];
-        let (rows, bgl) = layout::pipeline_entry(device, shaders, "caustics", "sat_rows", &entries)?;
-        let (columns, _) = layout::pipeline_entry(device, shaders, "caustics", "sat_columns", &entries)?;
-        let (filter, _) = layout::pipeline_entry(device, shaders, "caustics", "filter_charts", &entries)?;
+        let entries = [
+            layout::uniform(0),
+            layout::storage(1, true),
+            layout::storage(2, true),
+            layout::storage(3, false),
+            layout::storage(4, false),
+            layout::storage(5, false),
+            layout::storage(6, false),
+        ];
+        let entry_points = ["load_deposits", "sat_rows", "sat_columns", "choose_footprints", "spread_level", "gather_level"];
+        let (pipelines, mut layouts) = layout::pipelines(device, shaders, "caustics", &[&entries, &[layout::uniform(0)]], &entry_points)?;
+        let [load, rows, columns, choose, spread, gather] = <[_; 6]>::try_from(pipelines).map_err(|_| anyhow::anyhow!("six caustics pipelines"))?;
+        let level_bgl = layouts.pop().expect("two layouts");
+        let bgl = layouts.pop().expect("two layouts");
         let params = layout::uniform_buffer::<CausticParams>(device, "caustic params");
-        Ok(Self { rows, columns, filter, bgl, params, bound: None })
+        Ok(Self { load, rows, columns, choose, spread, gather, bgl, level_bgl, params, bound: None, levels: Vec::new() })
+    }
+
+    /// The bind group of level `index` with half-size `radius`, made the first time it is asked.
+    fn level(&mut self, device: &wgpu::Device, index: u32, radius: u32) -> usize {
+        let want = CausticLevel { index, radius, ..Default::default() };
+        if let Some(k) = self.levels.iter().position(|(l, _, _)| *l == want) {
+            return k;
+        }
+        use wgpu::util::DeviceExt;
+        let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("caustic level"),
+            contents: bytemuck::bytes_of(&want),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("caustic level"),
+            layout: &self.level_bgl,
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() }],
+        });
+        self.levels.push((want, buffer, group));
+        self.levels.len() - 1
     }
 
     /// `flux_unit`: watts per fixed-point unit of deposited flux.
@@ -65,6 +119,7 @@ impl Caustics {
             max_radius: MAX_RADIUS,
             flux_unit,
             spectral: spectral as u32,
+            direct_radius: DIRECT_RADIUS,
             ..Default::default()
         };
         ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
@@ -73,26 +128,48 @@ impl Caustics {
                 label: Some("caustics"),
                 layout: &self.bgl,
                 entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: receivers.charts.buffer.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 2, resource: receivers.caustic_atlas.buffer.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 3, resource: receivers.caustic_sat.buffer.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 4, resource: receivers.caustic_irradiance.buffer.as_entire_binding() },
+                    bind(0, &self.params),
+                    bind(1, &receivers.charts.buffer),
+                    bind(2, &receivers.caustic_atlas.buffer),
+                    bind(3, &receivers.caustic_sat.buffer),
+                    bind(4, &receivers.caustic_irradiance.buffer),
+                    bind(5, &receivers.caustic_layer.buffer),
+                    bind(6, &receivers.caustic_footprint.buffer),
                 ],
             });
             self.bound = Some((receivers.generation, bg));
         }
+        let levels: Vec<usize> = level_radii(filter).into_iter().enumerate().map(|(k, r)| self.level(&ctx.device, k as u32, r)).collect();
         let (_, bg) = self.bound.as_ref().expect("bound above");
         let max_w = charts.iter().map(|c| c.width).max().unwrap_or(1);
         let max_h = charts.iter().map(|c| c.height).max().unwrap_or(1);
         let n = charts.len() as u32;
+        let texels = (max_w.div_ceil(8), max_h.div_ceil(8), n);
         let mut pass = profiler.pass(enc, "caustics");
         pass.set_bind_group(0, bg, &[]);
-        pass.set_pipeline(&self.rows);
-        pass.dispatch_workgroups(max_h, n, 1);
-        pass.set_pipeline(&self.columns);
-        pass.dispatch_workgroups(max_w, n, 1);
-        pass.set_pipeline(&self.filter);
-        pass.dispatch_workgroups(max_w.div_ceil(8), max_h.div_ceil(8), n);
+        pass.set_bind_group(1, &self.levels[levels[0]].2, &[]);
+        let table = |pass: &mut wgpu::ComputePass| {
+            pass.set_pipeline(&self.rows);
+            pass.dispatch_workgroups(max_h, n, 1);
+            pass.set_pipeline(&self.columns);
+            pass.dispatch_workgroups(max_w, n, 1);
+        };
+        // The table of the raw deposits, and each texel's footprint from its photon counts.
+        pass.set_pipeline(&self.load);
+        pass.dispatch_workgroups(texels.0, texels.1, texels.2);
+        table(&mut pass);
+        pass.set_pipeline(&self.choose);
+        pass.dispatch_workgroups(texels.0, texels.1, texels.2);
+        // Each level's share, spread over squares of its size.
+        for &k in &levels {
+            pass.set_bind_group(1, &self.levels[k].2, &[]);
+            pass.set_pipeline(&self.spread);
+            pass.dispatch_workgroups(texels.0, texels.1, texels.2);
+            if self.levels[k].0.radius > DIRECT_RADIUS {
+                table(&mut pass);
+            }
+            pass.set_pipeline(&self.gather);
+            pass.dispatch_workgroups(texels.0, texels.1, texels.2);
+        }
     }
 }

@@ -25,7 +25,7 @@ use crate::gpu::types::{BvhNode, BvhTriangle, Chart, ReceiverGpu, interface_kind
 
 /// Texels along the longest side of one chart, at most.
 pub const MAX_CHART_SIDE: f32 = 2048.0;
-/// Texels over all charts, at most (16 bytes each in three buffers). 7.5 Mi texels, so that an
+/// Texels over all charts, at most (16 bytes each in four buffers, 8 in a fifth). 7.5 Mi texels, so that an
 /// atlas — with the percent or so that rounding chart sizes up may add — stays under the
 /// 128 MiB one binding may hold on many adapters (lavapipe, WebGPU's defaults).
 pub const MAX_ATLAS_TEXELS: f32 = 7.5 * 1024.0 * 1024.0;
@@ -318,8 +318,12 @@ pub struct Receivers {
     pub albedo_texels: GrowableBuffer,
     /// 4 u32 per texel: photon count, flux r, g, b (fixed point), written by the march stage.
     pub caustic_atlas: GrowableBuffer,
-    /// Summed-area table of the atlas (caustics stage).
+    /// Summed-area table of the atlas, then of each footprint level (caustics stage).
     pub caustic_sat: GrowableBuffer,
+    /// What the caustics stage's tables sum: the deposits, then one level's share (16 B/texel).
+    pub caustic_layer: GrowableBuffer,
+    /// Each texel's filter footprint: two adjacent levels and the blend (8 B/texel).
+    pub caustic_footprint: GrowableBuffer,
     /// Filtered irradiance per texel (caustics stage → view stage).
     pub caustic_irradiance: GrowableBuffer,
     pub layout: ReceiverLayout,
@@ -362,6 +366,8 @@ impl Receivers {
             albedo_texels: buffer("albedo texels"),
             caustic_atlas: buffer("caustic atlas"),
             caustic_sat: buffer("caustic sat"),
+            caustic_layer: buffer("caustic layer"),
+            caustic_footprint: buffer("caustic footprint"),
             caustic_irradiance: buffer("caustic irradiance"),
             layout: layout(&[], Default::default(), 1.0),
             generation: super::resources::next_generation(),
@@ -401,6 +407,8 @@ impl Receivers {
         grown |= self.albedo_texels.write(ctx, bytemuck::cast_slice(&texels));
         grown |= self.caustic_atlas.reserve(ctx, texel_bytes);
         grown |= self.caustic_sat.reserve(ctx, texel_bytes);
+        grown |= self.caustic_layer.reserve(ctx, texel_bytes);
+        grown |= self.caustic_footprint.reserve(ctx, texel_bytes / 2);
         grown |= self.caustic_irradiance.reserve(ctx, texel_bytes);
         if grown {
             self.generation = super::resources::next_generation();

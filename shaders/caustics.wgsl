@@ -15,6 +15,13 @@
 // times its weight at that level, and a box filter of that level's size over the layer — a box
 // is symmetric, so gathering box sums is scattering over boxes — adds the level's share.
 //
+// The wide levels (half-size 8 to 64) are spread on the chart coarsened r/4 times in each axis:
+// a cell sums its texels' shares, spreads them over the 9 × 9 cells around it, and each cell
+// hands what it received evenly to its texels. Energy stays exact; the square becomes 9 cells of
+// r/4 texels wide (2r + r/4 texels instead of 2r + 1), aligned to the cells — in the sparse light
+// these levels serve, where a photon's square is noise-sized anyway — and the tables of the wide
+// levels shrink to 1/4, 1/16, … of the chart.
+//
 // Box sums come from summed-area tables kept in wrapping u32 arithmetic — exact, because every
 // box sum is itself below 2³² (deposits saturate at 2³¹ per texel; a level's layer holds at most
 // the deposits, times up to 4 on the texels whose square the chart's border cuts, which spread
@@ -65,8 +72,15 @@ fn scan_input(rows: bool, t: u32) -> vec4<u32> {
     return sat[t];
 }
 
+// A chart's size at the current level's coarsening (cells; the texels at coarsening 1). The
+// cells of a level are stored where the chart's texels are, cell (i, j) at texel (i, j).
+fn cells(chart: Chart) -> vec2<u32> {
+    return (vec2<u32>(chart.width, chart.height) + level.coarsening - 1u) / level.coarsening;
+}
+
 fn scan_line(chart: Chart, rows: bool, line: u32, lid: u32) {
-    let length = select(chart.height, chart.width, rows);
+    let size = cells(chart);
+    let length = select(size.y, size.x, rows);
     let per = (length + SCAN_THREADS - 1u) / SCAN_THREADS;
     let first = lid * per;
     let last = min(first + per, length);
@@ -95,7 +109,7 @@ fn scan_line(chart: Chart, rows: bool, line: u32, lid: u32) {
 @compute @workgroup_size(256)
 fn sat_rows(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let chart = charts[group.y];
-    if group.x >= chart.height {
+    if group.x >= cells(chart).y {
         return;
     }
     scan_line(chart, true, group.x, lid);
@@ -104,16 +118,20 @@ fn sat_rows(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_i
 @compute @workgroup_size(256)
 fn sat_columns(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let chart = charts[group.y];
-    if group.x >= chart.width {
+    if group.x >= cells(chart).x {
         return;
     }
     scan_line(chart, false, group.x, lid);
 }
 
-// The square of half-size r around t, clamped to the chart: (lo, hi), inclusive.
+// The square of half-size r around t, clamped to a grid of `size`: (lo, hi), inclusive.
+fn square_in(size: vec2<u32>, t: vec2<i32>, r: i32) -> array<vec2<i32>, 2> {
+    return array<vec2<i32>, 2>(max(t - r, vec2<i32>(0)), min(t + r, vec2<i32>(size) - 1));
+}
+
+// The same on the chart's texels.
 fn square(chart: Chart, t: vec2<i32>, r: i32) -> array<vec2<i32>, 2> {
-    let size = vec2<i32>(i32(chart.width), i32(chart.height));
-    return array<vec2<i32>, 2>(max(t - r, vec2<i32>(0)), min(t + r, size - 1));
+    return square_in(vec2<u32>(chart.width, chart.height), t, r);
 }
 
 fn texels_in(s: array<vec2<i32>, 2>) -> f32 {
@@ -214,15 +232,9 @@ fn choose_footprints(@builtin(global_invocation_id) id: vec3<u32>) {
     caustic_irradiance[x.index] = vec4<f32>(0.0, 0.0, 0.0, count);
 }
 
-// The layer of this level: each texel's flux times its weight here, times the share of its
-// square the chart's border cuts off (so the part that remains carries all of it).
-@compute @workgroup_size(8, 8, 1)
-fn spread_level(@builtin(global_invocation_id) id: vec3<u32>) {
-    let x = texel_of(id);
-    if x.index == 0xffffffffu {
-        return;
-    }
-    let f = footprint[x.index];
+// A texel's share at this level: its flux times its weight here (fixed point).
+fn share(index: u32) -> vec3<f32> {
+    let f = footprint[index];
     let lo = u32(f.x);
     var weight = 0.0;
     if level.index == lo {
@@ -230,22 +242,41 @@ fn spread_level(@builtin(global_invocation_id) id: vec3<u32>) {
     } else if level.index == lo + 1u {
         weight = f.y;
     }
-    var spread = vec4<u32>(0u);
-    let deposits = caustic_atlas[x.index];
-    if weight > 0.0 && any(deposits.yzw != vec3<u32>(0u)) {
-        let r = i32(level.radius);
-        let whole = f32((2 * r + 1) * (2 * r + 1));
-        let scale = weight * whole / texels_in(square(x.chart, x.t, r));
-        // Round to nearest: unbiased over the many texels a caustic covers.
-        spread = vec4<u32>(0u, vec3<u32>(vec3<f32>(deposits.yzw) * scale + 0.5));
+    return vec3<f32>(caustic_atlas[index].yzw) * weight;
+}
+
+// The layer of this level, one thread per cell: the shares of the cell's texels, times the part
+// of its square the chart's border cuts off (so the part that remains carries all of it).
+@compute @workgroup_size(8, 8, 1)
+fn spread_level(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.z >= params.chart_count {
+        return;
     }
-    layer[x.index] = spread;
+    let chart = charts[id.z];
+    let size = cells(chart);
+    if id.x >= size.x || id.y >= size.y {
+        return;
+    }
+    let k = level.coarsening;
+    let first = id.xy * k;
+    let last = min(first + k, vec2<u32>(chart.width, chart.height));
+    var sum = vec3<f32>(0.0);
+    for (var j = first.y; j < last.y; j++) {
+        for (var i = first.x; i < last.x; i++) {
+            sum += share(chart.offset + i + chart.width * j);
+        }
+    }
+    let r = i32(level.reach);
+    let whole = f32((2 * r + 1) * (2 * r + 1));
+    let scale = whole / texels_in(square_in(size, vec2<i32>(id.xy), r));
+    // Round to nearest: unbiased over the many texels a caustic covers.
+    layer[chart.offset + id.x + chart.width * id.y] = vec4<u32>(0u, vec3<u32>(sum * scale + 0.5));
 }
 
 // The layer's sum over square s: read texel by texel for the small squares, whose levels build
 // no summed-area table (`CausticParams.direct_radius`), else from the table.
 fn level_sum(chart: Chart, s: array<vec2<i32>, 2>) -> vec4<u32> {
-    if i32(level.radius) > i32(params.direct_radius) {
+    if level.reach > params.direct_radius {
         return box_sum(chart, s);
     }
     var sum = vec4<u32>(0u);
@@ -257,17 +288,22 @@ fn level_sum(chart: Chart, s: array<vec2<i32>, 2>) -> vec4<u32> {
     return sum;
 }
 
-// Adds this level's share: the flux spread onto t by every texel within this level's square,
-// each spread evenly over (2r + 1)² texels.
+// Adds this level's share: the flux spread onto t's cell by every cell within `reach` of it,
+// each spread evenly over (2·reach + 1)² cells, and by the cell evenly over its texels.
 @compute @workgroup_size(8, 8, 1)
 fn gather_level(@builtin(global_invocation_id) id: vec3<u32>) {
     let x = texel_of(id);
     if x.index == 0xffffffffu {
         return;
     }
-    let r = i32(level.radius);
-    let flux = vec3<f32>(level_sum(x.chart, square(x.chart, x.t, r)).yzw) * params.flux_unit;
-    var e = flux / (f32((2 * r + 1) * (2 * r + 1)) * x.chart.texel * x.chart.texel);
+    let k = i32(level.coarsening);
+    let cell = x.t / k;
+    let r = i32(level.reach);
+    let flux = vec3<f32>(level_sum(x.chart, square_in(cells(x.chart), cell, r)).yzw) * params.flux_unit;
+    let first = cell * k;
+    let last = min(first + k, vec2<i32>(i32(x.chart.width), i32(x.chart.height)));
+    let texels_of_cell = f32((last.x - first.x) * (last.y - first.y));
+    var e = flux / (f32((2 * r + 1) * (2 * r + 1)) * texels_of_cell * x.chart.texel * x.chart.texel);
     if params.spectral != 0u {
         // Spectral photons deposited XYZ (shared/spectrum.wgsl).
         e = xyz_to_rgb(e);

@@ -299,8 +299,8 @@ struct CausticParams {
 struct CausticLevel {
     index: u32,
     radius: u32,
-    _pad0: u32,
-    _pad1: u32,
+    coarsening: u32,
+    reach: u32,
 }
 
 const INTERFACE_NONE: u32 = 0u;

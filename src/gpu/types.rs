@@ -480,13 +480,15 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// One footprint size of the caustic filter: the level's place in the list of sizes and the
-    /// half-size of its square in texels (a uniform per level, bound as group 1).
+    /// One footprint size of the caustic filter (a uniform per level, bound as group 1): the
+    /// level's place in the list of sizes, the half-size of its square in texels, and how it is
+    /// spread: on the chart coarsened `coarsening`× in each axis, over squares of half-size
+    /// `reach` cells there (radius / coarsening; `coarsening` = 1 for the narrow levels).
     pub struct CausticLevel {
         pub index: u32,
         pub radius: u32,
-        pub _pad0: u32,
-        pub _pad1: u32,
+        pub coarsening: u32,
+        pub reach: u32,
     }
 }
 

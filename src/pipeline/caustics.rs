@@ -33,6 +33,13 @@ pub const MAX_RADIUS: u32 = 64;
 /// through a summed-area table of their level, which costs two scans of the whole atlas.
 pub const DIRECT_RADIUS: u32 = 2;
 
+/// How much a level of half-size `radius` coarsens the chart: the wide levels (8 texels and more)
+/// are spread over 9 × 9 cells of radius/4 texels (see caustics.wgsl), so their tables cover
+/// 1/4, 1/16, … of the chart.
+pub fn coarsening(radius: u32) -> u32 {
+    if radius >= 8 { radius / 4 } else { 1 }
+}
+
 /// The footprint sizes a filter spreads over, in the shader's level order: {0, 1, 2, 4, …,
 /// MAX_RADIUS} for the adaptive filter, the one square of a fixed one.
 pub fn level_radii(filter: CausticFilter) -> Vec<u32> {
@@ -83,7 +90,8 @@ impl Caustics {
 
     /// The bind group of level `index` with half-size `radius`, made the first time it is asked.
     fn level(&mut self, device: &wgpu::Device, index: u32, radius: u32) -> usize {
-        let want = CausticLevel { index, radius, ..Default::default() };
+        let coarsening = coarsening(radius);
+        let want = CausticLevel { index, radius, coarsening, reach: radius / coarsening };
         if let Some(k) = self.levels.iter().position(|(l, _, _)| *l == want) {
             return k;
         }
@@ -140,6 +148,8 @@ impl Caustics {
             self.bound = Some((receivers.generation, bg));
         }
         let levels: Vec<usize> = level_radii(filter).into_iter().enumerate().map(|(k, r)| self.level(&ctx.device, k as u32, r)).collect();
+        // The photon counts are tabulated on the chart itself (a level of half-size 0).
+        let texel_level = self.level(&ctx.device, 0, 0);
         let (_, bg) = self.bound.as_ref().expect("bound above");
         let max_w = charts.iter().map(|c| c.width).max().unwrap_or(1);
         let max_h = charts.iter().map(|c| c.height).max().unwrap_or(1);
@@ -147,7 +157,7 @@ impl Caustics {
         let texels = (max_w.div_ceil(8), max_h.div_ceil(8), n);
         let mut pass = profiler.pass(enc, "caustics");
         pass.set_bind_group(0, bg, &[]);
-        pass.set_bind_group(1, &self.levels[levels[0]].2, &[]);
+        pass.set_bind_group(1, &self.levels[texel_level].2, &[]);
         let table = |pass: &mut wgpu::ComputePass| {
             pass.set_pipeline(&self.rows);
             pass.dispatch_workgroups(max_h, n, 1);
@@ -165,7 +175,7 @@ impl Caustics {
             pass.set_bind_group(1, &self.levels[k].2, &[]);
             pass.set_pipeline(&self.spread);
             pass.dispatch_workgroups(texels.0, texels.1, texels.2);
-            if self.levels[k].0.radius > DIRECT_RADIUS {
+            if self.levels[k].0.reach > DIRECT_RADIUS {
                 table(&mut pass);
             }
             pass.set_pipeline(&self.gather);

@@ -22,16 +22,17 @@
 // these levels serve, where a photon's square is noise-sized anyway — and the tables of the wide
 // levels shrink to 1/4, 1/16, … of the chart.
 //
-// Box sums come from summed-area tables kept in wrapping u32 arithmetic — exact, because every
-// box sum is itself below 2³² (deposits saturate at 2³¹ per texel; a level's layer holds at most
-// the deposits, times up to 4 on the texels whose square the chart's border cuts, which spread
-// their flux over the part that remains) and modular differences of the table give it back.
+// Box sums come from summed-area tables kept in wrapping u32 arithmetic — exact while every box
+// sum is below 2³², as modular differences of the table then give it back. A frame's deposits
+// share 2³¹ units with 16× headroom (march.rs), and a level's layer holds at most its share of
+// them, times up to 4 where the chart's border cuts a square (those texels spread their flux
+// over the part that remains): far below 2³² unless nearly all light lands on a border.
 //
 // Entry points, in order: `load_deposits`, `sat_rows`, `sat_columns` (the table of the raw
 // deposits), `choose_footprints`; then per level (group 1: `level`) `spread_level`, `sat_rows`
 // and `sat_columns` (only for squares wider than `direct_radius`: a 5 × 5 square is cheaper to
-// read than to tabulate), `gather_level`. Per-texel kernels run 8×8 per chart (z: the chart); the scans
-// take one workgroup per row/column of each chart.
+// read than to tabulate), `gather_level`. Per-texel kernels run 8×8 per chart (z: the chart);
+// the scans take one workgroup per row/column of each chart.
 
 #import shared/types.wgsl
 #import shared/spectrum.wgsl

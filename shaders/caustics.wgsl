@@ -191,9 +191,9 @@ fn load_deposits(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
-// The level radius of index k in the adaptive list {0, 1, 2, 4, …}.
+// The radius of level k ≥ 1 in the adaptive list {0, 1, 2, 4, …} (caustics.rs: `level_radii`).
 fn adaptive_radius(k: u32) -> i32 {
-    return select(0, 1 << (k - 1u), k > 0u);
+    return 1 << (k - 1u);
 }
 
 // Each texel's footprint from the photon counts around it, as k nearest neighbours: the

@@ -41,11 +41,11 @@ pub fn measure(renderer: &mut Renderer, runs: usize) -> Result<Roofline> {
         label: Some("roofline"),
         layout: &bgl,
         entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: params.as_entire_binding() },
+            layout::bind(0, &params),
             wgpu::BindGroupEntry { binding: 1, resource: layout::texture_view(&grids.ior_grid.view) },
             wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&grids.sampler) },
-            wgpu::BindGroupEntry { binding: 3, resource: deposits.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 4, resource: sink.as_entire_binding() },
+            layout::bind(3, &deposits),
+            layout::bind(4, &sink),
         ],
     });
     if !renderer.profiler.enable(&renderer.ctx) {

@@ -49,10 +49,6 @@ pub fn level_radii(filter: CausticFilter) -> Vec<u32> {
     }
 }
 
-fn bind(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
-}
-
 pub struct Caustics {
     load: wgpu::ComputePipeline,
     rows: wgpu::ComputePipeline,
@@ -104,7 +100,7 @@ impl Caustics {
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("caustic level"),
             layout: &self.level_bgl,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() }],
+            entries: &[layout::bind(0, &buffer)],
         });
         self.levels.push((want, buffer, group));
         self.levels.len() - 1
@@ -136,13 +132,13 @@ impl Caustics {
                 label: Some("caustics"),
                 layout: &self.bgl,
                 entries: &[
-                    bind(0, &self.params),
-                    bind(1, &receivers.charts.buffer),
-                    bind(2, &receivers.caustic_atlas.buffer),
-                    bind(3, &receivers.caustic_sat.buffer),
-                    bind(4, &receivers.caustic_irradiance.buffer),
-                    bind(5, &receivers.caustic_layer.buffer),
-                    bind(6, &receivers.caustic_footprint.buffer),
+                    layout::bind(0, &self.params),
+                    layout::bind(1, &receivers.charts.buffer),
+                    layout::bind(2, &receivers.caustic_atlas.buffer),
+                    layout::bind(3, &receivers.caustic_sat.buffer),
+                    layout::bind(4, &receivers.caustic_irradiance.buffer),
+                    layout::bind(5, &receivers.caustic_layer.buffer),
+                    layout::bind(6, &receivers.caustic_footprint.buffer),
                 ],
             });
             self.bound = Some((receivers.generation, bg));
@@ -154,10 +150,13 @@ impl Caustics {
         let max_w = charts.iter().map(|c| c.width).max().unwrap_or(1);
         let max_h = charts.iter().map(|c| c.height).max().unwrap_or(1);
         let n = charts.len() as u32;
-        let texels = (max_w.div_ceil(8), max_h.div_ceil(8), n);
         let mut pass = profiler.pass(enc, "caustics");
         pass.set_bind_group(0, bg, &[]);
         pass.set_bind_group(1, &self.levels[texel_level].2, &[]);
+        let per_texel = |pass: &mut wgpu::ComputePass, pipeline: &wgpu::ComputePipeline| {
+            pass.set_pipeline(pipeline);
+            pass.dispatch_workgroups(max_w.div_ceil(8), max_h.div_ceil(8), n);
+        };
         let table = |pass: &mut wgpu::ComputePass| {
             pass.set_pipeline(&self.rows);
             pass.dispatch_workgroups(max_h, n, 1);
@@ -165,21 +164,17 @@ impl Caustics {
             pass.dispatch_workgroups(max_w, n, 1);
         };
         // The table of the raw deposits, and each texel's footprint from its photon counts.
-        pass.set_pipeline(&self.load);
-        pass.dispatch_workgroups(texels.0, texels.1, texels.2);
+        per_texel(&mut pass, &self.load);
         table(&mut pass);
-        pass.set_pipeline(&self.choose);
-        pass.dispatch_workgroups(texels.0, texels.1, texels.2);
+        per_texel(&mut pass, &self.choose);
         // Each level's share, spread over squares of its size.
         for &k in &levels {
             pass.set_bind_group(1, &self.levels[k].2, &[]);
-            pass.set_pipeline(&self.spread);
-            pass.dispatch_workgroups(texels.0, texels.1, texels.2);
+            per_texel(&mut pass, &self.spread);
             if self.levels[k].0.reach > DIRECT_RADIUS {
                 table(&mut pass);
             }
-            pass.set_pipeline(&self.gather);
-            pass.dispatch_workgroups(texels.0, texels.1, texels.2);
+            per_texel(&mut pass, &self.gather);
         }
     }
 }

@@ -37,8 +37,8 @@ impl Gradient {
                 label: Some("gradient"),
                 layout: &self.bgl,
                 entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: grids.index_field.as_entire_binding() },
+                    layout::bind(0, &self.params),
+                    layout::bind(1, &grids.index_field),
                     wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&grids.ior_grid.view) },
                 ],
             });

@@ -723,6 +723,10 @@ pub(crate) mod layout {
         (x, groups.div_ceil(x))
     }
 
+    /// A bind group entry for the whole of `buffer`.
+    pub fn bind(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+        wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
+    }
     pub fn texture_view(t: &wgpu::TextureView) -> wgpu::BindingResource<'_> {
         wgpu::BindingResource::TextureView(t)
     }

@@ -99,15 +99,15 @@ impl Octree {
                         label: Some("octree"),
                         layout: &self.bgl,
                         entries: &[
-                            wgpu::BindGroupEntry { binding: 0, resource: grids.octree_params.as_entire_binding() },
-                            wgpu::BindGroupEntry { binding: 1, resource: grids.index_field.as_entire_binding() },
+                            layout::bind(0, &grids.octree_params),
+                            layout::bind(1, &grids.index_field),
                             wgpu::BindGroupEntry {
                                 binding: 2,
                                 resource: wgpu::BindingResource::TextureView(&grids.extinction_grid.view),
                             },
-                            wgpu::BindGroupEntry { binding: 3, resource: grids.octree.as_entire_binding() },
-                            wgpu::BindGroupEntry { binding: 4, resource: u.as_entire_binding() },
-                            wgpu::BindGroupEntry { binding: 5, resource: grids.glass_mark.as_entire_binding() },
+                            layout::bind(3, &grids.octree),
+                            layout::bind(4, &u),
+                            layout::bind(5, &grids.glass_mark),
                         ],
                     })
                 })

@@ -122,14 +122,14 @@ impl Photons {
                 label: Some("photons"),
                 layout: &self.bgl,
                 entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: lights.emitters.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 2, resource: lights.lights.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 3, resource: grids.octree_params.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 4, resource: grids.octree.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 5, resource: self.cdf.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 6, resource: self.photons.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 7, resource: grids.glass_mark.as_entire_binding() },
+                    layout::bind(0, &self.params),
+                    layout::bind(1, &lights.emitters),
+                    layout::bind(2, &lights.lights),
+                    layout::bind(3, &grids.octree_params),
+                    layout::bind(4, &grids.octree),
+                    layout::bind(5, &self.cdf),
+                    layout::bind(6, &self.photons),
+                    layout::bind(7, &grids.glass_mark),
                 ],
             });
             self.bound = Some((generations, bg));

@@ -110,14 +110,14 @@ impl Voxelize {
                 label: Some("voxelize"),
                 layout: &self.bgl,
                 entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: self.fields.buffer.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 2, resource: grids.index_field.as_entire_binding() },
+                    layout::bind(0, &self.params),
+                    layout::bind(1, &self.fields.buffer),
+                    layout::bind(2, &grids.index_field),
                     wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&grids.extinction_grid.view) },
                     wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&grids.scattering_grid.view) },
-                    wgpu::BindGroupEntry { binding: 5, resource: self.field_samples.buffer.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 6, resource: self.mesh_volumes.buffer.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 7, resource: atlas.as_entire_binding() },
+                    layout::bind(5, &self.field_samples.buffer),
+                    layout::bind(6, &self.mesh_volumes.buffer),
+                    layout::bind(7, &atlas),
                 ],
             });
             self.bound = Some((key, bg));

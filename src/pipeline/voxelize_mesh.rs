@@ -448,7 +448,7 @@ impl MeshVoxelizer {
             let entries: Vec<wgpu::BindGroupEntry> = buffers
                 .iter()
                 .enumerate()
-                .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+                .map(|(i, b)| layout::bind(i as u32, b))
                 .collect();
             let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("mesh scratch"), layout: &self.scratch_layout, entries: &entries });
             self.scratch_group = Some((key, group));
@@ -538,9 +538,9 @@ fn upload(ctx: &GpuContext, slot: &mut Slot, layout: &wgpu::BindGroupLayout, mes
             label: Some("mesh"),
             layout,
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: slot.params.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: vertex_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: triangle_buffer.as_entire_binding() },
+                layout::bind(0, &slot.params),
+                layout::bind(1, &vertex_buffer),
+                layout::bind(2, &triangle_buffer),
             ],
         }));
     }

@@ -47,8 +47,10 @@
 @group(0) @binding(8) var<storage, read> bvh_triangles: array<BvhTriangle>;
 @group(0) @binding(9) var<storage, read> receivers: array<ReceiverGpu>;
 @group(0) @binding(10) var<storage, read> charts: array<Chart>;
-// 6 words per voxel: flux·length r, g, b (u32) and luminance·length·direction x, y, z (i32 bits).
-@group(0) @binding(11) var<storage, read_write> radiance: array<atomic<u32>>;
+// The radiance grid's deposits, 3 words per voxel in each of two buffers (each its own binding,
+// so a volume needs half the binding size): flux·length r, g, b (u32) and
+// luminance·length·direction x, y, z (i32 bits).
+@group(0) @binding(11) var<storage, read_write> radiance_flux: array<atomic<u32>>;
 // 4 words per texel: photon count, flux r, g, b.
 @group(0) @binding(12) var<storage, read_write> caustic_atlas: array<atomic<u32>>;
 // (low, high) word pairs, see STAT_* below.
@@ -57,6 +59,8 @@
 @group(0) @binding(15) var direction_grid: texture_storage_3d<rgba16float, write>;
 @group(0) @binding(16) var<storage, read> interfaces: array<Interface>;
 @group(0) @binding(17) var<storage, read> triangle_normals: array<vec4<f32>>;
+@group(0) @binding(18) var<storage, read_write> radiance_direction: array<atomic<u32>>;
+@group(0) @binding(19) var<storage, read> octree_leaves: array<vec4<f32>>;
 
 // Statistics, each an rgb triple of 64-bit fixed-point flux sums (flux_scale units).
 const STAT_EMITTED: u32 = 0u;
@@ -129,8 +133,8 @@ fn add_radiance(i: u32, v: u32) {
     if v == 0u {
         return;
     }
-    if atomicAdd(&radiance[i], v) >= FIXED_SATURATION {
-        atomicSub(&radiance[i], v);
+    if atomicAdd(&radiance_flux[i], v) >= FIXED_SATURATION {
+        atomicSub(&radiance_flux[i], v);
         stat_add(STAT_SATURATED, 1u);
     }
 }
@@ -167,7 +171,7 @@ fn deposit_segment(a: vec3<f32>, b: vec3<f32>, flux: vec3<f32>, extinction: vec3
         if any(c < vec3<i32>(0)) || any(c >= vec3<i32>(grid.dims)) {
             continue;
         }
-        pend(6u * (u32(c.x) + grid.dims.x * (u32(c.y) + grid.dims.y * u32(c.z))), inside, dir);
+        pend(3u * (u32(c.x) + grid.dims.x * (u32(c.y) + grid.dims.y * u32(c.z))), inside, dir);
     }
 }
 
@@ -205,7 +209,7 @@ fn flush_pending() {
         let d = vec3<i32>(round(pending.direction * params.radiance_scale));
         for (var k = 0u; k < 3u; k++) {
             if d[k] != 0 {
-                atomicAdd(&radiance[v + 3u + k], bitcast<u32>(d[k]));
+                atomicAdd(&radiance_direction[v + k], bitcast<u32>(d[k]));
             }
         }
     }
@@ -410,14 +414,14 @@ fn resolve(@builtin(global_invocation_id) id: vec3<u32>) {
     if any(id >= grid.dims) {
         return;
     }
-    let v = 6u * (id.x + grid.dims.x * (id.y + grid.dims.y * id.z));
-    let sums = vec3<f32>(f32(atomicLoad(&radiance[v])), f32(atomicLoad(&radiance[v + 1u])), f32(atomicLoad(&radiance[v + 2u])));
+    let v = 3u * (id.x + grid.dims.x * (id.y + grid.dims.y * id.z));
+    let sums = vec3<f32>(f32(atomicLoad(&radiance_flux[v])), f32(atomicLoad(&radiance_flux[v + 1u])), f32(atomicLoad(&radiance_flux[v + 2u])));
     // Σ flux·length / voxel volume: sums are (flux/flux_unit)·(length/h)·scale.
     let fluence = sums * (params.flux_unit / (params.radiance_scale * grid.voxel_size * grid.voxel_size));
     let dir_sum = vec3<f32>(
-        f32(bitcast<i32>(atomicLoad(&radiance[v + 3u]))),
-        f32(bitcast<i32>(atomicLoad(&radiance[v + 4u]))),
-        f32(bitcast<i32>(atomicLoad(&radiance[v + 5u]))),
+        f32(bitcast<i32>(atomicLoad(&radiance_direction[v]))),
+        f32(bitcast<i32>(atomicLoad(&radiance_direction[v + 1u]))),
+        f32(bitcast<i32>(atomicLoad(&radiance_direction[v + 2u]))),
     );
     let lum = (sums.r + sums.g + sums.b) / 3.0;
     // The luminance-weighted mean direction: its length (≤ 1) says how collimated the light is.

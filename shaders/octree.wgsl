@@ -1,8 +1,9 @@
 // Stage 3, octree: the min/max pyramid of n and extinction over the grid (Sun et al. 2008, §4.2),
-// rebuilt every frame. Stored as one linear buffer of vec4 (n_min, n_max, σ_min, σ_max), level
-// after level (offsets in OctreeParams.levels[L].w) — a mip chain in a buffer rather than a 3D
-// texture, because level 0 is the dual grid (one cell fewer per axis than the voxels) and a
-// buffer lets every stage index any level without a view per mip.
+// rebuilt every frame. Stored as vec4 (n_min, n_max, σ_min, σ_max) per cell, level 0 in
+// `octree_leaves` and the levels above one after another in `octree` (offsets in
+// OctreeParams.levels[L].w count from level 0's start; see shared/octree.wgsl) — a mip chain in
+// buffers rather than a 3D texture, because level 0 is the dual grid (one cell fewer per axis
+// than the voxels) and a buffer lets every stage index any level without a view per mip.
 //
 // `leaf` fills level 0 from the voxels; `reduce` builds level L from level L−1, one dispatch per
 // level. The CPU twin is src/cpu/octree.rs.
@@ -27,6 +28,7 @@
 @group(0) @binding(3) var<storage, read_write> octree: array<vec4<f32>>;
 @group(0) @binding(4) var<uniform> level: u32;
 @group(0) @binding(5) var<storage, read_write> glass_mark: array<f32>;
+@group(0) @binding(6) var<storage, read_write> octree_leaves: array<vec4<f32>>;
 
 fn voxel_index(p: vec3<u32>) -> u32 {
     let d = octree_params.grid.dims;
@@ -52,7 +54,7 @@ fn leaf(@builtin(global_invocation_id) id: vec3<u32>) {
         sharp = max(sharp, sigma.w);
     }
     let cell = id.x + dims0.x * (id.y + dims0.y * id.z);
-    octree[cell] = v;
+    octree_leaves[cell] = v;
     glass_mark[cell] = sharp;
 }
 
@@ -67,9 +69,15 @@ fn reduce(@builtin(global_invocation_id) id: vec3<u32>) {
     for (var k = 0u; k < 8u; k++) {
         let c = 2u * id + vec3<u32>(k & 1u, (k >> 1u) & 1u, k >> 2u);
         if all(c < below.xyz) {
-            let w = octree[below.w + c.x + below.x * (c.y + below.y * c.z)];
+            let i = below.w + c.x + below.x * (c.y + below.y * c.z);
+            var w: vec4<f32>;
+            if level == 1u {
+                w = octree_leaves[i];
+            } else {
+                w = octree[i - octree_params.leaf_cells];
+            }
             v = vec4<f32>(min(v.x, w.x), max(v.y, w.y), min(v.z, w.z), max(v.w, w.w));
         }
     }
-    octree[here.w + id.x + here.x * (id.y + here.y * id.z)] = v;
+    octree[here.w - octree_params.leaf_cells + id.x + here.x * (id.y + here.y * id.z)] = v;
 }

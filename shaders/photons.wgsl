@@ -22,7 +22,8 @@
 @group(0) @binding(1) var<storage, read> emitters: array<Emitter>;
 @group(0) @binding(2) var<storage, read> lights: array<LightGpu>;
 @group(0) @binding(3) var<uniform> octree_params: OctreeParams;
-@group(0) @binding(4) var<storage, read> octree: array<vec4<f32>>;
+// Level 0 of the pyramid (the dual grid's cells).
+@group(0) @binding(4) var<storage, read> octree_leaves: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> cdf: array<f32>;
 @group(0) @binding(6) var<storage, read_write> photons: array<Photon>;
 // Per level-0 octree cell, the n − 1 of sharp glass near it (octree.wgsl).
@@ -76,7 +77,7 @@ fn importance(o: vec3<f32>, d: vec3<f32>) -> f32 {
         let c = clamp(dda.cell, vec3<i32>(0), vec3<i32>(dims.xyz) - 1);
         dda_advance(&dda);
         let cell = u32(c.x) + dims.x * (u32(c.y) + dims.y * u32(c.z));
-        let v = octree[cell];
+        let v = octree_leaves[cell];
         if v.y - 1.0 > params.eps_refract || glass_mark[cell] > params.eps_refract {
             return 1.0;
         }

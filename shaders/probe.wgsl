@@ -27,6 +27,7 @@
 @group(0) @binding(9) var<storage, read> bvh_triangles: array<BvhTriangle>;
 @group(0) @binding(10) var<storage, read> interfaces: array<Interface>;
 @group(0) @binding(11) var<storage, read> triangle_normals: array<vec4<f32>>;
+@group(0) @binding(12) var<storage, read> octree_leaves: array<vec4<f32>>;
 
 fn record(slot: u32, s: RayState, steps: u32) {
     records[slot] = ProbeRecord(s.x, s.g.w, s.v, steps);

@@ -51,6 +51,7 @@
 @group(0) @binding(33) var<storage, read_write> frame_volume: array<vec4<f32>>;
 @group(0) @binding(8) var<uniform> octree_params: OctreeParams;
 @group(0) @binding(9) var<storage, read> octree: array<vec4<f32>>;
+@group(0) @binding(25) var<storage, read> octree_leaves: array<vec4<f32>>;
 @group(0) @binding(10) var<storage, read> bvh_nodes: array<BvhNode>;
 @group(0) @binding(11) var<storage, read> bvh_triangles: array<BvhTriangle>;
 @group(0) @binding(12) var<storage, read> receivers: array<ReceiverGpu>;

@@ -129,12 +129,15 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let x = grid.origin + (vec3<f32>(id) + 0.5) * grid.voxel_size;
     var v = Voxel(1.0, params.fog_absorption.rgb, params.fog_scattering, 0.0);
-    for (var i = 0u; i < params.field_count; i++) {
+    // The loop bounds also read the arrays' lengths: bounds taken from uniforms alone let Mesa
+    // 22.3's lavapipe specialise this shader on their values and compile it again at every
+    // dispatch, never freeing the last variant (~0.5 MiB per volume rebuild; tests/memory.rs).
+    for (var i = 0u; i < min(params.field_count, arrayLength(&fields)); i++) {
         let f = fields[i];
         let s = field_sample(f, x);
         composite(&v, Contribution(s.x, s.y, f.sharp != 0u), f.absorption.rgb, f.scattering);
     }
-    for (var i = 0u; i < params.mesh_count; i++) {
+    for (var i = 0u; i < min(params.mesh_count, arrayLength(&meshes)); i++) {
         let m = meshes[i];
         let local = vec3<i32>(id) - vec3<i32>(m.window_min);
         if any(local < vec3<i32>(0)) || any(local >= vec3<i32>(m.window_dims)) {

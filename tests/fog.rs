@@ -96,3 +96,24 @@ fn a_floor_under_fog_is_lit_through_the_fog_in_absolute_terms() {
     eprintln!("floor under fog: direct {measured:.5}, exact {exact:.5}");
     assert!((measured / exact - 1.0).abs() < 0.01, "direct light under fog {measured} vs {exact}");
 }
+
+/// On an adapter that binds little at once, the fog's radiance deposits and the octree fit
+/// because each is split over two bindings (flux / mean direction; level 0 / the levels above):
+/// a volume that would not fit as one buffer of each renders, and exactly as without the limit.
+#[test]
+fn fog_deposits_and_the_octree_larger_than_one_binding_render_the_same() {
+    let desc = frame_from_lua(&fog_box(0.8, 32, 20_000, 0.2));
+    let voxels = desc.volume.voxel_count();
+    let octree = refrakt::pipeline::octree::layout_for(refrakt::gpu::types::GridParams { dims: desc.volume.dims.into(), ..Default::default() });
+    // Room for half the deposits and level 0 of the octree, but not for either whole.
+    let binding = 500 << 10;
+    assert!(voxels * 24 > binding && refrakt::pipeline::octree::cell_count(&octree) * 16 > binding);
+    let mut small = refrakt::gpu::GpuContext::new(None).unwrap();
+    small.limits.max_storage_buffer_binding_size = binding;
+    let mut limited = refrakt::pipeline::Renderer::new(small).unwrap();
+    let image = limited.frame(&desc).unwrap_or_else(|e| panic!("{e:#}"));
+    let reference = renderer().frame(&desc).unwrap();
+    assert_eq!(image.layers, reference.layers, "the same frame, with and without a small binding limit");
+    let layers = fluence_by_layer(&limited, desc.volume.dims);
+    assert!(layers.iter().all(|&f| f > 0.1), "the fog is lit (E·exp(−σs) ≥ 0.2 W/m² at the bottom): {layers:?}");
+}

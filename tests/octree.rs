@@ -54,7 +54,11 @@ fn build(source: &str) -> Volume {
     let halves: &[half::f16] = bytemuck::cast_slice(&ext);
     let sigma = halves.chunks(4).map(|c| c[0].to_f32().max(c[1].to_f32()).max(c[2].to_f32())).collect();
     let sharp = halves.chunks(4).map(|c| c[3].to_f32()).collect();
-    let octree = bytemuck::cast_slice::<u8, [f32; 4]>(&readback::read_buffer(&renderer.ctx, &grids.octree).unwrap()).to_vec();
+    // Level 0 and the levels above it, as the CPU twin's one array of all levels.
+    let cells = |buffer| bytemuck::cast_slice::<u8, [f32; 4]>(&readback::read_buffer(&renderer.ctx, buffer).unwrap()).to_vec();
+    let mut octree = cells(&grids.octree_leaves);
+    octree.extend(cells(&grids.octree));
+    octree.truncate(refrakt::pipeline::octree::cell_count(&grids.octree_layout) as usize);
     let glass_mark = bytemuck::cast_slice::<u8, f32>(&readback::read_buffer(&renderer.ctx, &grids.glass_mark).unwrap()).to_vec();
     Volume { desc, renderer, n, sigma, sharp, octree, glass_mark }
 }

@@ -64,13 +64,14 @@ fn an_error_before_any_frame_does_not_promise_a_last_good_frame() {
     let (scene, out) = (dir.path().join("scene.lua"), dir.path().join("preview.exr"));
     let mut w = Watch::start(&scene, &out, &["--no-progressive"]);
     w.error();
-    let stderr = w.stderr.lock().unwrap().clone();
+    let stderr = w.stderr_once_it_says("no frame is shown yet");
     assert!(stderr.contains("no frame is shown yet") && !stderr.contains("keeps the last good frame"), "{stderr}");
     save_by_rename(&scene, &ball("0.2, 0.3, 0.4"));
     w.frame();
     save_by_rename(&scene, &ball("0.2, 0.3, 0.4").replace("samples = 1", "samples = = 1"));
     w.error();
-    assert!(w.stderr.lock().unwrap().contains("the preview keeps the last good frame"), "{}", w.history());
+    let stderr = w.stderr_once_it_says("the preview keeps the last good frame");
+    assert!(stderr.contains("the preview keeps the last good frame"), "{}", w.history());
 }
 
 /// A volume beyond the adapter at the script's resolution, and at half of it (the fast frame's):

@@ -5,9 +5,19 @@
 // which trilinear interpolation only mixes those eight values — so a cell's [min, max] bounds
 // every value the filtered field takes inside it. Level L cells merge 2×2×2 cells of level L−1.
 //
-// Expects the stage to declare `octree_params: OctreeParams` (uniform) and
-// `octree: array<vec4<f32>>` (storage, read: n_min, n_max, σ_min, σ_max per cell).
-// The CPU twin is src/cpu/octree.rs.
+// Expects the stage to declare `octree_params: OctreeParams` (uniform), `octree_leaves` and
+// `octree` (storage, read: array<vec4<f32>> of n_min, n_max, σ_min, σ_max per cell): level 0 in
+// the first, the levels above in the second. Level 0 holds 7/8 of the cells; in a buffer of its
+// own, a volume's pyramid needs a binding of only its dual grid's size (256×192×154 fits the
+// 128 MiB many adapters bind). The CPU twin, src/cpu/octree.rs, keeps one array of all levels.
+
+// Cell `i` of the pyramid, numbered as in the CPU twin's one array (level L from levels[L].w).
+fn octree_load(i: u32) -> vec4<f32> {
+    if i < octree_params.leaf_cells {
+        return octree_leaves[i];
+    }
+    return octree[i - octree_params.leaf_cells];
+}
 
 struct OctreeCell {
     lo: vec3<f32>,
@@ -29,7 +39,7 @@ fn octree_cell(x: vec3<f32>) -> OctreeCell {
     for (var l = i32(octree_params.level_count) - 1; l >= 0; l--) {
         let level = octree_params.levels[l];
         let c = c0 >> vec3<u32>(u32(l));
-        let v = octree[level.w + c.x + level.x * (c.y + level.y * c.z)];
+        let v = octree_load(level.w + c.x + level.x * (c.y + level.y * c.z));
         if v.y - v.x < octree_params.eps_n && v.w - v.z < octree_params.eps_sigma {
             let size = f32(1u << u32(l));
             let lo = vec3<f32>(c) * size;

@@ -249,7 +249,7 @@ struct OctreeParams {
     level_count: u32,
     eps_n: f32,
     eps_sigma: f32,
-    _pad0: u32,
+    leaf_cells: u32,
     levels: array<vec4<u32>, 12>,
 }
 

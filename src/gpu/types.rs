@@ -403,7 +403,10 @@ gpu_struct! {
         pub eps_n: f32,
         /// …and its extinction (largest channel) by less than this, per metre.
         pub eps_sigma: f32,
-        pub _pad0: u32,
+        /// Cells of level 0, which has a buffer of its own; the levels above lie in a second
+        /// buffer from offset `levels[1][3]` = `leaf_cells` on (see `shaders/shared/octree.wgsl`).
+        pub leaf_cells: u32,
+        /// Per level: cells along x, y, z, and the level's first cell in the whole pyramid.
         pub levels: [[u32; 4]; 12],
     }
 }

@@ -97,6 +97,8 @@ impl March {
             layout::storage_texture(15, GRID_FORMAT, d3),
             layout::storage(16, true),
             layout::storage(17, true),
+            layout::storage(18, false),
+            layout::storage(19, true),
         ];
         let (main, bgl) = layout::pipeline_entry(device, shaders, "march", "main", &entries)?;
         let (resolve, _) = layout::pipeline_entry(device, shaders, "march", "resolve", &entries)?;
@@ -171,13 +173,15 @@ impl March {
                     layout::bind(8, &receivers.bvh_triangles.buffer),
                     layout::bind(9, &receivers.receivers.buffer),
                     layout::bind(10, &receivers.charts.buffer),
-                    layout::bind(11, &radiance.deposits),
+                    layout::bind(11, &radiance.flux_deposits),
                     layout::bind(12, &receivers.caustic_atlas.buffer),
                     layout::bind(13, &self.stats),
                     wgpu::BindGroupEntry { binding: 14, resource: layout::texture_view(&radiance.fluence.view) },
                     wgpu::BindGroupEntry { binding: 15, resource: layout::texture_view(&radiance.direction.view) },
                     layout::bind(16, &receivers.interfaces.buffer),
                     layout::bind(17, &receivers.triangle_normals.buffer),
+                    layout::bind(18, &radiance.direction_deposits),
+                    layout::bind(19, &grids.octree_leaves),
                 ],
             });
             self.bound = Some((generations, bg));
@@ -187,7 +191,8 @@ impl March {
         enc.clear_buffer(&self.stats, 0, None);
         let deposit = params.flags & march_flags::DEPOSIT_RADIANCE != 0;
         if deposit {
-            enc.clear_buffer(&radiance.deposits, 0, None);
+            enc.clear_buffer(&radiance.flux_deposits, 0, None);
+            enc.clear_buffer(&radiance.direction_deposits, 0, None);
         }
         let mut pass = profiler.pass(enc, "march");
         pass.set_bind_group(0, bg, &[]);

@@ -284,9 +284,9 @@ impl Renderer {
         self.check_grid_limits(desc)?;
         let name = &self.ctx.info.name;
         let binding = self.binding_limit();
-        // The largest buffers bound at once: the octree (16 bytes per cell) and, with a
-        // scattering medium, the radiance grid's deposits (24 bytes per voxel).
-        let deposits = if needs_scattering(desc) { desc.volume.voxel_count() * 24 } else { 0 };
+        // The largest buffers bound at once: the octree's and, with a scattering medium, the
+        // radiance grid's deposits.
+        let deposits = if needs_scattering(desc) { RadianceGrid::deposit_binding_bytes(desc.volume.dims) } else { 0 };
         self.check_volume_binding(desc, Grids::largest_binding(desc.volume.dims).max(deposits))?;
         let (w, h) = (desc.camera.width, desc.camera.height);
         // Each of the frame's planes is bound on its own; the five share one buffer.

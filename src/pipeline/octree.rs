@@ -37,7 +37,8 @@ pub fn layout_for(grid: GridParams) -> OctreeParams {
         }
         dims = (dims + 1) / 2;
     }
-    OctreeParams { grid, level_count: count as u32, eps_n: EPS_N, eps_sigma: EPS_SIGMA, _pad0: 0, levels }
+    let leaf_cells = levels[0][0].saturating_mul(levels[0][1]).saturating_mul(levels[0][2]);
+    OctreeParams { grid, level_count: count as u32, eps_n: EPS_N, eps_sigma: EPS_SIGMA, leaf_cells, levels }
 }
 
 /// Cells of level `l`.
@@ -69,6 +70,7 @@ impl Octree {
             layout::storage(3, false),
             layout::uniform(4),
             layout::storage(5, false),
+            layout::storage(6, false),
         ];
         let (leaf, bgl) = layout::pipeline_entry(device, shaders, "octree", "leaf", &entries)?;
         let (reduce, _) = layout::pipeline_entry(device, shaders, "octree", "reduce", &entries)?;
@@ -108,6 +110,7 @@ impl Octree {
                             layout::bind(3, &grids.octree),
                             layout::bind(4, &u),
                             layout::bind(5, &grids.glass_mark),
+                            layout::bind(6, &grids.octree_leaves),
                         ],
                     })
                 })

@@ -126,7 +126,7 @@ impl Photons {
                     layout::bind(1, &lights.emitters),
                     layout::bind(2, &lights.lights),
                     layout::bind(3, &grids.octree_params),
-                    layout::bind(4, &grids.octree),
+                    layout::bind(4, &grids.octree_leaves),
                     layout::bind(5, &self.cdf),
                     layout::bind(6, &self.photons),
                     layout::bind(7, &grids.glass_mark),

@@ -61,6 +61,7 @@ impl Probe {
             layout::storage(9, true),
             layout::storage(10, true),
             layout::storage(11, true),
+            layout::storage(12, true),
         ];
         let (trace, bgl) = layout::pipeline_entry(device, shaders, "probe", "main", &entries)?;
         let (query, _) = layout::pipeline_entry(device, shaders, "probe", "octree_query", &entries)?;
@@ -103,6 +104,7 @@ impl Probe {
                 layout::bind(9, &surfaces.bvh_triangles.buffer),
                 layout::bind(10, &surfaces.interfaces.buffer),
                 layout::bind(11, &surfaces.triangle_normals.buffer),
+                layout::bind(12, &grids.octree_leaves),
             ],
         });
         let out = if query { &steps } else { &records };

@@ -74,7 +74,9 @@ pub struct Grids {
     pub scattering_grid: Grid3d,
     /// Trilinear, clamped to the box edge.
     pub sampler: wgpu::Sampler,
-    /// The min/max pyramid (`shaders/octree.wgsl`), its shape, and that shape as a uniform.
+    /// The min/max pyramid (`shaders/octree.wgsl`): level 0, the levels above it, the shape,
+    /// and that shape as a uniform.
+    pub octree_leaves: wgpu::Buffer,
     pub octree: wgpu::Buffer,
     pub octree_layout: crate::gpu::types::OctreeParams,
     pub octree_params: wgpu::Buffer,
@@ -85,28 +87,38 @@ pub struct Grids {
 
 impl Grids {
     /// Bytes of the largest buffer the grids of a `dims` volume bind at once: the octree's
-    /// (16 bytes per cell over all its levels, about 8/7 of the dual grid's cells).
+    /// level 0 (16 bytes per cell of the dual grid).
     pub fn largest_binding(dims: UVec3) -> u64 {
         let voxels = dims.x as u64 * dims.y as u64 * dims.z as u64;
-        let octree_layout = super::octree::layout_for(crate::gpu::types::GridParams { dims: dims.into(), ..Default::default() });
-        (super::octree::cell_count(&octree_layout) * 16).max(voxels * 4)
+        let [leaves, upper] = Self::octree_bytes(dims);
+        leaves.max(upper).max(voxels * 4)
+    }
+
+    /// Bytes of the octree's two buffers: level 0, and the levels above it (at least one cell).
+    fn octree_bytes(dims: UVec3) -> [u64; 2] {
+        let layout = super::octree::layout_for(crate::gpu::types::GridParams { dims: dims.into(), ..Default::default() });
+        let leaves = super::octree::level_cells(&layout, 0);
+        [leaves * 16, (super::octree::cell_count(&layout) - leaves).max(1) * 16]
     }
 
     pub fn new(ctx: &GpuContext, dims: UVec3) -> Result<Self> {
         let device = &ctx.device;
         let voxels = dims.x as u64 * dims.y as u64 * dims.z as u64;
         let octree_layout = super::octree::layout_for(crate::gpu::types::GridParams { dims: dims.into(), ..Default::default() });
-        let octree_cells = super::octree::cell_count(&octree_layout);
+        let [leaf_bytes, upper_bytes] = Self::octree_bytes(dims);
+        let storage = |label, size| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            })
+        };
         allocating(ctx, &format!("a {}×{}×{} volume", dims.x, dims.y, dims.z), || Self {
             dims,
             generation: next_generation(),
             placement: None,
-            index_field: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("index_field"),
-                size: voxels * 4,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            }),
+            index_field: storage("index_field", voxels * 4),
             ior_grid: Grid3d::new(device, dims, "ior_grid"),
             extinction_grid: Grid3d::new(device, dims, "extinction_grid"),
             scattering_grid: Grid3d::new(device, dims, "scattering_grid"),
@@ -116,18 +128,9 @@ impl Grids {
                 min_filter: wgpu::FilterMode::Linear,
                 ..Default::default()
             }),
-            octree: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("octree"),
-                size: octree_cells * 16,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            }),
-            glass_mark: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("glass_mark"),
-                size: super::octree::level_cells(&octree_layout, 0) * 4,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            }),
+            octree_leaves: storage("octree level 0", leaf_bytes),
+            octree: storage("octree levels 1+", upper_bytes),
+            glass_mark: storage("glass_mark", leaf_bytes / 4),
             octree_layout,
             octree_params: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("octree params"),
@@ -376,24 +379,36 @@ fn plane_layer(k: usize, plane: &[f32]) -> Layer {
 pub struct RadianceGrid {
     pub dims: UVec3,
     pub generation: u64,
-    /// 6 u32 per voxel: flux·length r, g, b and luminance·length·direction x, y, z.
-    pub deposits: wgpu::Buffer,
+    /// 3 u32 per voxel: flux·length r, g, b.
+    pub flux_deposits: wgpu::Buffer,
+    /// 3 i32 per voxel: luminance·length·direction x, y, z. (Two buffers, each bound on its own:
+    /// a volume needs half the binding size that one buffer of all six words would.)
+    pub direction_deposits: wgpu::Buffer,
     pub fluence: Grid3d,
     pub direction: Grid3d,
 }
 
 impl RadianceGrid {
+    /// Bytes of each of the two deposit buffers of a `dims` volume (3 words per voxel).
+    pub fn deposit_binding_bytes(dims: UVec3) -> u64 {
+        dims.x as u64 * dims.y as u64 * dims.z as u64 * 12
+    }
+
     pub fn new(ctx: &GpuContext, dims: UVec3) -> Result<Self> {
-        let voxels = dims.x as u64 * dims.y as u64 * dims.z as u64;
+        let bytes = Self::deposit_binding_bytes(dims);
+        let deposits = |label| {
+            ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            })
+        };
         allocating(ctx, "the radiance grid", || Self {
             dims,
             generation: next_generation(),
-            deposits: ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("radiance deposits"),
-                size: voxels * 24,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            }),
+            flux_deposits: deposits("radiance flux deposits"),
+            direction_deposits: deposits("radiance direction deposits"),
             fluence: Grid3d::new(&ctx.device, dims, "fluence_grid"),
             direction: Grid3d::new(&ctx.device, dims, "direction_grid"),
         })

@@ -97,6 +97,20 @@ impl Watch {
         format!("events:\n{}\nstderr:\n{}", events.join("\n"), self.stderr.lock().unwrap())
     }
 
+    /// What `refrakt watch` printed on stderr once it holds `text`, or as it is after
+    /// [`PATIENCE`]: stderr is read on its own thread, which may lag the JSON event that comes of
+    /// the same message.
+    pub fn stderr_once_it_says(&self, text: &str) -> String {
+        let deadline = Instant::now() + PATIENCE;
+        loop {
+            let stderr = self.stderr.lock().unwrap().clone();
+            if stderr.contains(text) || Instant::now() > deadline {
+                return stderr;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+
     /// The next event that is a frame or an error (others are kept in the history).
     pub fn next(&mut self) -> Value {
         let deadline = Instant::now() + PATIENCE;

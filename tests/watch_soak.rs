@@ -13,8 +13,11 @@ use std::time::{Duration, Instant};
 
 use common::watch::*;
 
-/// Growth of resident memory allowed between the end of the warm-up and the last edit.
-const RSS_GROWTH_BOUND_MIB: f64 = 64.0;
+/// Growth of resident memory allowed between the end of the warm-up and the last edit: the
+/// allocator's slack, plus 16 KiB per edit (lavapipe's leak of a shader variant per volume
+/// rebuild, now avoided, was ~60 KiB per edit of this mix; 2000 edits measured +0 MiB).
+const RSS_SLACK_MIB: f64 = 4.0;
+const RSS_GROWTH_PER_EDIT_MIB: f64 = 16.0 / 1024.0;
 /// Edits before the memory baseline is taken (allocators and driver caches settle).
 const WARM_UP: usize = 20;
 
@@ -105,5 +108,6 @@ fn many_edits_of_every_kind_all_show_and_memory_stays_bounded() {
         rss.iter().map(|r| r.1).fold(0.0, f64::max),
         rss.iter().map(|&(i, m)| (i, m.round() as u64)).collect::<Vec<_>>()
     );
-    assert!(last - baseline <= RSS_GROWTH_BOUND_MIB, "resident memory grew {:.0} MiB over {edits} edits", last - baseline);
+    let bound = RSS_SLACK_MIB + RSS_GROWTH_PER_EDIT_MIB * edits as f64;
+    assert!(last - baseline <= bound, "resident memory grew {:.1} MiB over {edits} edits (bound {bound:.1} MiB)", last - baseline);
 }

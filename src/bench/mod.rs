@@ -291,8 +291,8 @@ fn scaling_row(what: &str, run: &SceneRun) -> Value {
 fn scaling(renderer: &mut Renderer, source: &mut SceneSource, base: &EvalOptions, frames: u32, opts: &BenchOptions) -> Result<Value> {
     let mut rows = Vec::new();
     let sweeps: Vec<(&str, Vec<EvalOptions>)> = vec![
-        ("photons", [17_500u32, 35_000, 70_000, 140_000, 280_000, 1_000_000].iter().map(|&p| EvalOptions { photons: Some(p), ..base.clone() }).collect()),
-        ("volume", [64u32, 96, 128, 192, 256].iter().map(|&v| EvalOptions { resolution: Some(v), ..base.clone() }).collect()),
+        ("photons", [17_500u32, 35_000, 70_000, 140_000, 280_000, 1_000_000, 4_000_000, 10_000_000].iter().map(|&p| EvalOptions { photons: Some(p), ..base.clone() }).collect()),
+        ("volume", [64u32, 96, 128, 192, 256, 384, 512].iter().map(|&v| EvalOptions { resolution: Some(v), ..base.clone() }).collect()),
         ("image", [(512u32, 288u32), (1024, 576), (1920, 1080), (3840, 2160)].iter().map(|&s| EvalOptions { size: Some(s), ..base.clone() }).collect()),
     ];
     for (what, options) in sweeps {

@@ -108,7 +108,7 @@ impl Octree {
                                 resource: wgpu::BindingResource::TextureView(&grids.extinction_grid.view),
                             },
                             layout::bind(3, &grids.octree),
-                            layout::bind(4, &u),
+                            layout::bind(4, u),
                             layout::bind(5, &grids.glass_mark),
                             layout::bind(6, &grids.octree_leaves),
                         ],

@@ -34,6 +34,19 @@ fn assert_contains(message: &str, needles: &[&str]) {
     assert!(!message.contains("stack traceback"), "one paragraph, no traceback:\n{message}");
 }
 
+/// A compiled chunk (it starts with ESC) as the scene or as a module: refused, naming the file.
+#[test]
+fn bytecode_is_refused_with_the_files_name() {
+    let (_dir, path) = common::write_script("scene.lua", "\x1bLuaT\0");
+    let e = format!("{:#}", ScriptHost::load(&path, &[], &limits()).err().expect("bytecode is refused"));
+    assert_contains(&e, &["scene.lua: this is precompiled Lua bytecode"]);
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("lib.lua"), "\x1b").unwrap();
+    std::fs::write(dir.path().join("scene.lua"), "local lib = require(\"lib\")\nreturn lib\n").unwrap();
+    let e = format!("{:#}", ScriptHost::load(&dir.path().join("scene.lua"), &[], &limits()).err().expect("bytecode is refused"));
+    assert_contains(&e, &["lib.lua: this is precompiled Lua bytecode"]);
+}
+
 #[test]
 fn os_execute_is_refused() {
     let e = refused("os.execute(\"touch /tmp/refrakt-escaped\")");

@@ -98,6 +98,7 @@ impl ScriptHost {
 
     /// Runs the script; returns the scene it built and the `update` it defines.
     fn scene_of(lua: &Lua, shown: &str, source: String) -> Result<(Shared<Scene>, Option<Function>)> {
+        refuse_bytecode(shown, &source).map_err(|m| anyhow!(m))?;
         sandbox::start_budget(lua);
         let returned: Value = lua
             .load(source)
@@ -169,6 +170,18 @@ fn files_of(lua: &Lua) -> Vec<PathBuf> {
 
 /// A script error as one readable paragraph; out-of-memory gets the last line that ran, and a
 /// stack overflow a hint at its usual cause.
+/// Lua takes a chunk that starts with ESC for precompiled bytecode, which the sandbox never
+/// loads (`ChunkMode::Text`); Lua's own refusal names no file, so say it here with the name.
+/// (Found by the `lua_api` fuzz target: a one-byte script "\x1b".)
+fn refuse_bytecode(shown: &str, source: &str) -> std::result::Result<(), String> {
+    if source.starts_with('\x1b') {
+        return Err(format!(
+            "{shown}: this is precompiled Lua bytecode, not a script; refrakt runs scripts from their source text only"
+        ));
+    }
+    Ok(())
+}
+
 pub(crate) fn script_error(lua: &Lua, e: &mlua::Error) -> anyhow::Error {
     let is_memory = matches!(e, mlua::Error::MemoryError(_))
         || matches!(e, mlua::Error::CallbackError { cause, .. } if matches!(**cause, mlua::Error::MemoryError(_)));
@@ -205,6 +218,7 @@ fn install_require(lua: &Lua) -> mlua::Result<()> {
         let source = std::fs::read_to_string(&path)
             .map_err(|e| convert::error_at(lua, format!("require(\"{name}\"): cannot read {}: {e}", path.display())))?;
         let shown = shown_path(lua, &rel);
+        refuse_bytecode(&shown, &source).map_err(|m| convert::error_at(lua, m))?;
         let value: Value = lua.load(source).set_name(format!("@{shown}")).set_mode(mlua::chunk::ChunkMode::Text).eval()?;
         let value = if value.is_nil() { Value::Boolean(true) } else { value };
         loaded.raw_set(name.as_str(), value.clone())?;

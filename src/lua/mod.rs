@@ -168,8 +168,6 @@ fn files_of(lua: &Lua) -> Vec<PathBuf> {
     lua.app_data_ref::<sandbox::FileAccess>().map(|a| a.read.borrow().clone()).unwrap_or_default()
 }
 
-/// A script error as one readable paragraph; out-of-memory gets the last line that ran, and a
-/// stack overflow a hint at its usual cause.
 /// Lua takes a chunk that starts with ESC for precompiled bytecode, which the sandbox never
 /// loads (`ChunkMode::Text`); Lua's own refusal names no file, so say it here with the name.
 /// (Found by the `lua_api` fuzz target: a one-byte script "\x1b".)
@@ -182,6 +180,8 @@ fn refuse_bytecode(shown: &str, source: &str) -> std::result::Result<(), String>
     Ok(())
 }
 
+/// A script error as one readable paragraph; out-of-memory gets the last line that ran, and a
+/// stack overflow a hint at its usual cause.
 pub(crate) fn script_error(lua: &Lua, e: &mlua::Error) -> anyhow::Error {
     let is_memory = matches!(e, mlua::Error::MemoryError(_))
         || matches!(e, mlua::Error::CallbackError { cause, .. } if matches!(**cause, mlua::Error::MemoryError(_)));

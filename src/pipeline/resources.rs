@@ -90,22 +90,25 @@ impl Grids {
     /// level 0 (16 bytes per cell of the dual grid).
     pub fn largest_binding(dims: UVec3) -> u64 {
         let voxels = dims.x as u64 * dims.y as u64 * dims.z as u64;
-        let [leaves, upper] = Self::octree_bytes(dims);
+        let [leaves, upper] = Self::octree_bytes(&Self::octree_layout(dims));
         leaves.max(upper).max(voxels * 4)
     }
 
+    fn octree_layout(dims: UVec3) -> crate::gpu::types::OctreeParams {
+        super::octree::layout_for(crate::gpu::types::GridParams { dims: dims.into(), ..Default::default() })
+    }
+
     /// Bytes of the octree's two buffers: level 0, and the levels above it (at least one cell).
-    fn octree_bytes(dims: UVec3) -> [u64; 2] {
-        let layout = super::octree::layout_for(crate::gpu::types::GridParams { dims: dims.into(), ..Default::default() });
-        let leaves = super::octree::level_cells(&layout, 0);
-        [leaves * 16, (super::octree::cell_count(&layout) - leaves).max(1) * 16]
+    fn octree_bytes(layout: &crate::gpu::types::OctreeParams) -> [u64; 2] {
+        let leaves = super::octree::level_cells(layout, 0);
+        [leaves * 16, (super::octree::cell_count(layout) - leaves).max(1) * 16]
     }
 
     pub fn new(ctx: &GpuContext, dims: UVec3) -> Result<Self> {
         let device = &ctx.device;
         let voxels = dims.x as u64 * dims.y as u64 * dims.z as u64;
-        let octree_layout = super::octree::layout_for(crate::gpu::types::GridParams { dims: dims.into(), ..Default::default() });
-        let [leaf_bytes, upper_bytes] = Self::octree_bytes(dims);
+        let octree_layout = Self::octree_layout(dims);
+        let [leaf_bytes, upper_bytes] = Self::octree_bytes(&octree_layout);
         let storage = |label, size| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),

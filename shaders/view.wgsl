@@ -562,12 +562,15 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
 // wavelength per pixel (hashed), with the pixel's other samples as its companions, spaced
 // evenly over the spectrum (the rotation of Wilkie et al. 2014's hero wavelengths). Dispersive
 // glass sends each wavelength its own way, so each companion is traced as a sample of its own.
-fn sample_wavelength_of(k: u32) {
+// A pixel of few samples has companions within each sample too (j of wavelengths_per_sample),
+// traced only where the sample met dispersion (`shade_pixel`).
+fn sample_wavelength_of(k: u32, j: u32) {
     path_dispersed = false;
     if !has(VIEW_FLAG_SPECTRAL) {
         return;
     }
-    let u = fract(random01(0x5bd1e995u, pixel_key, 0u) + f32(k) / f32(params.samples));
+    let slot = f32(k) + f32(j) / f32(wavelengths_per_sample());
+    let u = fract(random01(0x5bd1e995u, pixel_key, 0u) + slot / f32(params.samples));
     path_wavelength = sample_wavelength(u);
     grid_dispersion_scale = dispersion_scale(params.grid_dispersion, path_wavelength);
 }
@@ -587,8 +590,8 @@ fn spectral_sample(s: ViewSample) -> ViewSample {
     return out;
 }
 
-fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
-    sample_wavelength_of(k);
+fn trace_view(dir0: vec3<f32>, k: u32, j: u32) -> ViewSample {
+    sample_wavelength_of(k, j);
     var out = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
     var stack: array<Branch, BRANCH_STACK>;
     var top = 0u;
@@ -604,6 +607,10 @@ fn trace_view(dir0: vec3<f32>, k: u32) -> ViewSample {
     }
     out.radiance += out.volume;
     return spectral_sample(out);
+}
+
+fn wavelengths_per_sample() -> u32 {
+    return max(params.wavelengths_per_sample, 1u);
 }
 
 // The ray-equation steps of this workgroup's pixels, (low, high) words: one global add per
@@ -643,15 +650,31 @@ fn shade_pixel(p: vec2<u32>) -> u32 {
     pixel_key = p.x + p.y * params.width;
     var sum = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
     var coverage = 0.0;
-    for (var k = params.sample_first; k < params.sample_first + params.sample_count; k++) {
-        let s = trace_view(camera_ray(vec2<f32>(id.xy) + r2(k)), k);
-        sum.radiance += s.radiance;
-        sum.caustic += s.caustic;
-        sum.direct += s.direct;
-        sum.volume += s.volume;
+    // Sample k's trace j: j = 0 first; where it met dispersive glass, its companions follow,
+    // the same ray at wavelengths spaced evenly after it, and the sample is their mean (a
+    // companion that meets no dispersion keeps its rgb, exact at every wavelength). One loop
+    // and one call of trace_view, which inlines the branch tracer.
+    var k = params.sample_first;
+    var j = 0u;
+    var traces = 1u;
+    while k < params.sample_first + params.sample_count {
+        let s = trace_view(camera_ray(vec2<f32>(id.xy) + r2(k)), k, j);
+        if j == 0u {
+            traces = select(1u, wavelengths_per_sample(), path_dispersed);
+            coverage += select(0.0, 1.0, s.covered);
+        }
+        let share = 1.0 / f32(traces);
+        sum.radiance += s.radiance * share;
+        sum.caustic += s.caustic * share;
+        sum.direct += s.direct * share;
+        sum.volume += s.volume * share;
         sum.steps += s.steps;
-        coverage += select(0.0, 1.0, s.covered);
         sum.depth = min(sum.depth, s.depth);
+        j++;
+        if j == traces {
+            j = 0u;
+            k++;
+        }
     }
     let inv = 1.0 / f32(params.samples);
     let pixel = id.x + id.y * params.width;

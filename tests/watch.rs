@@ -373,7 +373,9 @@ fn a_fast_frame_comes_first_only_while_full_frames_are_slow() {
     // Every full frame counts as quick: an hour.
     let mut w = Watch::start(&scene, &out, &["--fast-frame-over", "3600000"]);
     assert_eq!(w.frame()["quality"], "preview", "the first frame has no full frame to go by");
-    assert_eq!(w.frame()["quality"], "final");
+    // (Until a full frame is done, every frame is a fast one first: a late event of the scene's
+    // creation, on a loaded machine, may start a second before it.)
+    w.final_frame();
     save_by_rename(&scene, &two_samples("0.9, 0.3, 0.4"));
     assert_eq!(w.frame()["quality"], "final", "a quick full frame comes without a fast one: {}", w.history());
     // And with every full frame counting as slow (0 ms), each edit gets its fast frame.

@@ -51,7 +51,7 @@ struct ViewParams {
     sample_first: u32,
     sample_count: u32,
     grid_dispersion: f32,
-    _pad1: u32,
+    wavelengths_per_sample: u32,
 }
 
 struct Field {

@@ -102,7 +102,9 @@ gpu_struct! {
         pub sample_count: u32,
         /// KHR dispersion (20/V_d) of the gradient-index media in the grid (spectral frames).
         pub grid_dispersion: f32,
-        pub _pad1: u32,
+        /// Wavelengths a camera sample that meets dispersive glass is traced at (spectral frames:
+        /// `view::wavelengths_per_sample`; 1 otherwise).
+        pub wavelengths_per_sample: u32,
     }
 }
 

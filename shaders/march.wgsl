@@ -334,10 +334,10 @@ fn march_photon(photon: Photon, index: u32) -> u32 {
             } else {
                 d = c.transmitted;
                 flux *= at_wavelength(c.tint) * c.transmitted_share;
-                media = c.beyond;
             }
+            media = media_along(c, d, media);
             refracted = true;
-            s = ray_start(ior_grid, grid_sampler, grid, leave_surface(p, c.facing, d, 1e-3 * grid.voxel_size), d);
+            s = ray_start(ior_grid, grid_sampler, grid, leave_surface(p, c.geometric, d, 1e-3 * grid.voxel_size), d);
             ahead_of.valid = false;
             if events >= MAX_EVENTS || path > params.max_path {
                 return n_steps + 1u; // trapped by total internal reflection: absorbed (march.rs)

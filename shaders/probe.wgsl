@@ -51,11 +51,11 @@ fn cross_surface(s: ptr<function, RayState>, media: ptr<function, Media>, hit: S
     var w = c.reflected;
     if c.reflectance < 1.0 {
         w = c.transmitted;
-        *media = c.beyond;
     }
+    *media = media_along(c, w, *media);
     // (v = n·dir with the grid's n: a sharp object's own n is not in the grid, and straight
     // travel inside it needs none.)
-    *s = ray_start(ior_grid, grid_sampler, params.grid, leave_surface(p, c.facing, w, 1e-3 * params.grid.voxel_size), w);
+    *s = ray_start(ior_grid, grid_sampler, params.grid, leave_surface(p, c.geometric, w, 1e-3 * params.grid.voxel_size), w);
 }
 
 fn advance(s: ptr<function, RayState>, media: ptr<function, Media>) {

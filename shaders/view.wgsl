@@ -490,25 +490,25 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                 b.events++;
                 var next = b.d;
                 if c.reflectance < 1.0 {
-                    var reflected = Branch(s.x, c.reflected, b.weight * (c.reflectance * c.reflected_share), b.media, b.events, 2u * b.path + 1u);
+                    var reflected = Branch(s.x, c.reflected, b.weight * (c.reflectance * c.reflected_share), media_along(c, c.reflected, b.media), b.events, 2u * b.path + 1u);
                     if max(reflected.weight.r, max(reflected.weight.g, reflected.weight.b)) > MIN_WEIGHT && *top < BRANCH_STACK {
-                        reflected.x = leave_surface(s.x, c.facing, c.reflected, 1e-3 * grid.voxel_size);
+                        reflected.x = leave_surface(s.x, c.geometric, c.reflected, 1e-3 * grid.voxel_size);
                         (*stack)[*top] = reflected;
                         *top += 1u;
                     }
                     b.weight *= (1.0 - c.reflectance) * c.tint * c.transmitted_share;
-                    b.media = c.beyond;
                     next = c.transmitted;
                 } else {
                     b.weight *= c.reflected_share;
                     next = c.reflected;
                 }
+                b.media = media_along(c, next, b.media);
                 b.path = 2u * b.path;
                 if b.events >= MAX_EVENTS || max(b.weight.r, max(b.weight.g, b.weight.b)) < MIN_WEIGHT {
                     return;
                 }
                 b.d = next;
-                s = ray_start(ior_grid, grid_sampler, grid, leave_surface(s.x, c.facing, next, 1e-3 * grid.voxel_size), next);
+                s = ray_start(ior_grid, grid_sampler, grid, leave_surface(s.x, c.geometric, next, 1e-3 * grid.voxel_size), next);
                 ahead_of.valid = false;
                 continue;
             }

@@ -225,7 +225,7 @@ fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
 
 // What happens at one crossing: both outgoing directions, the reflectance R (1 under total
 // internal reflection, when `transmitted` is meaningless), the transmitted branch's tint, the
-// media on the far side, and the share of each branch a rough surface's microfacets let through
+// media on the far side of the surface, and the share of each branch a rough surface's microfacets let through
 // (Smith's masking G₁ of the outgoing direction; 1 on a polished surface, 0 where the sampled
 // microfacet sent the light back into the surface).
 struct Crossing {
@@ -234,8 +234,8 @@ struct Crossing {
     reflectance: f32,
     tint: vec3<f32>,
     beyond: Media,
-    // The surface normal facing the incident side.
-    facing: vec3<f32>,
+    // The true surface's normal (a mesh's triangle, not the interpolated one) facing it.
+    geometric: vec3<f32>,
     reflected_share: f32,
     transmitted_share: f32,
 }
@@ -294,6 +294,11 @@ fn cross_interface(d: vec3<f32>, hit: SurfaceHit, media: Media, u: vec2<f32>) ->
         eta = beyond.ior / media.ior;
     }
     let n = select(hit.normal, -hit.normal, dot(hit.normal, d) > 0.0);
+    var geometric = hit.normal;
+    if hit.triangle != 0xffffffffu {
+        geometric = bvh_triangle_normal(hit.triangle);
+    }
+    geometric = select(geometric, -geometric, dot(geometric, d) > 0.0);
     let alpha = f.roughness * f.roughness;
     var m = n;
     if alpha > 0.0 {
@@ -319,11 +324,24 @@ fn cross_interface(d: vec3<f32>, hit: SurfaceHit, media: Media, u: vec2<f32>) ->
         reflected_share = smith_g1(max(cr, 0.0), alpha) * step(0.0, cr);
         transmitted_share = smith_g1(max(ct, 0.0), alpha) * step(0.0, ct);
     }
-    return Crossing(reflected, transmitted, reflectance, f.tint, beyond, n, reflected_share, transmitted_share);
+    return Crossing(reflected, transmitted, reflectance, f.tint, beyond, geometric, reflected_share, transmitted_share);
+}
+
+// The media of a branch that leaves crossing c along w: the media beyond only if w passes
+// through the true surface. Interpolated normals can send a branch to the other side of the
+// triangle than its name says (a reflection into the glass, a refraction back out); the stack
+// must follow the side the path is on, where the next surface it meets will see it — as
+// renderers without a stack (Mitsuba's dielectric) decide by that side. (Before: the glass bunny
+// with smooth normals disagreed in ~2 % of crossings, and its caustic came out ~2 % bright.)
+fn media_along(c: Crossing, w: vec3<f32>, media: Media) -> Media {
+    if dot(w, c.geometric) < 0.0 {
+        return c.beyond;
+    }
+    return media;
 }
 
 // A point just off the surface on the side a new direction w leaves to, so the next query
-// does not find the same surface again.
+// does not find the same surface again (`facing`: the true surface's normal, `Crossing.geometric`).
 fn leave_surface(p: vec3<f32>, facing: vec3<f32>, w: vec3<f32>, eps: f32) -> vec3<f32> {
     return p + select(-facing, facing, dot(w, facing) > 0.0) * eps;
 }

@@ -59,8 +59,10 @@ pub const CPU_SAMPLES_PER_DISPATCH: u32 = 4;
 /// session, `seed` — does not turn a caustic seen through the glass into the colour of one
 /// wavelength. One wavelength's sample weighs its colour by x̄ȳz̄(λ)/p(λ), up to ~7× in the
 /// blue, which multiplied the caustic's own noise there (`seed-dispersion` on the H200: 79 % of
-/// the caustic layer's squared error, in 3.5 % of its pixels).
-pub const SPECTRAL_WAVELENGTHS_PER_PIXEL: u32 = 4;
+/// the caustic layer's squared error, in 3.5 % of its pixels). Two, not more: those pixels are
+/// the view's slowest, and each wavelength retraces them (measured on the H200, README
+/// "Dispersion": two reach seed's caustic noise at ~2.0× its frame, four at ~2.6×).
+pub const SPECTRAL_WAVELENGTHS_PER_PIXEL: u32 = 2;
 
 /// Wavelengths per camera sample: enough that a pixel's samples take at least
 /// `SPECTRAL_WAVELENGTHS_PER_PIXEL` of them; 1 without dispersion.

@@ -420,7 +420,7 @@ fn through_wedge_onto_strip(o: Vec3, d: Vec3, n: f32) -> f32 {
 /// fringes: (pixels in the fringes, RMS and worst error of the row means, RMS error a per-channel
 /// index would have), all in units of the strip's white. The closed form traces each pixel's
 /// sub-pixel positions as the view pass takes them (view.wgsl's r2(k), the same in every row)
-/// through both faces for every nm of 360–830, weighted by the colour matching functions; the
+/// through both faces for every other nm of 360–830, weighted by the colour matching functions; the
 /// per-channel index takes n at the C, d and F lines for r, g and b.
 fn wedge_fringes(samples: u32, rows: u32) -> (usize, f32, f32, f32) {
     // (The field of view grows with the rows, so a pixel stays ~1/8° tall and wide.)

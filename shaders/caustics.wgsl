@@ -28,8 +28,13 @@
 // them, times up to 4 where the chart's border cuts a square (those texels spread their flux
 // over the part that remains): far below 2³² unless nearly all light lands on a border.
 //
+// A chart no photon reached (the underside of a floor, a wall facing away from the lights) has
+// nothing to spread: `choose_footprints` counts each chart's photons into `chart_photons`, and
+// the levels skip the charts without any (their irradiance stays the zero it cleared).
+//
 // Entry points, in order: `load_deposits`, `sat_rows`, `sat_columns` (the table of the raw
-// deposits), `choose_footprints`; then per level (group 1: `level`) `spread_level`, `sat_rows`
+// deposits), `choose_footprints`; then per level (group 1: `level`) `spread_level` (or
+// `spread_wide_level` for cells of 8 × 8 texels and more: caustics.rs, WIDE_COARSENING), `sat_rows`
 // and `sat_columns` (only for squares wider than `direct_radius`: a 5 × 5 square is cheaper to
 // read than to tabulate), `gather_level`. Per-texel kernels run 8×8 per chart (z: the chart);
 // the scans take one workgroup per row/column of each chart.
@@ -48,6 +53,8 @@
 @group(0) @binding(5) var<storage, read_write> layer: array<vec4<u32>>;
 // Each texel's footprint: level `lo` with weight 1 − blend and level lo + 1 with weight blend.
 @group(0) @binding(6) var<storage, read_write> footprint: array<vec2<f32>>;
+// Photons on each chart (the table of the raw deposits' total), written by choose_footprints.
+@group(0) @binding(7) var<storage, read_write> chart_photons: array<u32>;
 @group(1) @binding(0) var<uniform> level: CausticLevel;
 
 // One workgroup scans one row (or column) of one chart: each thread sums a contiguous run of
@@ -105,12 +112,18 @@ fn scan_line(chart: Chart, rows: bool, line: u32, lid: u32) {
     }
 }
 
+// Whether this level skips chart c: one no photon reached. (The table of the raw deposits —
+// the level of half-size 0 — is what counts them, so it never skips.)
+fn skips(c: u32) -> bool {
+    return level.radius > 0u && chart_photons[c] == 0u;
+}
+
 // (Each workgroup's line is uniform across it: all its threads return, or none, so the
 // barriers in scan_line are reached by all.)
 @compute @workgroup_size(256)
 fn sat_rows(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let chart = charts[group.y];
-    if group.x >= cells(chart).y {
+    if group.x >= cells(chart).y || skips(group.y) {
         return;
     }
     scan_line(chart, true, group.x, lid);
@@ -119,7 +132,7 @@ fn sat_rows(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_i
 @compute @workgroup_size(256)
 fn sat_columns(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let chart = charts[group.y];
-    if group.x >= cells(chart).x {
+    if group.x >= cells(chart).x || skips(group.y) {
         return;
     }
     scan_line(chart, false, group.x, lid);
@@ -205,6 +218,10 @@ fn choose_footprints(@builtin(global_invocation_id) id: vec3<u32>) {
     if x.index == 0xffffffffu {
         return;
     }
+    if all(x.t == vec2<i32>(0)) {
+        let whole = array<vec2<i32>, 2>(vec2<i32>(0), vec2<i32>(i32(x.chart.width), i32(x.chart.height)) - 1);
+        chart_photons[id.z] = box_sum(x.chart, whole).x;
+    }
     if params.fixed_radius > 0u {
         footprint[x.index] = vec2<f32>(0.0, 0.0);
         caustic_irradiance[x.index] = vec4<f32>(0.0, 0.0, 0.0, photons_within(x.chart, x.t, i32(params.fixed_radius)));
@@ -246,32 +263,77 @@ fn share(index: u32) -> vec3<f32> {
     return vec3<f32>(caustic_atlas[index].yzw) * weight;
 }
 
-// The layer of this level, one thread per cell: the shares of the cell's texels, times the part
-// of its square the chart's border cuts off (so the part that remains carries all of it).
+// Writes cell c's layer value: the shares of its texels, `sum`, times the part of its square the
+// chart's border cuts off (so the part that remains carries all of it).
+fn write_cell(chart: Chart, c: vec2<u32>, sum: vec3<f32>) {
+    let r = i32(level.reach);
+    let whole = f32((2 * r + 1) * (2 * r + 1));
+    let scale = whole / texels_in(square_in(cells(chart), vec2<i32>(c), r));
+    // Round to nearest: unbiased over the many texels a caustic covers.
+    layer[chart.offset + c.x + chart.width * c.y] = vec4<u32>(0u, vec3<u32>(sum * scale + 0.5));
+}
+
+// The texels of cell c (first, one past the last).
+fn cell_texels(chart: Chart, c: vec2<u32>) -> array<vec2<u32>, 2> {
+    let first = c * level.coarsening;
+    return array<vec2<u32>, 2>(first, min(first + level.coarsening, vec2<u32>(chart.width, chart.height)));
+}
+
+// The layer of this level, one thread per cell (levels of up to 4 × 4 texels a cell).
 @compute @workgroup_size(8, 8, 1)
 fn spread_level(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.z >= params.chart_count {
+    if id.z >= params.chart_count || chart_photons[id.z] == 0u {
         return;
     }
     let chart = charts[id.z];
-    let size = cells(chart);
-    if id.x >= size.x || id.y >= size.y {
+    if any(id.xy >= cells(chart)) {
         return;
     }
-    let k = level.coarsening;
-    let first = id.xy * k;
-    let last = min(first + k, vec2<u32>(chart.width, chart.height));
+    let span = cell_texels(chart, id.xy);
     var sum = vec3<f32>(0.0);
-    for (var j = first.y; j < last.y; j++) {
-        for (var i = first.x; i < last.x; i++) {
+    for (var j = span[0].y; j < span[1].y; j++) {
+        for (var i = span[0].x; i < span[1].x; i++) {
             sum += share(chart.offset + i + chart.width * j);
         }
     }
-    let r = i32(level.reach);
-    let whole = f32((2 * r + 1) * (2 * r + 1));
-    let scale = whole / texels_in(square_in(size, vec2<i32>(id.xy), r));
-    // Round to nearest: unbiased over the many texels a caustic covers.
-    layer[chart.offset + id.x + chart.width * id.y] = vec4<u32>(0u, vec3<u32>(sum * scale + 0.5));
+    write_cell(chart, id.xy, sum);
+}
+
+// The layer of a wide level (cells of 8 × 8 texels and more), one workgroup per cell: each
+// thread sums every CELL_THREADS-th texel, then a tree in workgroup memory adds the threads'
+// sums. (One thread summing a 16 × 16 cell alone waited on 256 loads in a row: the slowest
+// dispatch of the stage.)
+const CELL_THREADS: u32 = 64u;
+var<workgroup> cell_sums: array<vec3<f32>, CELL_THREADS>;
+
+@compute @workgroup_size(64)
+fn spread_wide_level(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    // (Uniform across the workgroup: all its threads return, or none reach the barriers.)
+    if group.z >= params.chart_count || skips(group.z) {
+        return;
+    }
+    let chart = charts[group.z];
+    if any(group.xy >= cells(chart)) {
+        return;
+    }
+    let span = cell_texels(chart, group.xy);
+    let size = span[1] - span[0];
+    var sum = vec3<f32>(0.0);
+    for (var i = lid; i < size.x * size.y; i += CELL_THREADS) {
+        let t = span[0] + vec2<u32>(i % size.x, i / size.x);
+        sum += share(chart.offset + t.x + chart.width * t.y);
+    }
+    cell_sums[lid] = sum;
+    workgroupBarrier();
+    for (var half = CELL_THREADS / 2u; half > 0u; half /= 2u) {
+        if lid < half {
+            cell_sums[lid] += cell_sums[lid + half];
+        }
+        workgroupBarrier();
+    }
+    if lid == 0u {
+        write_cell(chart, group.xy, cell_sums[0]);
+    }
 }
 
 // The layer's sum over square s: read texel by texel for the small squares, whose levels build
@@ -294,7 +356,7 @@ fn level_sum(chart: Chart, s: array<vec2<i32>, 2>) -> vec4<u32> {
 @compute @workgroup_size(8, 8, 1)
 fn gather_level(@builtin(global_invocation_id) id: vec3<u32>) {
     let x = texel_of(id);
-    if x.index == 0xffffffffu {
+    if x.index == 0xffffffffu || chart_photons[id.z] == 0u {
         return;
     }
     let k = i32(level.coarsening);

@@ -40,6 +40,10 @@ pub fn coarsening(radius: u32) -> u32 {
     if radius >= 8 { radius / 4 } else { 1 }
 }
 
+/// Cells of this many texels a side and more are summed by a workgroup each
+/// (`spread_wide_level`), smaller ones by a thread each (`spread_level`).
+pub const WIDE_COARSENING: u32 = 8;
+
 /// The footprint sizes a filter spreads over, in the shader's level order: {0, 1, 2, 4, …,
 /// MAX_RADIUS} for the adaptive filter, the one square of a fixed one.
 pub fn level_radii(filter: CausticFilter) -> Vec<u32> {
@@ -55,6 +59,7 @@ pub struct Caustics {
     columns: wgpu::ComputePipeline,
     choose: wgpu::ComputePipeline,
     spread: wgpu::ComputePipeline,
+    spread_wide: wgpu::ComputePipeline,
     gather: wgpu::ComputePipeline,
     bgl: wgpu::BindGroupLayout,
     level_bgl: wgpu::BindGroupLayout,
@@ -74,14 +79,16 @@ impl Caustics {
             layout::storage(4, false),
             layout::storage(5, false),
             layout::storage(6, false),
+            layout::storage(7, false),
         ];
-        let entry_points = ["load_deposits", "sat_rows", "sat_columns", "choose_footprints", "spread_level", "gather_level"];
+        let entry_points = ["load_deposits", "sat_rows", "sat_columns", "choose_footprints", "spread_level", "spread_wide_level", "gather_level"];
         let (pipelines, mut layouts) = layout::pipelines(device, shaders, "caustics", &[&entries, &[layout::uniform(0)]], &entry_points)?;
-        let [load, rows, columns, choose, spread, gather] = <[_; 6]>::try_from(pipelines).map_err(|_| anyhow::anyhow!("six caustics pipelines"))?;
+        let [load, rows, columns, choose, spread, spread_wide, gather] =
+            <[_; 7]>::try_from(pipelines).map_err(|_| anyhow::anyhow!("seven caustics pipelines"))?;
         let level_bgl = layouts.pop().expect("two layouts");
         let bgl = layouts.pop().expect("two layouts");
         let params = layout::uniform_buffer::<CausticParams>(device, "caustic params");
-        Ok(Self { load, rows, columns, choose, spread, gather, bgl, level_bgl, params, bound: None, levels: Vec::new() })
+        Ok(Self { load, rows, columns, choose, spread, spread_wide, gather, bgl, level_bgl, params, bound: None, levels: Vec::new() })
     }
 
     /// The bind group of level `index` with half-size `radius`, made the first time it is asked.
@@ -139,6 +146,7 @@ impl Caustics {
                     layout::bind(4, &receivers.caustic_irradiance.buffer),
                     layout::bind(5, &receivers.caustic_layer.buffer),
                     layout::bind(6, &receivers.caustic_footprint.buffer),
+                    layout::bind(7, &receivers.chart_photons.buffer),
                 ],
             });
             self.bound = Some((receivers.generation, bg));
@@ -169,9 +177,16 @@ impl Caustics {
         per_texel(&mut pass, &self.choose);
         // Each level's share, spread over squares of its size.
         for &k in &levels {
+            let level = self.levels[k].0;
             pass.set_bind_group(1, &self.levels[k].2, &[]);
-            per_texel(&mut pass, &self.spread);
-            if self.levels[k].0.reach > DIRECT_RADIUS {
+            if level.coarsening >= WIDE_COARSENING {
+                let cells = |texels: u32| texels.div_ceil(level.coarsening);
+                pass.set_pipeline(&self.spread_wide);
+                pass.dispatch_workgroups(cells(max_w), cells(max_h), n);
+            } else {
+                per_texel(&mut pass, &self.spread);
+            }
+            if level.reach > DIRECT_RADIUS {
                 table(&mut pass);
             }
             per_texel(&mut pass, &self.gather);

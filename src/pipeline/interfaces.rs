@@ -10,7 +10,7 @@
 
 use glam::{Mat3, Vec3};
 
-use crate::bvh::Triangle;
+use crate::bvh::{Placed, Triangle};
 use crate::scene::MeshData;
 use crate::frame::{FieldDesc, FieldKind, FrameDesc, MeshInstance};
 use crate::gpu::types::{Interface, interface_kind};
@@ -66,13 +66,14 @@ fn sharp_meshes(desc: &FrameDesc) -> impl Iterator<Item = &MeshInstance> {
     desc.meshes.iter().filter(|m| m.sharp)
 }
 
-/// World-space triangles of the sharp meshes for the BVH (`receiver` = BIT | interface index,
-/// `index` = where their corner normals are in the second vector).
-pub fn triangles(desc: &FrameDesc) -> (Vec<Triangle>, Vec<[Vec3; 3]>) {
+/// World-space triangles of the sharp meshes for the BVH, a list per mesh (`receiver` = BIT |
+/// interface index, `index` = where their corner normals are in the second vector).
+pub fn triangles(desc: &FrameDesc) -> (Vec<Placed>, Vec<[Vec3; 3]>) {
     let first = desc.fields.iter().filter(|f| f.sharp).count() as u32;
-    let mut triangles = Vec::new();
+    let mut meshes = Vec::new();
     let mut normals = Vec::new();
     for (j, m) in sharp_meshes(desc).enumerate() {
+        let mut triangles = Vec::with_capacity(m.mesh.triangles.len());
         let normal_to_world = Mat3::from_mat4(m.world).inverse().transpose();
         let positions: Vec<Vec3> = m.mesh.positions.iter().map(|p| m.world.transform_point3(*p)).collect();
         let facts = MeshData::glass_facts(&m.mesh);
@@ -84,8 +85,9 @@ pub fn triangles(desc: &FrameDesc) -> (Vec<Triangle>, Vec<[Vec3; 3]>) {
             });
             normals.push(n.map(|v| (normal_to_world * v).normalize_or_zero()));
         }
+        meshes.push(Placed { mesh: std::sync::Arc::as_ptr(&m.mesh) as usize, triangles });
     }
-    (triangles, normals)
+    (meshes, normals)
 }
 
 /// The sharp interfaces whose solid contains `p` (thin sheets contain nothing), outermost first (by the size of their boxes),

@@ -15,7 +15,7 @@ use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
 
-use crate::bvh::{Bvh, Triangle};
+use crate::bvh::{Bvh, MeshTrees, Placed, Triangle};
 use crate::scene::{AlphaMode, Diffuse, Texture2d};
 use super::resources::GrowableBuffer;
 use crate::frame::{FrameDesc, Receiver};
@@ -230,18 +230,20 @@ pub struct ReceiverLayout {
 
 /// Lays out BVH and charts; `texel` is the wanted texel size (metres), grown where a chart or
 /// the whole atlas would be too large. `interfaces` are the sharp meshes' triangles and corner
-/// normals (`interfaces::triangles`): they join the BVH but get no charts.
-pub fn layout(receivers: &[Receiver], interfaces: (Vec<Triangle>, Vec<[Vec3; 3]>), texel: f32) -> ReceiverLayout {
-    let mut triangles = Vec::new();
+/// normals (`interfaces::triangles`): they join the BVH but get no charts. Each mesh's tree is
+/// taken from `trees` when it only moved (and left there for the next layout).
+pub fn layout(receivers: &[Receiver], interfaces: (Vec<Placed>, Vec<[Vec3; 3]>), texel: f32, trees: &mut MeshTrees) -> ReceiverLayout {
+    let mut meshes = Vec::with_capacity(receivers.len() + interfaces.0.len());
     // (receiver, slot) → bounds in the chart's two axes.
     let mut extents: Vec<[Option<(Vec2, Vec2)>; 12]> = vec![[None; 12]; receivers.len()];
     for (i, r) in receivers.iter().enumerate() {
-        for t in world_triangles(r, i as u32) {
+        let mut triangles = world_triangles(r, i as u32);
+        triangles.retain(|t| {
             let n = t.normal();
-            if !n.is_finite() || n.length_squared() == 0.0 {
-                continue;
-            }
-            for slot in [direction_slot(n), 6 + direction_slot(-n)] {
+            n.is_finite() && n.length_squared() > 0.0
+        });
+        for t in &triangles {
+            for slot in [direction_slot(t.normal()), 6 + direction_slot(-t.normal())] {
                 let (u, v) = chart_axes(slot);
                 for p in t.v {
                     let q = Vec2::new(p[u], p[v]);
@@ -249,12 +251,12 @@ pub fn layout(receivers: &[Receiver], interfaces: (Vec<Triangle>, Vec<[Vec3; 3]>
                     *e = (e.0.min(q), e.1.max(q));
                 }
             }
-            triangles.push(t);
         }
+        meshes.push(Placed { mesh: Arc::as_ptr(&r.mesh) as usize, triangles });
     }
-    let (interface_triangles, interface_normals) = interfaces;
-    triangles.extend(interface_triangles);
-    let bvh = Bvh::build(triangles);
+    let (interface_meshes, interface_normals) = interfaces;
+    meshes.extend(interface_meshes);
+    let bvh = Bvh::build_placed(meshes, trees);
     // Grow the texel where one chart would be too long, then every chart's by one factor if the
     // atlas is too big (growing only the wanted size would not shrink charts already capped).
     let base = texel.max(1e-6);
@@ -326,7 +328,12 @@ pub struct Receivers {
     pub caustic_footprint: GrowableBuffer,
     /// Filtered irradiance per texel (caustics stage → view stage).
     pub caustic_irradiance: GrowableBuffer,
+    /// Photons each chart received this frame (caustics stage: charts without any skip their
+    /// filter levels).
+    pub chart_photons: GrowableBuffer,
     pub layout: ReceiverLayout,
+    /// Each mesh's BVH from the last layout, refitted when the mesh only moved.
+    trees: MeshTrees,
     /// Changes when a buffer was reallocated (consumers rebind).
     pub generation: u64,
     key: Option<(Vec<ReceiverKey>, Vec<(usize, glam::Mat4)>)>,
@@ -369,7 +376,9 @@ impl Receivers {
             caustic_layer: buffer("caustic layer"),
             caustic_footprint: buffer("caustic footprint"),
             caustic_irradiance: buffer("caustic irradiance"),
-            layout: layout(&[], Default::default(), 1.0),
+            chart_photons: buffer("chart photons"),
+            layout: layout(&[], Default::default(), 1.0, &mut MeshTrees::default()),
+            trees: MeshTrees::default(),
             generation: super::resources::next_generation(),
             key: None,
         }
@@ -386,7 +395,7 @@ impl Receivers {
         if self.key.as_ref() == Some(&key) {
             return false;
         }
-        self.layout = layout(&desc.receivers, interfaces::triangles(desc), texel);
+        self.layout = layout(&desc.receivers, interfaces::triangles(desc), texel, &mut self.trees);
         let mut nodes = self.layout.bvh.nodes.clone();
         if self.layout.bvh.triangles.is_empty() {
             nodes = vec![BvhNode::default()]; // first = 0, count = 0: the empty tree
@@ -410,6 +419,7 @@ impl Receivers {
         grown |= self.caustic_layer.reserve(ctx, texel_bytes);
         grown |= self.caustic_footprint.reserve(ctx, texel_bytes / 2);
         grown |= self.caustic_irradiance.reserve(ctx, texel_bytes);
+        grown |= self.chart_photons.reserve(ctx, self.layout.charts.len().max(1) as u64 * 4);
         if grown {
             self.generation = super::resources::next_generation();
         }
@@ -430,7 +440,7 @@ mod tests {
     #[test]
     fn a_floor_gets_one_chart_per_side_a_box_twelve() {
         let floor = receiver(mesh::plane(Vec2::new(4.0, 2.0)), glam::Mat4::IDENTITY);
-        let l = layout(&[floor], Default::default(), 0.01);
+        let l = layout(&[floor], Default::default(), 0.01, &mut MeshTrees::default());
         // Top (+Y front) and bottom (the back of the same triangles, facing −Y).
         assert_eq!(l.charts.len(), 2);
         let top = &l.charts[l.receivers[0].charts_a[2] as usize];
@@ -438,7 +448,7 @@ mod tests {
         // A +Y chart spans (z, x): 2 m and 4 m at 1 cm, plus a texel of margin on each side.
         assert_eq!((top.width, top.height), (202, 402));
         let cube = receiver(mesh::cuboid(Vec3::ONE), glam::Mat4::IDENTITY);
-        assert_eq!(layout(&[cube], Default::default(), 0.01).charts.len(), 12);
+        assert_eq!(layout(&[cube], Default::default(), 0.01, &mut MeshTrees::default()).charts.len(), 12);
     }
 
     #[test]
@@ -451,7 +461,7 @@ mod tests {
     #[test]
     fn huge_receivers_are_capped() {
         let floor = receiver(mesh::plane(Vec2::new(1000.0, 1000.0)), glam::Mat4::IDENTITY);
-        let l = layout(&[floor], Default::default(), 0.001);
+        let l = layout(&[floor], Default::default(), 0.001, &mut MeshTrees::default());
         assert!(l.texels as f32 <= MAX_ATLAS_TEXELS * 1.01, "{} texels", l.texels);
         assert!(l.charts.iter().all(|c| c.width as f32 <= MAX_CHART_SIDE + 3.0));
     }

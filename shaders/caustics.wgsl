@@ -33,7 +33,8 @@
 // the levels skip the charts without any (their irradiance stays the zero it cleared).
 //
 // Entry points, in order: `load_deposits`, `sat_rows`, `sat_columns` (the table of the raw
-// deposits), `choose_footprints`; then per level (group 1: `level`) `spread_level` (or
+// deposits), `choose_footprints`; for the adaptive filter `gather_direct_levels` (its three
+// smallest levels at once); then per remaining level (group 1: `level`) `spread_level` (or
 // `spread_wide_level` for cells of 8 × 8 texels and more: caustics.rs, WIDE_COARSENING), `sat_rows`
 // and `sat_columns` (only for squares wider than `direct_radius`: a 5 × 5 square is cheaper to
 // read than to tabulate), `gather_level`. Per-texel kernels run 8×8 per chart (z: the chart);
@@ -334,6 +335,51 @@ fn spread_wide_level(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_inv
     if lid == 0u {
         write_cell(chart, group.xy, cell_sums[0]);
     }
+}
+
+// The adaptive filter's three smallest levels (half-sizes 0, 1 and 2: squares of up to 5 × 5
+// texels) in one pass, without their layers: each texel adds, from each of the 5 × 5 texels
+// around it, that texel's share at every one of these levels whose square covers it — the
+// share spread evenly over the part of its square inside the chart, as `spread_level` and
+// `gather_level` would (six dispatches, each over the whole chart, became one).
+const DIRECT_LEVELS: u32 = 3u;
+
+@compute @workgroup_size(8, 8, 1)
+fn gather_direct_levels(@builtin(global_invocation_id) id: vec3<u32>) {
+    let x = texel_of(id);
+    if x.index == 0xffffffffu || chart_photons[id.z] == 0u {
+        return;
+    }
+    let near = square(x.chart, x.t, adaptive_radius(DIRECT_LEVELS - 1u));
+    var flux = vec3<f32>(0.0);
+    for (var j = near[0].y; j <= near[1].y; j++) {
+        for (var i = near[0].x; i <= near[1].x; i++) {
+            let s = vec2<i32>(i, j);
+            let index = x.chart.offset + u32(i) + x.chart.width * u32(j);
+            let f = footprint[index];
+            let lo = u32(f.x);
+            let d = abs(s - x.t);
+            let distance = max(d.x, d.y);
+            // (This texel's weight at levels lo and lo + 1, each over its clipped square.)
+            var part = 0.0;
+            for (var k = lo; k < min(lo + 2u, DIRECT_LEVELS); k++) {
+                let r = i32((1u << k) >> 1u); // 0, 1, 2: the adaptive list's first radii
+                if distance <= r {
+                    let weight = select(f.y, 1.0 - f.y, k == lo);
+                    part += weight / texels_in(square(x.chart, s, r));
+                }
+            }
+            if part > 0.0 {
+                flux += vec3<f32>(caustic_atlas[index].yzw) * part;
+            }
+        }
+    }
+    var e = flux * params.flux_unit / (x.chart.texel * x.chart.texel);
+    if params.spectral != 0u {
+        // Spectral photons deposited XYZ (shared/spectrum.wgsl).
+        e = xyz_to_rgb(e);
+    }
+    caustic_irradiance[x.index] += vec4<f32>(e, 0.0);
 }
 
 // The layer's sum over square s: read texel by texel for the small squares, whose levels build

@@ -42,10 +42,17 @@ impl CameraDesc {
 
     /// The unit direction of the ray through pixel (x, y)'s centre — CPU twin of `camera_ray`.
     pub fn ray(&self, x: u32, y: u32) -> Vec3 {
+        self.ray_through(glam::Vec2::new(x as f32 + 0.5, y as f32 + 0.5))
+    }
+
+    /// Unit direction of the camera ray through a point of the image, in pixels from its
+    /// top-left corner (pixel (x, y) spans x..x + 1, y..y + 1): the CPU twin of view.wgsl's
+    /// `camera_ray`.
+    pub fn ray_through(&self, pixel: glam::Vec2) -> Vec3 {
         let t = (0.5 * self.fov_y).tan();
         let aspect = self.width as f32 / self.height as f32;
-        let nx = (2.0 * (x as f32 + 0.5) / self.width as f32 - 1.0) * aspect * t;
-        let ny = (1.0 - 2.0 * (y as f32 + 0.5) / self.height as f32) * t;
+        let nx = (2.0 * pixel.x / self.width as f32 - 1.0) * aspect * t;
+        let ny = (1.0 - 2.0 * pixel.y / self.height as f32) * t;
         (self.forward() + nx * (self.orientation * Vec3::X) + ny * (self.orientation * Vec3::Y)).normalize()
     }
 }

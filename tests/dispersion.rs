@@ -419,7 +419,7 @@ fn through_wedge_onto_strip(o: Vec3, d: Vec3, n: f32) -> f32 {
 /// `WEDGE_SCENE` rendered at `samples` per pixel against its closed form, over the strip's
 /// fringes: (pixels in the fringes, RMS and worst error of the row means, RMS error a per-channel
 /// index would have), all in units of the strip's white. The closed form traces each pixel's
-/// sub-pixel positions as the view pass takes them (view.wgsl's r2(k), the same in every row)
+/// sub-pixel positions as the view pass takes them (`view::sample_offset`, view.wgsl's r2(k))
 /// through both faces for every other nm of 360–830, weighted by the colour matching functions; the
 /// per-channel index takes n at the C, d and F lines for r, g and b.
 fn wedge_fringes(samples: u32, rows: u32) -> (usize, f32, f32, f32) {
@@ -441,19 +441,11 @@ fn wedge_fringes(samples: u32, rows: u32) -> (usize, f32, f32, f32) {
     // The strip's radiance: a white diffuse surface under the sun (lux → W/m², cos θ), ρ/π.
     let sun = Vec3::new(-1.0, 0.0, -0.3).normalize();
     let white = 3000.0 / refrakt::scene::light::LUMENS_PER_WATT * -sun.z / std::f32::consts::PI;
-    let camera = desc.camera.to_gpu();
-    // Camera sample k of pixel (x, y): view.wgsl's camera_ray through r2(k).
+    // Camera sample k of pixel (x, y), as the view pass takes it.
+    let camera = &desc.camera;
     let rays = |x: usize| -> Vec<Vec3> {
-        let mut out = Vec::new();
-        for y in 0..h {
-            for k in 0..samples {
-                let offset = (glam::Vec2::splat(0.5) + k as f32 * glam::Vec2::new(0.754_877_7, 0.569_840_3)).fract();
-                let nx = (2.0 * (x as f32 + offset.x) / w as f32 - 1.0) * camera.aspect * camera.tan_half_fov;
-                let ny = (1.0 - 2.0 * (y as f32 + offset.y) / h as f32) * camera.tan_half_fov;
-                out.push((desc.camera.forward() + nx * Vec3::from(camera.right) + ny * Vec3::from(camera.up)).normalize());
-            }
-        }
-        out
+        let pixel = |y: usize, k: u32| glam::Vec2::new(x as f32, y as f32) + refrakt::pipeline::view::sample_offset(k);
+        (0..h).flat_map(|y| (0..samples).map(move |k| camera.ray_through(pixel(y, k)))).collect()
     };
     let paths = (h as u32 * samples) as f32;
     let through = |d: Vec3, lambda: f32| through_wedge_onto_strip(desc.camera.position, d, spectrum::ior_at(1.5, 4.0, lambda));

@@ -40,6 +40,10 @@ pub fn coarsening(radius: u32) -> u32 {
     if radius >= 8 { radius / 4 } else { 1 }
 }
 
+/// The adaptive filter's smallest levels (half-sizes 0, 1, 2) are filtered in one pass
+/// (`gather_direct_levels`, which mirrors this number as `DIRECT_LEVELS`).
+pub const DIRECT_LEVELS: usize = 3;
+
 /// Cells of this many texels a side and more are summed by a workgroup each
 /// (`spread_wide_level`), smaller ones by a thread each (`spread_level`).
 pub const WIDE_COARSENING: u32 = 8;
@@ -61,6 +65,7 @@ pub struct Caustics {
     spread: wgpu::ComputePipeline,
     spread_wide: wgpu::ComputePipeline,
     gather: wgpu::ComputePipeline,
+    gather_direct: wgpu::ComputePipeline,
     bgl: wgpu::BindGroupLayout,
     level_bgl: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
@@ -81,14 +86,14 @@ impl Caustics {
             layout::storage(6, false),
             layout::storage(7, false),
         ];
-        let entry_points = ["load_deposits", "sat_rows", "sat_columns", "choose_footprints", "spread_level", "spread_wide_level", "gather_level"];
+        let entry_points = ["load_deposits", "sat_rows", "sat_columns", "choose_footprints", "spread_level", "spread_wide_level", "gather_level", "gather_direct_levels"];
         let (pipelines, mut layouts) = layout::pipelines(device, shaders, "caustics", &[&entries, &[layout::uniform(0)]], &entry_points)?;
-        let [load, rows, columns, choose, spread, spread_wide, gather] =
-            <[_; 7]>::try_from(pipelines).map_err(|_| anyhow::anyhow!("seven caustics pipelines"))?;
+        let [load, rows, columns, choose, spread, spread_wide, gather, gather_direct] =
+            <[_; 8]>::try_from(pipelines).map_err(|_| anyhow::anyhow!("eight caustics pipelines"))?;
         let level_bgl = layouts.pop().expect("two layouts");
         let bgl = layouts.pop().expect("two layouts");
         let params = layout::uniform_buffer::<CausticParams>(device, "caustic params");
-        Ok(Self { load, rows, columns, choose, spread, spread_wide, gather, bgl, level_bgl, params, bound: None, levels: Vec::new() })
+        Ok(Self { load, rows, columns, choose, spread, spread_wide, gather, gather_direct, bgl, level_bgl, params, bound: None, levels: Vec::new() })
     }
 
     /// The bind group of level `index` with half-size `radius`, made the first time it is asked.
@@ -175,8 +180,16 @@ impl Caustics {
         per_texel(&mut pass, &self.load);
         table(&mut pass);
         per_texel(&mut pass, &self.choose);
-        // Each level's share, spread over squares of its size.
-        for &k in &levels {
+        // Each level's share, spread over squares of its size: the adaptive filter's smallest
+        // levels in one pass, the others one by one.
+        let direct = match filter {
+            CausticFilter::Adaptive { .. } => DIRECT_LEVELS,
+            CausticFilter::Fixed { .. } => 0,
+        };
+        if direct > 0 {
+            per_texel(&mut pass, &self.gather_direct);
+        }
+        for &k in &levels[direct..] {
             let level = self.levels[k].0;
             pass.set_bind_group(1, &self.levels[k].2, &[]);
             if level.coarsening >= WIDE_COARSENING {

@@ -47,6 +47,12 @@ pub struct ViewInputs<'a> {
     pub scattering: bool,
 }
 
+/// Where camera sample k falls inside its pixel (0..1 on each axis): the R2 low-discrepancy
+/// sequence (Roberts 2018), the same in every pixel — the CPU twin of view.wgsl's `r2`.
+pub fn sample_offset(k: u32) -> glam::Vec2 {
+    (glam::Vec2::splat(0.5) + k as f32 * glam::Vec2::new(0.754_877_7, 0.569_840_3)).fract()
+}
+
 /// Camera samples one dispatch traces on a CPU adapter. Mesa's llvmpipe (lavapipe) ends every
 /// loop of a shader invocation, silently, once its loops have run 65 535 iterations in all
 /// (gallivm's `LP_MAX_TGSI_LOOP_ITERATIONS`): a pixel's many samples in one invocation would

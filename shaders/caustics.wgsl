@@ -205,9 +205,9 @@ fn load_deposits(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
-// The radius of level k ≥ 1 in the adaptive list {0, 1, 2, 4, …} (caustics.rs: `level_radii`).
+// The radius of level k in the adaptive list {0, 1, 2, 4, …} (caustics.rs: `level_radii`).
 fn adaptive_radius(k: u32) -> i32 {
-    return 1 << (k - 1u);
+    return i32((1u << k) >> 1u);
 }
 
 // Each texel's footprint from the photon counts around it, as k nearest neighbours: the
@@ -337,6 +337,17 @@ fn spread_wide_level(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_inv
     }
 }
 
+// Adds to texel x's irradiance the flux (fixed-point units) that landed on `texels` texels
+// around it, spread evenly: W/m² over their area.
+fn add_irradiance(x: Texel, flux: vec3<f32>, texels: f32) {
+    var e = flux * params.flux_unit / (texels * x.chart.texel * x.chart.texel);
+    if params.spectral != 0u {
+        // Spectral photons deposited XYZ (shared/spectrum.wgsl).
+        e = xyz_to_rgb(e);
+    }
+    caustic_irradiance[x.index] += vec4<f32>(e, 0.0);
+}
+
 // The adaptive filter's three smallest levels (half-sizes 0, 1 and 2: squares of up to 5 × 5
 // texels) in one pass, without their layers: each texel adds, from each of the 5 × 5 texels
 // around it, that texel's share at every one of these levels whose square covers it — the
@@ -363,7 +374,7 @@ fn gather_direct_levels(@builtin(global_invocation_id) id: vec3<u32>) {
             // (This texel's weight at levels lo and lo + 1, each over its clipped square.)
             var part = 0.0;
             for (var k = lo; k < min(lo + 2u, DIRECT_LEVELS); k++) {
-                let r = i32((1u << k) >> 1u); // 0, 1, 2: the adaptive list's first radii
+                let r = adaptive_radius(k);
                 if distance <= r {
                     let weight = select(f.y, 1.0 - f.y, k == lo);
                     part += weight / texels_in(square(x.chart, s, r));
@@ -374,12 +385,7 @@ fn gather_direct_levels(@builtin(global_invocation_id) id: vec3<u32>) {
             }
         }
     }
-    var e = flux * params.flux_unit / (x.chart.texel * x.chart.texel);
-    if params.spectral != 0u {
-        // Spectral photons deposited XYZ (shared/spectrum.wgsl).
-        e = xyz_to_rgb(e);
-    }
-    caustic_irradiance[x.index] += vec4<f32>(e, 0.0);
+    add_irradiance(x, flux, 1.0);
 }
 
 // The layer's sum over square s: read texel by texel for the small squares, whose levels build
@@ -408,14 +414,9 @@ fn gather_level(@builtin(global_invocation_id) id: vec3<u32>) {
     let k = i32(level.coarsening);
     let cell = x.t / k;
     let r = i32(level.reach);
-    let flux = vec3<f32>(level_sum(x.chart, square_in(cells(x.chart), cell, r)).yzw) * params.flux_unit;
+    let flux = vec3<f32>(level_sum(x.chart, square_in(cells(x.chart), cell, r)).yzw);
     let first = cell * k;
     let last = min(first + k, vec2<i32>(i32(x.chart.width), i32(x.chart.height)));
     let texels_of_cell = f32((last.x - first.x) * (last.y - first.y));
-    var e = flux / (f32((2 * r + 1) * (2 * r + 1)) * texels_of_cell * x.chart.texel * x.chart.texel);
-    if params.spectral != 0u {
-        // Spectral photons deposited XYZ (shared/spectrum.wgsl).
-        e = xyz_to_rgb(e);
-    }
-    caustic_irradiance[x.index] += vec4<f32>(e, 0.0);
+    add_irradiance(x, flux, f32((2 * r + 1) * (2 * r + 1)) * texels_of_cell);
 }

@@ -93,6 +93,12 @@ fn is_valid(t: &Triangle) -> bool {
     t.v.iter().all(|v| v.is_finite()) && t.normal().length_squared() > 0.0
 }
 
+/// Half the surface area of a box (what the SAH weighs a node by; empty boxes have none).
+fn half_area(lo: Vec3, hi: Vec3) -> f32 {
+    let e = (hi - lo).max(Vec3::ZERO);
+    e.x * e.y + e.y * e.z + e.z * e.x
+}
+
 fn union(a: &BvhNode, b: &BvhNode) -> (Vec3, Vec3) {
     (Vec3::from(a.min).min(b.min.into()), Vec3::from(a.max).max(b.max.into()))
 }
@@ -189,10 +195,7 @@ impl Bvh {
     /// The surface area heuristic's cost of the tree: the expected boxes and triangles a ray
     /// through the root tests, Σ area(node)/area(root) × (1, or the triangles of a leaf).
     fn sah_cost(&self) -> f32 {
-        let area = |n: &BvhNode| {
-            let e = (Vec3::from(n.max) - Vec3::from(n.min)).max(Vec3::ZERO);
-            e.x * e.y + e.y * e.z + e.z * e.x
-        };
+        let area = |n: &BvhNode| half_area(n.min.into(), n.max.into());
         let root = area(&self.nodes[0]).max(f32::MIN_POSITIVE);
         self.nodes.iter().map(|n| area(n) * n.count.max(1) as f32).sum::<f32>() / root
     }
@@ -246,10 +249,6 @@ impl Bvh {
     fn sah_split(&mut self, first: usize, end: usize, clo: Vec3, chi: Vec3) -> Option<usize> {
         let extent = chi - clo;
         let bin_of = |c: Vec3, axis: usize| (((c[axis] - clo[axis]) / extent[axis] * SAH_BINS as f32) as usize).min(SAH_BINS - 1);
-        let area = |lo: Vec3, hi: Vec3| {
-            let e = (hi - lo).max(Vec3::ZERO);
-            e.x * e.y + e.y * e.z + e.z * e.x
-        };
         let empty = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
         let mut best: Option<(f32, usize, usize)> = None;
         for axis in 0..3 {
@@ -270,13 +269,13 @@ impl Bvh {
             for k in (1..SAH_BINS).rev() {
                 bounds = (bounds.0.min(bins[k].0.0), bounds.1.max(bins[k].0.1));
                 count += bins[k].1;
-                right[k] = area(bounds.0, bounds.1) * count as f32;
+                right[k] = half_area(bounds.0, bounds.1) * count as f32;
             }
             let (mut bounds, mut count) = (empty, 0);
             for k in 0..SAH_BINS - 1 {
                 bounds = (bounds.0.min(bins[k].0.0), bounds.1.max(bins[k].0.1));
                 count += bins[k].1;
-                let cost = area(bounds.0, bounds.1) * count as f32 + right[k + 1];
+                let cost = half_area(bounds.0, bounds.1) * count as f32 + right[k + 1];
                 if count > 0 && count < end - first && best.is_none_or(|b| cost < b.0) {
                     best = Some((cost, axis, k));
                 }

@@ -243,7 +243,8 @@ pub fn layout(receivers: &[Receiver], interfaces: (Vec<Placed>, Vec<[Vec3; 3]>),
             n.is_finite() && n.length_squared() > 0.0
         });
         for t in &triangles {
-            for slot in [direction_slot(t.normal()), 6 + direction_slot(-t.normal())] {
+            let n = t.normal();
+            for slot in [direction_slot(n), 6 + direction_slot(-n)] {
                 let (u, v) = chart_axes(slot);
                 for p in t.v {
                     let q = Vec2::new(p[u], p[v]);

@@ -5,7 +5,7 @@
     python3 scripts/dispersion_cost.py q.json
 
 For each scene, `quality.points` holds the caustic RMSE (against the scene's own render with 64×
-the photons) and the photon stages' time at 1/8 … 4× seed's 70k photons. This finds, by
+the photons) and the photon stages' time at 1/8 … 8× seed's 70k photons. This finds, by
 log-log interpolation, how many photons `seed-dispersion` needs to reach `seed`'s RMSE at its
 own 70k, and compares frame costs: the scene's median GPU ms with the photon stages' time
 replaced by the time at that photon count.

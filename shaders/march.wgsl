@@ -260,17 +260,17 @@ fn segment_extinction(a: vec3<f32>, b: vec3<f32>, media: Media) -> vec3<f32> {
     return at_wavelength(sample_grid(extinction_grid, grid_sampler, params.grid, 0.5 * (a + b)).rgb + media.absorption);
 }
 
-// A spectral photon's wavelength and flux: photon i takes the i-th point of a golden-ratio
-// sequence (exact in 32-bit fixed point; any run of consecutive photons covers the spectrum
-// evenly), shifted per frame seed, mapped through the visible-wavelength density — or spread
+// A spectral photon's wavelength and flux: its wavelength sample u (drawn with its place in its
+// raster cell, photons.wgsl's `cell_sample`, carried in bits 1–31 of its flags) mapped through
+// the visible-wavelength density — or spread
 // uniformly over [band_min, band_max] — and carries x̄ȳz̄(λ)·S(λ)/p(λ) of its light's rgb flux,
 // whose expectation is that flux's XYZ. Sets the path's wavelength for the interfaces and the
 // grid. An RGB frame's photons keep their flux as it is.
-fn spectral_flux(flux: vec3<f32>, index: u32) -> vec3<f32> {
+fn spectral_flux(flux: vec3<f32>, photon_flags: u32) -> vec3<f32> {
     if (params.flags & MARCH_FLAG_SPECTRAL) == 0u {
         return flux;
     }
-    let u = fract(f32(index * 0x9e3779b9u) * 2.3283064e-10 + random01(params.seed, 0u, 200u));
+    let u = f32(photon_flags >> 1u) * (1.0 / 2147483648.0);
     var lambda = sample_wavelength(u);
     var pdf = wavelength_pdf(lambda);
     if params.band_max > 0.0 {
@@ -285,7 +285,7 @@ fn spectral_flux(flux: vec3<f32>, index: u32) -> vec3<f32> {
 // One photon (the index-th of the frame) from its light to where it ends; returns the steps it
 // took.
 fn march_photon(photon: Photon, index: u32) -> u32 {
-    var flux = spectral_flux(photon.flux, index);
+    var flux = spectral_flux(photon.flux, photon.flags);
     stat_flux(STAT_EMITTED, flux);
     let grid = params.grid;
     var d = photon.dir;
@@ -395,7 +395,7 @@ fn main(
     let i = id.x + id.y * groups.x * 64u;
     if i < params.photon_count {
         let photon = photons[i];
-        if photon.flags != 0u {
+        if (photon.flags & PHOTON_LIVE) != 0u {
             photon_key = i;
             stat_add(STAT_STEPS, march_photon(photon, i));
             flush_pending(); // the photon's last voxel

@@ -152,6 +152,26 @@ fn find_cell(u: f32) -> u32 {
     return lo;
 }
 
+// Where in its raster cell photon i leaves (xy), and in a spectral frame its wavelength sample
+// (z, for march.wgsl's `spectral_flux`). An RGB frame hashes the position. A spectral frame
+// draws position and wavelength together: photon i takes the i-th point of the R₃ sequence
+// (shared/hash.wgsl), rotated per cell (Cranley–Patterson). A cell's photons are consecutive and
+// any run of R₃ fills the cube evenly, so the photons that land on one patch of a caustic — from
+// one patch of a cell — still cover the spectrum, and its colour noise falls. The rotation makes
+// each cell's sample unbiased on its own: unrotated, the runs of neighbouring cells continue one
+// lattice, whose planes tie wavelength to place across the raster (a white light's caustic
+// behind a dispersive ball came out 1.6 % short in blue). Its position part is random; its
+// wavelength part steps by the golden ratio from cell to cell, so the frame as a whole stays as
+// evenly spread over the spectrum as the photons' golden-ratio wavelengths were before.
+fn cell_sample(i: u32, cell: u32) -> vec3<f32> {
+    let seed = params.seed;
+    if (params.flags & PHOTON_FLAG_SPECTRAL) == 0u {
+        return vec3<f32>(random01(seed, i, 1u), random01(seed, i, 2u), 0.0);
+    }
+    let shift = vec3<f32>(random01(seed, cell, 201u), random01(seed, cell, 202u), fract(f32(cell * 0x9e3779b9u) * FIXED_32_TO_UNIT + random01(seed, 0u, 203u)));
+    return fract(vec3<f32>(f32(i * R3_ALPHA_1), f32(i * R3_ALPHA_2), f32(i * R3_ALPHA_3)) * FIXED_32_TO_UNIT + shift);
+}
+
 @compute @workgroup_size(64)
 fn emit(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     // Dispatched as a 2D grid of workgroups when there are more than 65 535 of them.
@@ -173,8 +193,8 @@ fn emit(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) g
     let per = params.cells * params.cells;
     let e = emitters[cell / per];
     let local = cell % per;
-    let jitter = vec2<f32>(random01(seed, i, 1u), random01(seed, i, 2u));
-    let uc = (vec2<f32>(f32(local % params.cells), f32(local / params.cells)) + jitter) / f32(params.cells);
+    let sample = cell_sample(i, cell);
+    let uc = (vec2<f32>(f32(local % params.cells), f32(local / params.cells)) + sample.xy) / f32(params.cells);
     var ray = emitter_ray(e, uc);
     let light = lights[e.light];
     let flux = cell_power(e, ray.dir) * (total / (f32(n) * weight));
@@ -182,5 +202,7 @@ fn emit(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) g
         // The sun's disc: directions spread over its angular radius (soft caustics).
         ray.dir = cone_direction(e.axis, e.right, e.up, light.half_angle, vec2<f32>(random01(seed, i, 3u), random01(seed, i, 4u)));
     }
-    photons[i] = Photon(ray.origin, 1u, ray.dir, light.media.x, flux, light.media.y);
+    // Bit 0: a live photon; bits 1–31: its wavelength sample (0 in an RGB frame).
+    let flags = PHOTON_LIVE | (u32(sample.z * 2147483648.0) << 1u);
+    photons[i] = Photon(ray.origin, flags, ray.dir, light.media.x, flux, light.media.y);
 }

@@ -261,7 +261,7 @@ struct PhotonParams {
     seed: u32,
     medium_importance: f32,
     eps_refract: f32,
-    _pad0: u32,
+    flags: u32,
     _pad1: u32,
 }
 
@@ -327,6 +327,11 @@ const VIEW_FLAG_SPECTRAL: u32 = 32u;
 const MARCH_FLAG_DEPOSIT_RADIANCE: u32 = 1u;
 const MARCH_FLAG_DEPOSIT_DIRECTION: u32 = 2u;
 const MARCH_FLAG_SPECTRAL: u32 = 4u;
+
+const PHOTON_FLAG_SPECTRAL: u32 = 1u;
+
+// Photon.flags: bit 0 marks a live photon; bits 1–31 hold a spectral photon's wavelength sample.
+const PHOTON_LIVE: u32 = 1u;
 
 const LIGHT_POINT: u32 = 0u;
 const LIGHT_SPOT: u32 = 1u;

@@ -382,7 +382,8 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// A photon leaving its light: origin, unit direction, flux (W per channel), flags.
+    /// A photon leaving its light: origin, unit direction, flux (W per channel), flags (bit 0: a
+    /// live photon; bits 1–31: in a spectral frame, its wavelength sample u = (flags >> 1) / 2³¹).
     pub struct Photon {
         pub origin: [f32; 3],
         pub flags: u32,
@@ -426,7 +427,8 @@ gpu_struct! {
         pub medium_importance: f32,
         /// n − 1 above which a medium counts as refractive.
         pub eps_refract: f32,
-        pub _pad0: u32,
+        /// `photon_flags`.
+        pub flags: u32,
         pub _pad1: u32,
     }
 }
@@ -554,6 +556,13 @@ pub mod view_flags {
     pub const SPECULAR: u32 = 16;
     /// Some glass disperses: each camera sample carries a wavelength (`shaders/view.wgsl`).
     pub const SPECTRAL: u32 = 32;
+}
+
+/// `PhotonParams::flags` bits.
+pub mod photon_flags {
+    /// The frame's photons carry wavelengths: their in-cell position and their wavelength are
+    /// drawn together (photons.wgsl's `cell_jitter`, march.wgsl's `spectral_flux`).
+    pub const SPECTRAL: u32 = 1;
 }
 
 /// `MarchParams::flags` bits.

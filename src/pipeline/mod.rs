@@ -497,10 +497,10 @@ impl Renderer {
         let trace = photons && !reused.photons;
         if trace {
             let (seed, scattering) = (self.settings.photon_seed, needs_scattering(desc));
-            self.photons.encode(&self.ctx, &mut enc, &mut self.profiler, grids, &self.lights, desc.photons, seed, scattering); // lights, octree → photons
+            let spectral = march_params.flags & march_flags::SPECTRAL != 0; // wavelengths, XYZ deposits
+            self.photons.encode(&self.ctx, &mut enc, &mut self.profiler, grids, &self.lights, desc.photons, seed, scattering, spectral); // lights, octree → photons
             self.march.encode(&self.ctx, &mut enc, &mut self.profiler, &march_params, grids, &self.photons, receivers, radiance); // photons, grids, receivers → radiance, caustic atlas
             let filter_unit = flux_unit / march_params.flux_scale;
-            let spectral = march_params.flags & march_flags::SPECTRAL != 0; // XYZ deposits
             self.caustics.encode(&self.ctx, &mut enc, &mut self.profiler, receivers, self.settings.caustic_filter, filter_unit, spectral); // caustic atlas → caustic irradiance
             self.march.encode_stats_readback(&mut enc, slot);
             self.counters.photon_traces += 1;

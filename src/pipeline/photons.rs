@@ -9,7 +9,7 @@ use super::resources::Grids;
 use super::timing::Profiler;
 use crate::gpu::GpuContext;
 use crate::gpu::shaders::ShaderLibrary;
-use crate::gpu::types::{Photon, PhotonParams};
+use crate::gpu::types::{Photon, PhotonParams, photon_flags};
 
 /// How much a raster cell whose ray crosses only a scattering medium (no glass) is worth,
 /// against 1 for one that crosses glass: enough photons for light shafts, most for caustics.
@@ -103,6 +103,7 @@ impl Photons {
         photon_count: u32,
         seed: u32,
         scattering: bool,
+        spectral: bool,
     ) {
         self.reserve(&ctx.device, photon_count, lights.emitter_count);
         let params = PhotonParams {
@@ -113,6 +114,7 @@ impl Photons {
             seed,
             medium_importance: if scattering { MEDIUM_IMPORTANCE } else { 0.0 },
             eps_refract: EPS_REFRACT,
+            flags: if spectral { photon_flags::SPECTRAL } else { 0 },
             ..Default::default()
         };
         ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));

@@ -126,7 +126,7 @@ def frames_table(report):
         m = r["ms_per_frame"]
         cells.append([r["flow"], str(r["frames_in_flight"]), str(r["writers"]), f"**{r['fps']:.1f}**", f"{r['mb_per_frame']:.1f}",
                       ms(m["gpu"]), ms(m["evaluate"]), ms(m["submit"]), ms(m["gpu_wait"]), ms(m["readback"]), ms(m["queue_wait"]),
-                      ms(m["encode"]), ms(m["write"]), f"{r['bound']['by']} ({r['bound']['ms_per_frame']:.2f} ms)"])
+                      ms(m.get("convert", 0.0)), ms(m["encode"]), ms(m["write"]), f"{r['bound']['by']} ({r['bound']['ms_per_frame']:.2f} ms)"])
     enc = f.get("encode")
     lines = []
     if enc:
@@ -137,9 +137,9 @@ def frames_table(report):
         lines = table(f"Encoding one {size} frame of {f['scene']} on one core of {adapter(report)}'s host (median of 3):",
                       ["file", "encode ms", "MB", "frames/s per core"], cells2) + [""]
     return lines + table(f"`refrakt render --frames` end to end on {adapter(report)}, {f['settings']['frames']} frames of "
-                 f"{f['scene']}, {f['settings']['cores']} cores (ms per frame; encode and write summed over the writers):",
+                 f"{f['scene']}, {f['settings']['cores']} cores (ms per frame; convert, encode and write summed over the writers):",
                  ["flow", "in flight", "writers", "frames/s", "MB/frame", "GPU", "evaluate", "submit", "GPU wait", "readback",
-                  "queue wait", "encode", "write", "bound by"], cells)
+                  "queue wait", "convert", "encode", "write", "bound by"], cells)
 
 
 def main(paths):

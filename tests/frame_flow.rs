@@ -94,11 +94,47 @@ fn a_run_says_where_its_time_went() {
     refrakt::render::run(&scene, &options(&out, flow)).unwrap();
     let s = split.lock().unwrap().clone();
     assert_eq!(s.frames, 5);
-    for (part, seconds) in [("evaluate", s.evaluate_s), ("submit", s.submit_s), ("readback", s.readback_s), ("encode", s.encode_s), ("write", s.write_s)] {
+    for (part, seconds) in
+        [("evaluate", s.evaluate_s), ("submit", s.submit_s), ("readback", s.readback_s), ("convert", s.convert_s), ("encode", s.encode_s), ("write", s.write_s)]
+    {
         assert!(seconds > 0.0, "{part}: {s:?}");
     }
     let on_disk: usize = files(&out).values().map(Vec::len).sum();
     assert_eq!(s.bytes, on_disk as u64);
+}
+
+/// `Renderer::finish_mapped` hands a frame over still mapped, for another thread to convert (the
+/// frame writers do): a caller may hold as many as `HANDED_OFF_FRAMES` such frames past those in
+/// flight — each keeps a staging buffer of its own — and go on submitting; each converts, on
+/// any thread, into the image `finish` gives; and once converted, their buffers serve again.
+#[test]
+fn frames_handed_over_mapped_convert_to_the_image_finish_gives() {
+    let desc = common::frame_from_lua(ROLLING_BALL);
+    let mut r = common::renderer();
+    r.set_frames_in_flight(2).unwrap();
+    let expected = r.frame(&desc).unwrap();
+    let mut in_flight = std::collections::VecDeque::new();
+    let mut held = Vec::new();
+    for _ in 0..2 + refrakt::pipeline::HANDED_OFF_FRAMES {
+        in_flight.push_back(r.submit(&desc).unwrap());
+        if in_flight.len() == r.frames_in_flight() {
+            held.push(r.finish_mapped(in_flight.pop_front().unwrap()).unwrap());
+        }
+    }
+    while let Some(ticket) = in_flight.pop_front() {
+        held.push(r.finish_mapped(ticket).unwrap());
+    }
+    assert_eq!(held.len(), 2 + refrakt::pipeline::HANDED_OFF_FRAMES);
+    let images: Vec<Image> = std::thread::scope(|s| {
+        let threads: Vec<_> = held.into_iter().map(|frame| s.spawn(move || frame.image())).collect();
+        threads.into_iter().map(|t| t.join().unwrap()).collect()
+    });
+    assert!(images.iter().all(|image| *image == expected));
+    // Every buffer was given back: as many frames again go through without waiting.
+    for _ in 0..2 + refrakt::pipeline::HANDED_OFF_FRAMES {
+        let ticket = r.submit(&desc).unwrap();
+        assert!(r.finish_mapped(ticket).unwrap().image() == expected);
+    }
 }
 
 /// A frame of noisy values in every layer `render` writes.

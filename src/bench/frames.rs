@@ -88,11 +88,11 @@ fn render(scene: &std::path::Path, eval: &EvalOptions, flow: &Flow, frames: u32,
 }
 
 /// The part of the pipeline that bounds a run: the main thread (evaluate, submit, read back),
-/// the GPU, or the writers (encode and write, spread over `writers` threads).
+/// the GPU, or the writers (convert, encode and write, spread over `writers` threads).
 fn bound(s: &FrameSplit, writers: usize) -> (&'static str, f64) {
     let main = s.evaluate_s + s.submit_s + s.readback_s;
-    let writing = (s.encode_s + s.write_s) / writers.max(1) as f64;
-    let mut parts = [("main thread (evaluate + submit + readback)", main), ("GPU", s.gpu_s), ("writers (encode + write)", writing)];
+    let writing = (s.convert_s + s.encode_s + s.write_s) / writers.max(1) as f64;
+    let mut parts = [("main thread (evaluate + submit + readback)", main), ("GPU", s.gpu_s), ("writers (convert + encode + write)", writing)];
     parts.sort_by(|a, b| b.1.total_cmp(&a.1));
     parts[0]
 }
@@ -118,6 +118,7 @@ fn flow_json(flow: &Flow, s: &FrameSplit) -> Value {
             "readback": per_frame(s.readback_s),
             "queue_wait": per_frame(s.queue_wait_s),
             "drain": per_frame(s.drain_s),
+            "convert": per_frame(s.convert_s),
             "encode": per_frame(s.encode_s),
             "write": per_frame(s.write_s),
             "gpu": per_frame(s.gpu_s),

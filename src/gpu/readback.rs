@@ -1,6 +1,6 @@
 //! Bringing results back from the GPU: a staging buffer, a copy, a map, a wait.
 
-use anyhow::{Result, anyhow};
+use anyhow::{Result, anyhow, bail};
 
 use super::GpuContext;
 
@@ -32,6 +32,12 @@ impl Staging {
     /// place and unmaps — for large results (the frame) that `f` converts anyway, so they are not
     /// first copied whole.
     pub fn read_with<T>(&self, ctx: &GpuContext, len: u64, f: impl FnOnce(&[u8]) -> T) -> Result<T> {
+        Ok(f(self.map(ctx, len)?.bytes()))
+    }
+
+    /// Maps the first `len` bytes (after the submission that filled them) and hands them over
+    /// mapped: whoever holds the [`Mapped`] reads them, on any thread, and dropping it unmaps.
+    pub fn map(&self, ctx: &GpuContext, len: u64) -> Result<Mapped> {
         let len = len.next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT).min(self.size);
         let (tx, rx) = std::sync::mpsc::channel();
         self.buffer.map_async(wgpu::MapMode::Read, ..len, move |r| {
@@ -51,12 +57,33 @@ impl Staging {
             }
         };
         mapped.map_err(|e| anyhow!("mapping a GPU buffer for reading failed: {e}"))?;
-        let out = {
-            let view = self.buffer.get_mapped_range(..len).map_err(|e| anyhow!("{e}"))?;
-            f(&view)
+        let view = match self.buffer.get_mapped_range(..len) {
+            Ok(view) => view,
+            Err(e) => {
+                self.buffer.unmap();
+                bail!("{e}");
+            }
         };
+        Ok(Mapped { view: Some(view), buffer: self.buffer.clone() })
+    }
+}
+
+/// A staging buffer's bytes, mapped for reading; unmapped when dropped.
+pub struct Mapped {
+    view: Option<wgpu::BufferView>,
+    buffer: wgpu::Buffer,
+}
+
+impl Mapped {
+    pub fn bytes(&self) -> &[u8] {
+        self.view.as_deref().expect("mapped until dropped")
+    }
+}
+
+impl Drop for Mapped {
+    fn drop(&mut self) {
+        self.view.take();
         self.buffer.unmap();
-        Ok(out)
     }
 }
 

@@ -28,10 +28,27 @@ use super::{Format, Image};
 /// One frame to write: its image and the files it goes to.
 pub struct WriteJob {
     pub frame: i64,
-    pub image: Image,
+    pub image: FrameImage,
     pub files: Vec<(Format, PathBuf)>,
     pub png: PngOptions,
     pub exr: ExrSettings,
+}
+
+/// A frame's image: in hand, or still to be made by the writer — read back from the GPU but not
+/// yet converted into layers, which the writer does first (`Renderer::finish_mapped`), so the
+/// thread that submits frames does not.
+pub enum FrameImage {
+    Ready(Image),
+    Deferred(Box<dyn FnOnce() -> Image + Send>),
+}
+
+impl FrameImage {
+    fn into_image(self) -> Image {
+        match self {
+            FrameImage::Ready(image) => image,
+            FrameImage::Deferred(convert) => convert(),
+        }
+    }
 }
 
 /// A frame whose files are in place (or failed), as reported in order.
@@ -39,7 +56,9 @@ pub struct WriteJob {
 pub struct Written {
     pub frame: i64,
     pub files: Vec<PathBuf>,
-    /// Seconds encoding the files in memory, and writing and renaming them.
+    /// Seconds making the image (a deferred one), encoding the files in memory, and writing
+    /// and renaming them.
+    pub convert_s: f64,
     pub encode_s: f64,
     pub write_s: f64,
     /// When its last file was in place.
@@ -165,9 +184,12 @@ fn work(inbox: &Mutex<Receiver<(u64, WriteJob)>>, shared: &Shared) {
 /// Encodes and writes one frame's files, timing each part.
 pub fn write_job(job: WriteJob) -> Result<Written> {
     let (mut encode_s, mut write_s) = (0.0, 0.0);
+    let t0 = Instant::now();
+    let image = job.image.into_image();
+    let convert_s = t0.elapsed().as_secs_f64();
     for (format, path) in &job.files {
         let t0 = Instant::now();
-        let bytes = super::encode(&job.image, *format, &job.png, job.exr)
+        let bytes = super::encode(&image, *format, &job.png, job.exr)
             .map_err(|e| e.context(format!("writing {}", path.display())))?;
         let t1 = Instant::now();
         super::write_bytes(path, &bytes)?;
@@ -175,7 +197,7 @@ pub fn write_job(job: WriteJob) -> Result<Written> {
         write_s += t1.elapsed().as_secs_f64();
     }
     let files = job.files.into_iter().map(|(_, p)| p).collect();
-    Ok(Written { frame: job.frame, files, encode_s, write_s, done_at: Instant::now() })
+    Ok(Written { frame: job.frame, files, convert_s, encode_s, write_s, done_at: Instant::now() })
 }
 
 #[cfg(test)]
@@ -189,7 +211,10 @@ mod tests {
 
     fn job(dir: &std::path::Path, frame: i64, formats: &[Format]) -> WriteJob {
         let files = formats.iter().map(|f| (*f, dir.join(format!("f.{frame}.{}", f.extension())))).collect();
-        WriteJob { frame, image: image(frame as f32 / 10.0), files, png: PngOptions::default(), exr: ExrSettings::default() }
+        let value = frame as f32 / 10.0;
+        // Odd frames' images are made by the writer, as `render --frames` hands them over.
+        let image = if frame % 2 == 0 { FrameImage::Ready(image(value)) } else { FrameImage::Deferred(Box::new(move || image(value))) };
+        WriteJob { frame, image, files, png: PngOptions::default(), exr: ExrSettings::default() }
     }
 
     #[test]

@@ -37,6 +37,7 @@ use lights::LightBuffers;
 use march::PhotonStats;
 use parts::{FrameProgress, Part};
 use receivers::Receivers;
+pub use resources::MappedFrame;
 use resources::{EnvironmentTexture, FrameTarget, Grids, RadianceGrid};
 use reuse::{PhotonKey, Reuse, StageCache, VolumeKey};
 use timing::Profiler;
@@ -112,6 +113,10 @@ impl Default for RenderSettings {
 /// of the whole frame (80 bytes a pixel).
 pub const MAX_FRAMES_IN_FLIGHT: usize = 4;
 
+/// Frames read back whose conversion into layers may wait on other threads
+/// ([`Renderer::finish_mapped`]), beyond the frames in flight.
+pub const HANDED_OFF_FRAMES: usize = 3;
+
 /// Most photons one frame traces (48 bytes each on the GPU).
 pub const MAX_PHOTONS: u32 = 1 << 26;
 
@@ -154,6 +159,8 @@ pub struct Renderer {
 #[must_use = "a submitted frame must be finished to read it back"]
 pub struct Ticket {
     slot: usize,
+    /// The frame target's staging buffer its image comes home in.
+    readback: usize,
     photons: Option<crate::gpu::types::MarchParams>,
     /// The layers its readback brings back.
     layers: Layers,
@@ -379,9 +386,6 @@ impl Renderer {
         if self.target.as_ref().is_none_or(|t| (t.width, t.height) != (w, h)) {
             self.target = Some(FrameTarget::new(&self.ctx, w, h)?);
         }
-        if let Some(t) = self.target.as_mut() {
-            t.ensure_slots(&self.ctx, self.frames_in_flight);
-        }
         Ok(())
     }
 
@@ -466,6 +470,7 @@ impl Renderer {
             bail!("internal: the image size changes while a frame is in flight; finish it first");
         }
         self.prepare(desc)?;
+        let readback = self.target.as_mut().expect("prepared").take_staging(&self.ctx, self.frames_in_flight + HANDED_OFF_FRAMES);
         let photons = self.traces_photons(desc);
         let deposit = photons && self.deposits(desc);
         // Photon flux is kept relative to the mean photon flux (fixed point): the lights' power
@@ -487,7 +492,7 @@ impl Renderer {
         let mut parts = Vec::new();
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         if !reused.volume {
-            let work = self.voxelize.encode(&self.ctx, &mut enc, &mut self.profiler, desc, grids)?; // fields, meshes → index_field, extinction_grid, scattering_grid
+            let work = self.voxelize.encode(&self.ctx, &mut enc, &mut self.profiler, desc, grids).inspect_err(|_| target.give_back(readback))?; // fields, meshes → index_field, extinction_grid, scattering_grid
             self.gradient.encode(&self.ctx, &mut enc, &mut self.profiler, &desc.volume, grids); // index_field → ior_grid (∇n, n)
             self.octree.encode(&self.ctx, &mut enc, &mut self.profiler, grids); // index_field, extinction_grid → octree
             self.counters.volume_builds += 1;
@@ -517,7 +522,7 @@ impl Renderer {
             scattering: deposit,
         };
         self.view.encode(&self.ctx, &mut enc, &mut self.profiler, desc, &inputs); // grids, octree, receivers, lights, radiance, environment → frame
-        target.encode_readback(&mut enc, slot, self.layers);
+        target.encode_readback(&mut enc, readback, self.layers);
         self.view.encode_steps_readback(&mut enc, slot);
         self.profiler.resolve(&mut enc, slot);
         parts.push((Part::View, self.ctx.queue.submit([enc.finish()])));
@@ -533,7 +538,7 @@ impl Renderer {
         self.pending[slot] = true;
         self.next_slot = (slot + 1) % self.frames_in_flight;
         let submitted = parts::Submitted { parts, photons: if trace { desc.photons } else { 0 }, at: submitted_at };
-        Ok(Ticket { slot, photons: trace.then_some(march_params), layers: self.layers, reused, submitted })
+        Ok(Ticket { slot, readback, photons: trace.then_some(march_params), layers: self.layers, reused, submitted })
     }
 
     /// Submits what `enc` holds as one part of the frame and starts a new encoder for the next.
@@ -581,15 +586,30 @@ impl Renderer {
 
     /// Waits for a submitted frame and reads its image, statistics and timings back.
     pub fn finish(&mut self, ticket: Ticket) -> Result<Image> {
-        let image = self.target.as_ref().expect("a frame was submitted").read(&self.ctx, ticket.slot, ticket.layers)?;
-        self.finish_without_image(ticket)?;
-        Ok(image)
+        Ok(self.finish_mapped(ticket)?.image())
+    }
+
+    /// Waits for a submitted frame and reads its statistics and timings back, and its image as
+    /// far as mapping it: [`MappedFrame::image`] converts it into layers on whichever thread
+    /// calls it (`refrakt render --frames` does it on the frame writers), while this thread
+    /// goes on submitting frames. Up to [`HANDED_OFF_FRAMES`] frames may wait so, each holding
+    /// a staging buffer of the frame's size, before `submit` waits for one to be converted.
+    pub fn finish_mapped(&mut self, ticket: Ticket) -> Result<MappedFrame> {
+        let frame = self.target.as_ref().expect("a frame was submitted").map(&self.ctx, ticket.readback, ticket.layers)?;
+        self.finish_results(ticket)?;
+        Ok(frame)
     }
 
     /// Waits for a submitted frame and reads back its statistics and timings but not its image
     /// (`refrakt bench` times frames this way, back to back, so the GPU is never left waiting
     /// on the host's readback and its clocks stay up).
     pub fn finish_without_image(&mut self, ticket: Ticket) -> Result<()> {
+        self.target.as_ref().expect("a frame was submitted").give_back(ticket.readback);
+        self.finish_results(ticket)
+    }
+
+    /// The frame's statistics, step counts and timings.
+    fn finish_results(&mut self, ticket: Ticket) -> Result<()> {
         let slot = ticket.slot;
         self.pending[slot] = false;
         self.stats = match &ticket.photons {

@@ -9,7 +9,7 @@ use anyhow::{Result, anyhow};
 use glam::UVec3;
 
 use crate::gpu::GpuContext;
-use crate::gpu::readback::Staging;
+use crate::gpu::readback::{Mapped, Staging};
 use crate::output::{Image, Layer, Layers};
 use crate::scene::{EnvImage, Environment};
 
@@ -267,9 +267,75 @@ pub struct FrameTarget {
     pub buffer: wgpu::Buffer,
     /// Bytes from one plane's start to the next's.
     plane_stride: u64,
-    /// One per readback slot, so frames k+1, k+2, … can be submitted before frame k is read
-    /// (allocated as slots are first used: see [`ensure_slots`](Self::ensure_slots)).
+    /// The frame's way home: one staging buffer per frame in flight, so frames k+1, k+2, … can
+    /// be submitted before frame k is read, and more while frames already read back are still
+    /// mapped, being converted on other threads ([`MappedFrame`]). Allocated as first needed.
     staging: Vec<Staging>,
+    holds: Arc<Holds>,
+}
+
+/// Which of a frame target's staging buffers are taken (by a frame in flight, or a
+/// [`MappedFrame`] not yet converted), and a signal when one is given back.
+#[derive(Default)]
+struct Holds {
+    taken: std::sync::Mutex<Vec<bool>>,
+    given_back: std::sync::Condvar,
+}
+
+impl Holds {
+    fn lock(&self) -> std::sync::MutexGuard<'_, Vec<bool>> {
+        self.taken.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    fn give_back(&self, index: usize) {
+        self.lock()[index] = false;
+        self.given_back.notify_all();
+    }
+}
+
+/// Gives a staging buffer back when dropped.
+struct Hold {
+    holds: Arc<Holds>,
+    index: usize,
+}
+
+impl Drop for Hold {
+    fn drop(&mut self) {
+        self.holds.give_back(self.index);
+    }
+}
+
+/// A frame read back but not yet converted into layers: its staging buffer stays mapped (and
+/// taken) until [`image`](Self::image) has converted it, on whichever thread calls it.
+pub struct MappedFrame {
+    // (Dropped in this order: unmapped, then given back.)
+    bytes: Mapped,
+    _hold: Hold,
+    width: u32,
+    height: u32,
+    plane_stride: u64,
+    planes: usize,
+}
+
+impl MappedFrame {
+    /// The planes converted into layers straight from the mapped staging buffer (the frame is
+    /// the largest readback, 80 bytes a pixel, and copying it whole first doubled its cost), each
+    /// plane on a thread of its own; then the buffer is unmapped and given back.
+    pub fn image(self) -> Image {
+        let n = (self.width * self.height) as usize;
+        let floats: &[f32] = bytemuck::cast_slice(self.bytes.bytes());
+        let stride = self.plane_stride as usize / 4;
+        let plane = |k: usize| &floats[stride * k..stride * k + 4 * n];
+        let layers = if self.planes == 1 {
+            vec![plane_layer(0, plane(0))]
+        } else {
+            std::thread::scope(|s| {
+                let threads: Vec<_> = (0..self.planes).map(|k| s.spawn(move || plane_layer(k, plane(k)))).collect();
+                threads.into_iter().map(|t| t.join().expect("converting a frame plane")).collect()
+            })
+        };
+        Image { width: self.width, height: self.height, layers }
+    }
 }
 
 impl FrameTarget {
@@ -301,6 +367,7 @@ impl FrameTarget {
             }),
             plane_stride: Self::plane_stride(ctx, width, height),
             staging: Vec::new(),
+            holds: Arc::default(),
         })
     }
 
@@ -313,11 +380,27 @@ impl FrameTarget {
         })
     }
 
-    /// Makes sure readback slots `0..slots` have their staging buffers.
-    pub fn ensure_slots(&mut self, ctx: &GpuContext, slots: usize) {
-        while self.staging.len() < slots {
-            self.staging.push(Staging::new(&ctx.device, self.buffer.size(), "frame readback"));
+    /// Takes a free staging buffer for the next frame's readback (allocating one while fewer
+    /// than `limit` exist, else waiting for a [`MappedFrame`] to give one back); returns its index.
+    pub fn take_staging(&mut self, ctx: &GpuContext, limit: usize) -> usize {
+        let mut taken = self.holds.lock();
+        loop {
+            if let Some(i) = taken.iter().position(|t| !t) {
+                taken[i] = true;
+                return i;
+            }
+            if taken.len() < limit.max(1) {
+                taken.push(true);
+                self.staging.push(Staging::new(&ctx.device, self.buffer.size(), "frame readback"));
+                return taken.len() - 1;
+            }
+            taken = self.holds.given_back.wait(taken).unwrap_or_else(std::sync::PoisonError::into_inner);
         }
+    }
+
+    /// Gives back a staging buffer whose frame is finished without its image.
+    pub fn give_back(&self, index: usize) {
+        self.holds.give_back(index);
     }
 
     /// Bytes of the planes that bring `layers` back: the beauty plane comes first.
@@ -328,33 +411,21 @@ impl FrameTarget {
         }
     }
 
-    pub fn encode_readback(&self, enc: &mut wgpu::CommandEncoder, slot: usize, layers: Layers) {
-        enc.copy_buffer_to_buffer(&self.buffer, 0, &self.staging[slot].buffer, 0, self.readback_bytes(layers));
+    pub fn encode_readback(&self, enc: &mut wgpu::CommandEncoder, staging: usize, layers: Layers) {
+        enc.copy_buffer_to_buffer(&self.buffer, 0, &self.staging[staging].buffer, 0, self.readback_bytes(layers));
     }
 
-    /// The image after the submission with [`encode_readback`](Self::encode_readback) finished.
-    /// The planes are converted into layers straight from the mapped staging buffer (the frame is
-    /// the largest readback, 80 bytes a pixel, and copying it whole first doubled its cost), each
-    /// plane on a thread of its own.
-    pub fn read(&self, ctx: &GpuContext, slot: usize, layers: Layers) -> Result<Image> {
-        let n = (self.width * self.height) as usize;
+    /// Maps staging buffer `staging` after the submission with
+    /// [`encode_readback`](Self::encode_readback) finished; the buffer is given back once the
+    /// result is converted (or dropped), also when mapping fails.
+    pub fn map(&self, ctx: &GpuContext, staging: usize, layers: Layers) -> Result<MappedFrame> {
+        let hold = Hold { holds: self.holds.clone(), index: staging };
+        let bytes = self.staging[staging].map(ctx, self.readback_bytes(layers))?;
         let planes = match layers {
             Layers::All => FRAME_PLANES as usize,
             Layers::Beauty => 1,
         };
-        let layers = self.staging[slot].read_with(ctx, self.readback_bytes(layers), |bytes| {
-            let floats: &[f32] = bytemuck::cast_slice(bytes);
-            let stride = self.plane_stride as usize / 4;
-            let plane = |k: usize| &floats[stride * k..stride * k + 4 * n];
-            if planes == 1 {
-                return vec![plane_layer(0, plane(0))];
-            }
-            std::thread::scope(|s| {
-                let threads: Vec<_> = (0..planes).map(|k| s.spawn(move || plane_layer(k, plane(k)))).collect();
-                threads.into_iter().map(|t| t.join().expect("converting a frame plane")).collect()
-            })
-        })?;
-        Ok(Image { width: self.width, height: self.height, layers })
+        Ok(MappedFrame { bytes, _hold: hold, width: self.width, height: self.height, plane_stride: self.plane_stride, planes })
     }
 }
 

@@ -218,7 +218,8 @@ struct FlowArgs {
     /// Frames on the GPU at once, each read back while the next ones render (1 to 4).
     #[arg(long, value_name = "N", default_value_t = 3, value_parser = |s: &str| parse_whole(s, 1, refrakt::pipeline::MAX_FRAMES_IN_FLIGHT as u32))]
     frames_in_flight: u32,
-    /// Threads encoding and writing frames side by side (default: one per core, at most 8; 1
+    /// Threads converting, encoding and writing frames side by side (default: one per core, at
+    /// most 8, each holding a frame in memory; more pays on machines with more cores; 1
     /// compresses each EXR on all cores instead).
     #[arg(long, value_name = "N", value_parser = |s: &str| parse_whole(s, 1, 256))]
     writers: Option<u32>,

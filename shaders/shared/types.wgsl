@@ -261,6 +261,7 @@ struct PhotonParams {
     seed: u32,
     medium_importance: f32,
     eps_refract: f32,
+    // PHOTON_FLAG_* bits.
     flags: u32,
     _pad1: u32,
 }

@@ -37,8 +37,8 @@ pub struct FrameFlow {
     /// Frames submitted to the GPU before the first of them is read back (1 to
     /// [`crate::pipeline::MAX_FRAMES_IN_FLIGHT`]).
     pub frames_in_flight: usize,
-    /// Threads encoding and writing frames side by side; with one, an EXR's blocks are
-    /// compressed on all cores instead.
+    /// Threads converting, encoding and writing frames side by side; with one, an EXR's blocks
+    /// are compressed on all cores instead.
     pub writers: usize,
     /// EXR codec and precision (its `parallel` is set from `writers`).
     pub exr: ExrSettings,

@@ -262,8 +262,8 @@ fn segment_extinction(a: vec3<f32>, b: vec3<f32>, media: Media) -> vec3<f32> {
 
 // A spectral photon's wavelength and flux: its wavelength sample u (drawn with its place in its
 // raster cell, photons.wgsl's `cell_sample`, carried in bits 1–31 of its flags) mapped through
-// the visible-wavelength density — or spread
-// uniformly over [band_min, band_max] — and carries x̄ȳz̄(λ)·S(λ)/p(λ) of its light's rgb flux,
+// the binned wavelength density (spectrum.wgsl's `sample_wavelength`) — or spread uniformly
+// over [band_min, band_max] — and carries x̄ȳz̄(λ)·S(λ)/p(λ) of its light's rgb flux,
 // whose expectation is that flux's XYZ. Sets the path's wavelength for the interfaces and the
 // grid. An RGB frame's photons keep their flux as it is.
 fn spectral_flux(flux: vec3<f32>, photon_flags: u32) -> vec3<f32> {

@@ -399,6 +399,9 @@ fn lights_seen(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> vec3<f32> {
 
 // Ends a branch in the environment (and the lights' discs, once it met glass).
 fn end_in_environment(out: ptr<function, ViewSample>, b: Branch) {
+    if companion_ends_here() {
+        return;
+    }
     if (*out).covered || params.env.visible != 0u {
         (*out).radiance += b.weight * env_radiance(env_map, env_sampler, params.env, b.d);
     }
@@ -412,6 +415,9 @@ fn end_in_environment(out: ptr<function, ViewSample>, b: Branch) {
 // last straight piece). Returns the coverage: below 1 (a cut-out, a see-through surface) the
 // branch goes on past it with the rest of its weight.
 fn meet_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, b: Branch, start: vec3<f32>, k: u32) -> f32 {
+    if companion_ends_here() {
+        return 1.0;
+    }
     if b.events > 0u {
         (*out).radiance += b.weight * lights_seen(start, b.d, distance(start, p));
     }
@@ -562,8 +568,8 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
 // wavelength per pixel (hashed), with the pixel's other samples as its companions, spaced
 // evenly over the spectrum (the rotation of Wilkie et al. 2014's hero wavelengths). Dispersive
 // glass sends each wavelength its own way, so each companion is traced as a sample of its own.
-// A pixel of few samples has companions within each sample too (j of wavelengths_per_sample),
-// traced only where the sample met dispersion (`shade_pixel`).
+// A pixel of one sample has a companion within it (j = 1 of wavelengths_per_sample, half the
+// spectrum on), traced by a thread of its own (`main_companions`).
 fn sample_wavelength_of(k: u32, j: u32) {
     path_dispersed = false;
     if !has(VIEW_FLAG_SPECTRAL) {
@@ -599,7 +605,7 @@ fn trace_view(dir0: vec3<f32>, k: u32, j: u32) -> ViewSample {
     // (One call site: the branch tracer is the pass's largest function.)
     loop {
         trace_branch(&out, branch, &stack, &top, k);
-        if top == 0u {
+        if top == 0u || companion_gave_up {
             break;
         }
         top--;
@@ -617,16 +623,15 @@ fn wavelengths_per_sample() -> u32 {
 // workgroup rather than one per pixel, all on the same word (see march.wgsl's statistics).
 var<workgroup> workgroup_steps: array<atomic<u32>, 2>;
 
-@compute @workgroup_size(8, 8, 1)
-fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
-    if id.x < params.width && id.y < params.height {
-        let steps = shade_pixel(id.xy);
-        let old = atomicAdd(&workgroup_steps[0], steps);
-        if old + steps < old {
-            atomicAdd(&workgroup_steps[1], 1u);
-        }
+fn count_steps(steps: u32) {
+    let old = atomicAdd(&workgroup_steps[0], steps);
+    if old + steps < old {
+        atomicAdd(&workgroup_steps[1], 1u);
     }
-    workgroupBarrier();
+}
+
+// After a barrier: the workgroup's steps into the frame's count, by its first thread.
+fn flush_steps(lane: u32) {
     if lane == 0u {
         let low = atomicLoad(&workgroup_steps[0]);
         let old = atomicAdd(&view_steps[0], low);
@@ -638,6 +643,15 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
     }
 }
 
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
+    if id.x < params.width && id.y < params.height {
+        count_steps(shade_pixel(id.xy));
+    }
+    workgroupBarrier();
+    flush_steps(lane);
+}
+
 // The pixel being shaded (its index), which keys its random numbers.
 var<private> pixel_key: u32;
 
@@ -646,38 +660,32 @@ var<private> pixel_key: u32;
 // returns the steps they took. (Splitting the samples keeps each invocation under lavapipe's
 // 65 535 loop iterations per shader, past which it silently ends every loop.)
 fn shade_pixel(p: vec2<u32>) -> u32 {
-    let id = vec3<u32>(p, 0u);
     pixel_key = p.x + p.y * params.width;
     var sum = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
     var coverage = 0.0;
-    // Sample k's trace j: j = 0 first; where it met dispersive glass, its companions follow,
-    // the same ray at wavelengths spaced evenly after it, and the sample is their mean (a
-    // companion that meets no dispersion keeps its rgb, exact at every wavelength). One loop
-    // and one call of trace_view, which inlines the branch tracer.
-    var k = params.sample_first;
-    var j = 0u;
-    var traces = 1u;
-    while k < params.sample_first + params.sample_count {
-        let s = trace_view(camera_ray(vec2<f32>(id.xy) + r2(k)), k, j);
-        if j == 0u {
-            traces = select(1u, wavelengths_per_sample(), path_dispersed);
-            coverage += select(0.0, 1.0, s.covered);
-        }
-        let share = 1.0 / f32(traces);
-        sum.radiance += s.radiance * share;
-        sum.caustic += s.caustic * share;
-        sum.direct += s.direct * share;
-        sum.volume += s.volume * share;
-        sum.steps += s.steps;
-        sum.depth = min(sum.depth, s.depth);
-        j++;
-        if j == traces {
-            j = 0u;
-            k++;
-        }
+    for (var k = params.sample_first; k < params.sample_first + params.sample_count; k++) {
+        let s = trace_view(camera_ray(vec2<f32>(p) + r2(k)), k, 0u);
+        coverage += select(0.0, 1.0, s.covered);
+        add_sample(&sum, s, 1.0);
     }
+    write_pixel(p, sum, coverage);
+    return sum.steps;
+}
+
+fn add_sample(sum: ptr<function, ViewSample>, s: ViewSample, share: f32) {
+    (*sum).radiance += s.radiance * share;
+    (*sum).caustic += s.caustic * share;
+    (*sum).direct += s.direct * share;
+    (*sum).volume += s.volume * share;
+    (*sum).steps += s.steps;
+    (*sum).depth = min((*sum).depth, s.depth);
+}
+
+// Pixel p's planes: the sum of this dispatch's samples (covering `coverage` of them) over all
+// the frame's samples, added to what earlier dispatches wrote.
+fn write_pixel(p: vec2<u32>, sum: ViewSample, coverage: f32) {
     let inv = 1.0 / f32(params.samples);
-    let pixel = id.x + id.y * params.width;
+    let pixel = p.x + p.y * params.width;
     var beauty = vec4<f32>(sum.radiance * inv, coverage * inv);
     var depth = sum.depth;
     var caustic = vec4<f32>(sum.caustic * inv, 0.0);
@@ -695,5 +703,59 @@ fn shade_pixel(p: vec2<u32>) -> u32 {
     frame_caustic[pixel] = caustic;
     frame_direct[pixel] = direct;
     frame_volume[pixel] = volume;
-    return sum.steps;
+}
+
+// Companions in threads of their own (a spectral frame of one sample per pixel): the
+// workgroup's z = 0 threads trace its 8 × 8 pixels at their hero wavelength, its z = 1 threads
+// the same rays at the companion wavelength, at once. Traced after the hero in the same
+// thread, the companion doubled the time of the pixels behind dispersive glass, the view's
+// slowest, which set the pass's time. A companion gives up at the first branch that ends
+// before the path met dispersion (its hero's sample keeps its rgb there, exact at every
+// wavelength), so on the rest of the frame its thread costs little.
+var<private> tracing_companion: bool = false;
+var<private> companion_gave_up: bool = false;
+// The companions' samples (radiance, caustic, direct, volume), w = 1 where one met dispersion.
+var<workgroup> companion_light: array<array<vec4<f32>, 4>, 64>;
+
+// Whether a branch ending here ends a companion's trace: one not yet dispersed is its hero's.
+fn companion_ends_here() -> bool {
+    if tracing_companion && !path_dispersed {
+        companion_gave_up = true;
+    }
+    return companion_gave_up;
+}
+
+@compute @workgroup_size(8, 8, 2)
+fn main_companions(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_id) local: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
+    let inside = id.x < params.width && id.y < params.height;
+    let slot = local.x + 8u * local.y;
+    var s = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
+    let j = local.z;
+    let k = params.sample_first;
+    if inside {
+        pixel_key = id.x + id.y * params.width;
+        tracing_companion = j == 1u;
+        s = trace_view(camera_ray(vec2<f32>(id.xy) + r2(k)), k, j);
+        count_steps(s.steps);
+    }
+    if j == 1u {
+        let met = select(0.0, 1.0, inside && path_dispersed && !companion_gave_up);
+        companion_light[slot] = array<vec4<f32>, 4>(vec4<f32>(s.radiance, met), vec4<f32>(s.caustic, 0.0), vec4<f32>(s.direct, 0.0), vec4<f32>(s.volume, 0.0));
+    }
+    workgroupBarrier();
+    if inside && j == 0u {
+        var sum = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
+        let c = companion_light[slot];
+        // The hero alone where its path met no dispersion, or where the companion gave up at a
+        // branch that ended before (then the hero's one wavelength is the sample: unbiased, as
+        // whether that happens depends only on the path up to its first dispersion).
+        let share = select(1.0, 0.5, path_dispersed && c[0].w > 0.0);
+        add_sample(&sum, s, share);
+        if share < 1.0 {
+            add_sample(&sum, ViewSample(c[0].rgb, c[1].rgb, c[2].rgb, c[3].rgb, false, FAR_DEPTH, 0u), share);
+        }
+        write_pixel(id.xy, sum, select(0.0, 1.0, s.covered));
+    }
+    workgroupBarrier();
+    flush_steps(lane);
 }

@@ -72,14 +72,38 @@ fn uplift(c: vec3<f32>, l: f32) -> f32 {
     return m + dot(c - vec3<f32>(m), PRIMARY_LOBES * lobes);
 }
 
-// Wavelengths in [360, 830] nm with pdf ∝ 1/cosh²(0.0072 (λ − 538)).
+// Wavelengths in [360, 830] nm from a density constant over 47 bins of 10 nm, each bin's weight
+// the mean there of |M·x̄ȳz̄(λ)| (M the XYZ → sRGB matrix): the density under which a white
+// photon's rgb is least noisy (src/cpu/spectrum.rs `wavelength_cdf`). WAVELENGTH_CDF[k] is the
+// chance of a wavelength below 360 + 10k nm.
+const WAVELENGTH_BINS: u32 = 47u;
+const WAVELENGTH_BIN_WIDTH: f32 = 10.0;
+const WAVELENGTH_CDF = array<f32, 48>(
+    0.0, 0.00024902335, 0.00059243554, 0.0012113262, 0.002597754, 0.0066173514, 0.019673122, 0.05269112,
+    0.104885675, 0.1619839, 0.2175733, 0.26536024, 0.29881245, 0.32137853, 0.34298623, 0.37080705,
+    0.4078319, 0.45248356, 0.4988021, 0.54263103, 0.58249396, 0.6202729, 0.66060966, 0.7072208,
+    0.76039535, 0.81685627, 0.8702934, 0.91512316, 0.9485839, 0.9708715, 0.98415357, 0.9912621,
+    0.99471146, 0.99627215, 0.9969829, 0.99736136, 0.99762756, 0.9978596, 0.9980802, 0.99829614,
+    0.99851006, 0.9987232, 0.9989361, 0.9991489, 0.9993617, 0.9995745, 0.9997872, 1.0,
+);
+
+// The inverse CDF: the bin whose CDF interval holds u (a binary search over the 47), then
+// linearly within it.
 fn sample_wavelength(u: f32) -> f32 {
-    return 538.0 - 138.88889 * atanh(0.8569106 - 1.827502 * u);
+    var k = 0u;
+    for (var step = 32u; step > 0u; step >>= 1u) {
+        let next = k + step;
+        if next < WAVELENGTH_BINS && WAVELENGTH_CDF[next] <= u {
+            k = next;
+        }
+    }
+    let f = (u - WAVELENGTH_CDF[k]) / (WAVELENGTH_CDF[k + 1u] - WAVELENGTH_CDF[k]);
+    return 360.0 + WAVELENGTH_BIN_WIDTH * (f32(k) + f);
 }
 
 fn wavelength_pdf(l: f32) -> f32 {
-    let c = cosh(0.0072 * (l - 538.0));
-    return 0.003939804 / (c * c);
+    let k = min(u32(max(l - 360.0, 0.0) / WAVELENGTH_BIN_WIDTH), WAVELENGTH_BINS - 1u);
+    return (WAVELENGTH_CDF[k + 1u] - WAVELENGTH_CDF[k]) / WAVELENGTH_BIN_WIDTH;
 }
 
 // One wavelength sample of rgb c as tristimulus XYZ (÷ Y_INTEGRAL): its mean over λ ~ pdf is

@@ -19,6 +19,9 @@ pub const MEDIUM_EPS: f32 = 1.5e-3;
 
 pub struct View {
     pipeline: wgpu::ComputePipeline,
+    /// `main_companions`: each pixel's hero and companion wavelength in threads of their own
+    /// (frames with `wavelengths_per_sample` 2).
+    companions: wgpu::ComputePipeline,
     bgl: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
     /// The uniforms of each dispatch when a frame's samples are split (CPU adapters), copied
@@ -60,14 +63,13 @@ pub fn sample_offset(k: u32) -> glam::Vec2 {
 pub const CPU_SAMPLES_PER_DISPATCH: u32 = 4;
 
 /// Wavelengths per pixel that a spectral frame traces at least where camera rays meet
-/// dispersive glass: a pixel of fewer samples traces each sample that meets it at
-/// `wavelengths_per_sample` wavelengths (its companions), so one sample per pixel — a live
-/// session, `seed` — does not turn a caustic seen through the glass into the colour of one
-/// wavelength. One wavelength's sample weighs its colour by x̄ȳz̄(λ)/p(λ), up to ~7× in the
-/// blue, which multiplied the caustic's own noise there (`seed-dispersion` on the H200: 79 % of
-/// the caustic layer's squared error, in 3.5 % of its pixels). Two, not more: those pixels are
-/// the view's slowest, and each wavelength retraces them (measured on the H200, README
-/// "Dispersion": two reach seed's caustic noise at ~2.0× its frame, four at ~2.6×).
+/// dispersive glass: a pixel of one sample traces the sample at a companion wavelength too, half
+/// the spectrum on, where it meets dispersion, so one sample per pixel — a live session, `seed`
+/// — does not turn a caustic seen through the glass into the colour of one wavelength (a
+/// wavelength's sample weighs its colour by M·x̄ȳz̄(λ)/p(λ), up to 5.6× on a channel). Two, not
+/// more: those pixels are the view's slowest, and each wavelength retraces them (measured on
+/// the H200, README "Dispersion"). The companion runs in a thread of its own, the z = 1 half of
+/// `main_companions`' workgroups (8 × 8 × 2): this must stay 2.
 pub const SPECTRAL_WAVELENGTHS_PER_PIXEL: u32 = 2;
 
 /// Wavelengths per camera sample: enough that a pixel's samples take at least
@@ -153,11 +155,11 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
 impl View {
     pub fn new(device: &wgpu::Device, shaders: &ShaderLibrary) -> Result<Self> {
         let d3 = wgpu::TextureViewDimension::D3;
-        let (pipeline, bgl) = layout::pipeline(
+        let (mut pipelines, mut layouts) = layout::pipelines(
             device,
             shaders,
             "view",
-            &[
+            &[&[
                 layout::uniform(0),
                 layout::texture(1, d3),
                 layout::texture(2, d3),
@@ -188,8 +190,10 @@ impl View {
                 layout::storage(31, false),
                 layout::storage(32, false),
                 layout::storage(33, false),
-            ],
+            ]],
+            &["main", "main_companions"],
         )?;
+        let (companions, pipeline, bgl) = (pipelines.remove(1), pipelines.remove(0), layouts.remove(0));
         let params = layout::uniform_buffer::<ViewParams>(device, "view params");
         let steps = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("view steps"),
@@ -206,11 +210,12 @@ impl View {
                 usage: wgpu::BufferUsages::STORAGE,
             },
         );
-        Ok(Self { pipeline, bgl, params, batches: None, steps, steps_staging, brdf_lut, bound: None })
+        Ok(Self { pipeline, companions, bgl, params, batches: None, steps, steps_staging, brdf_lut, bound: None })
     }
 
     pub fn encode(&mut self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder, profiler: &mut Profiler, desc: &FrameDesc, inputs: &ViewInputs) {
         let dispatches = dispatches(view_params(desc, inputs), ctx.info.device_type);
+        let pipeline = if dispatches[0].wavelengths_per_sample > 1 { &self.companions } else { &self.pipeline };
         let size = std::mem::size_of::<ViewParams>() as u64;
         if dispatches.len() == 1 {
             ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&dispatches[0]));
@@ -275,7 +280,7 @@ impl View {
                 enc.copy_buffer_to_buffer(batches, b * size, &self.params, 0, size);
             }
             let mut pass = profiler.pass(enc, "view");
-            pass.set_pipeline(&self.pipeline);
+            pass.set_pipeline(pipeline);
             pass.set_bind_group(0, bg, &[]);
             pass.dispatch_workgroups(target.width.div_ceil(8), target.height.div_ceil(8), 1);
         }

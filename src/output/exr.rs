@@ -13,6 +13,8 @@ use exr::prelude::*;
 
 use super::Image;
 
+mod uncompressed;
+
 /// An EXR codec (`--exr-compression`): the lossless ones every OpenEXR reader knows, and DWAA
 /// (lossy, for previews and dailies).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
@@ -100,6 +102,14 @@ fn channels(image: &Image, half: bool) -> Vec<AnyChannel<FlatSamples>> {
 
 /// The EXR file of `image`, in memory.
 pub fn encode(image: &Image, settings: ExrSettings) -> Result<Vec<u8>> {
+    if settings.codec == ExrCodec::None {
+        return Ok(uncompressed::encode(image, settings.half));
+    }
+    encode_with_exr_crate(image, settings)
+}
+
+/// The EXR file of `image` as the `exr` crate writes it (every codec).
+fn encode_with_exr_crate(image: &Image, settings: ExrSettings) -> Result<Vec<u8>> {
     let size = (image.width as usize, image.height as usize);
     let attributes =
         LayerAttributes { software_name: Some(Text::from(concat!("refrakt ", env!("CARGO_PKG_VERSION")))), ..Default::default() };

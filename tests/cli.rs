@@ -139,6 +139,28 @@ fn info_names_the_adapter() {
     assert_clean_failure(code, &err, &["no adapter matches --adapter \"no-such-gpu-anywhere\""]);
 }
 
+/// An adapter that cannot bind what refrakt's passes bind — Mesa's GL drivers offer 16 storage
+/// buffers a stage, the view binds 19 — is refused by name, with the reason, when the adapters
+/// are listed; it used to be chosen and fail mid-frame with "a bug in refrakt". (Where the
+/// machine has no GL adapter, or one that can, this renders or names no adapter.)
+#[test]
+fn an_adapter_short_of_storage_buffers_is_refused_up_front() {
+    let (dir, path) = write_script("scene.lua", &format!("{HEADER}return scene\n"));
+    let out = dir.path().join("out");
+    let args = ["render", path.to_str().unwrap(), "--out", out.to_str().unwrap(), "--size", "16x16", "--progress", "quiet"];
+    let run = Command::new(env!("CARGO_BIN_EXE_refrakt")).args(args).env("WGPU_BACKEND", "gl").output().unwrap();
+    let err = String::from_utf8_lossy(&run.stderr);
+    if run.status.success() {
+        return;
+    }
+    assert_clean_failure(run.status.code().unwrap_or(-1), &err, &[]);
+    assert!(err.contains("no adapter refrakt can use") || err.contains("found no GPU adapter"), "{err}");
+    assert!(!err.contains("a bug in refrakt"), "{err}");
+    if err.contains("(Gl)") {
+        assert!(err.contains("storage buffers per shader stage, and refrakt's view pass binds 19"), "{err}");
+    }
+}
+
 #[test]
 fn render_writes_whole_files_and_no_temporaries() {
     let src = format!("{HEADER}scene:add(r.node{{ shape = r.luneburg{{ radius = 0.5 }} }})\nreturn scene\n");

@@ -73,6 +73,21 @@ pub fn no_adapter_help() -> &'static str {
      with Vulkan support. `refrakt info` lists what is found."
 }
 
+/// Storage buffers one shader stage must be able to bind: what the view pass binds, the most of
+/// any stage (a test in `pipeline::view` keeps them equal). WebGPU's default limit is 8, and
+/// Mesa's GL drivers offer 16, so such an adapter is refused rather than failing mid-frame.
+pub const STORAGE_BUFFERS_PER_STAGE: u32 = 19;
+
+/// What `adapter` lacks that refrakt needs, if anything.
+fn unusable_because(adapter: &wgpu::Adapter) -> Option<String> {
+    if !adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS) {
+        return Some("no compute shaders".into());
+    }
+    let buffers = adapter.limits().max_storage_buffers_per_shader_stage;
+    (buffers < STORAGE_BUFFERS_PER_STAGE)
+        .then(|| format!("{buffers} storage buffers per shader stage, and refrakt's view pass binds {STORAGE_BUFFERS_PER_STAGE}"))
+}
+
 /// Every adapter found (for `refrakt info`), and those refrakt can use (compute shaders), best
 /// first: discrete GPUs, then integrated, virtual and CPU ones, in the driver's order within
 /// each kind. `--adapter N` and `--gpus` count in this order, so index 0 is the adapter refrakt
@@ -95,10 +110,14 @@ async fn ranked_adapters() -> Result<(Vec<wgpu::Adapter>, Vec<wgpu::AdapterInfo>
     if adapters.is_empty() {
         bail!("{}", no_adapter_help());
     }
-    let mut usable: Vec<wgpu::Adapter> = adapters
-        .into_iter()
-        .filter(|a| a.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS))
-        .collect();
+    let (mut usable, refused): (Vec<wgpu::Adapter>, Vec<wgpu::Adapter>) = adapters.into_iter().partition(|a| unusable_because(a).is_none());
+    if usable.is_empty() {
+        let why: Vec<String> = refused
+            .iter()
+            .map(|a| format!("\"{}\" ({:?}) has {}", a.get_info().name, a.get_info().backend, unusable_because(a).unwrap_or_default()))
+            .collect();
+        bail!("no adapter refrakt can use: {}. {}", why.join("; "), no_adapter_help());
+    }
     // A stable sort: adapters of one kind keep the driver's order (identical GPUs stay apart by index).
     usable.sort_by_key(|a| {
         let i = a.get_info();

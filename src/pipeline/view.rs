@@ -152,47 +152,48 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
     }
 }
 
+/// The view pass's bind group layout: grids, environment, the frame's planes, octree, receivers
+/// and their BVH, lights, radiance grid, step count and BRDF table. Its storage buffers are the
+/// most any stage binds (`gpu::STORAGE_BUFFERS_PER_STAGE`, which adapters are checked against).
+fn bindings() -> Vec<wgpu::BindGroupLayoutEntry> {
+    let d3 = wgpu::TextureViewDimension::D3;
+    vec![
+        layout::uniform(0),
+        layout::texture(1, d3),
+        layout::texture(2, d3),
+        layout::texture(3, d3),
+        layout::sampler(4),
+        layout::texture(5, wgpu::TextureViewDimension::D2),
+        layout::sampler(6),
+        layout::storage(7, false),
+        layout::uniform(8),
+        layout::storage(9, true),
+        layout::storage(10, true),
+        layout::storage(11, true),
+        layout::storage(12, true),
+        layout::storage(13, true),
+        layout::storage(14, true),
+        layout::storage(15, true),
+        layout::texture(16, d3),
+        layout::texture(17, d3),
+        layout::storage(18, false),
+        layout::storage(19, true),
+        layout::storage(20, true),
+        layout::storage(21, true),
+        layout::storage(22, true),
+        layout::texture(23, wgpu::TextureViewDimension::D2Array),
+        layout::storage(24, true),
+        layout::storage(25, true),
+        layout::storage(30, false),
+        layout::storage(31, false),
+        layout::storage(32, false),
+        layout::storage(33, false),
+    ]
+}
+
 impl View {
     pub fn new(device: &wgpu::Device, shaders: &ShaderLibrary) -> Result<Self> {
-        let d3 = wgpu::TextureViewDimension::D3;
-        let (mut pipelines, mut layouts) = layout::pipelines(
-            device,
-            shaders,
-            "view",
-            &[&[
-                layout::uniform(0),
-                layout::texture(1, d3),
-                layout::texture(2, d3),
-                layout::texture(3, d3),
-                layout::sampler(4),
-                layout::texture(5, wgpu::TextureViewDimension::D2),
-                layout::sampler(6),
-                layout::storage(7, false),
-                layout::uniform(8),
-                layout::storage(9, true),
-                layout::storage(10, true),
-                layout::storage(11, true),
-                layout::storage(12, true),
-                layout::storage(13, true),
-                layout::storage(14, true),
-                layout::storage(15, true),
-                layout::texture(16, d3),
-                layout::texture(17, d3),
-                layout::storage(18, false),
-                layout::storage(19, true),
-                layout::storage(20, true),
-                layout::storage(21, true),
-                layout::storage(22, true),
-                layout::texture(23, wgpu::TextureViewDimension::D2Array),
-                layout::storage(24, true),
-                layout::storage(25, true),
-                layout::storage(30, false),
-                layout::storage(31, false),
-                layout::storage(32, false),
-                layout::storage(33, false),
-            ]],
-            &["main", "main_companions"],
-        )?;
+        let (mut pipelines, mut layouts) = layout::pipelines(device, shaders, "view", &[&bindings()], &["main", "main_companions"])?;
         let (companions, pipeline, bgl) = (pipelines.remove(1), pipelines.remove(0), layouts.remove(0));
         let params = layout::uniform_buffer::<ViewParams>(device, "view params");
         let steps = device.create_buffer(&wgpu::BufferDescriptor {
@@ -296,5 +297,16 @@ impl View {
         let bytes = self.steps_staging[slot].read(ctx, 8)?;
         let words: &[u32] = bytemuck::cast_slice(&bytes);
         Ok(words[0] as u64 | (words[1] as u64) << 32)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// Adapters are refused below this many storage buffers a stage: it must be what the view,
+    /// the stage that binds the most, binds.
+    #[test]
+    fn adapters_are_checked_for_the_views_storage_buffers() {
+        let storage = super::bindings().iter().filter(|e| matches!(e.ty, wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { .. }, .. })).count();
+        assert_eq!(storage as u32, crate::gpu::STORAGE_BUFFERS_PER_STAGE);
     }
 }

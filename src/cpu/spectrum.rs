@@ -107,6 +107,7 @@ pub const WAVELENGTH_BINS: usize = 47;
 
 /// Share of the wavelength density spread evenly over the spectrum, so every wavelength keeps
 /// a chance (a coloured light's spectrum may lie where the white target is small).
+#[cfg(test)]
 const WAVELENGTH_FLOOR: f64 = 0.01;
 
 /// The CDF of the wavelength density at the bins' edges: `WAVELENGTH_CDF[k]` is the chance of a
@@ -125,7 +126,9 @@ pub const WAVELENGTH_CDF: [f32; WAVELENGTH_BINS + 1] = [
 /// light's photon of wavelength λ carries rgb w(λ)/p(λ) with w(λ) = M·x̄ȳz̄(λ)/Y_INTEGRAL (M =
 /// `XYZ_TO_RGB`); the sum over channels of its second moment, ∫ |w(λ)|²/p(λ) dλ, is least for
 /// p ∝ |w(λ)| (Cauchy–Schwarz). Each bin takes that target's mean over it (plus the floor).
-pub fn wavelength_cdf() -> [f32; WAVELENGTH_BINS + 1] {
+/// (Only the tests compute it: the renderer uses the table.)
+#[cfg(test)]
+fn wavelength_cdf() -> [f32; WAVELENGTH_BINS + 1] {
     let m = glam::DMat3::from_cols_array_2d(&XYZ_TO_RGB.map(|r| r.map(f64::from))).transpose();
     let target = |l: f64| (m * cmf(l as f32).as_dvec3()).length();
     let per_bin: Vec<f64> = (0..WAVELENGTH_BINS)

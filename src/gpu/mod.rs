@@ -110,13 +110,15 @@ async fn ranked_adapters() -> Result<(Vec<wgpu::Adapter>, Vec<wgpu::AdapterInfo>
     if adapters.is_empty() {
         bail!("{}", no_adapter_help());
     }
-    let (mut usable, refused): (Vec<wgpu::Adapter>, Vec<wgpu::Adapter>) = adapters.into_iter().partition(|a| unusable_because(a).is_none());
+    let (mut usable, mut refused) = (Vec::new(), Vec::new());
+    for a in adapters {
+        match unusable_because(&a) {
+            None => usable.push(a),
+            Some(why) => refused.push(format!("\"{}\" ({:?}) has {why}", a.get_info().name, a.get_info().backend)),
+        }
+    }
     if usable.is_empty() {
-        let why: Vec<String> = refused
-            .iter()
-            .map(|a| format!("\"{}\" ({:?}) has {}", a.get_info().name, a.get_info().backend, unusable_because(a).unwrap_or_default()))
-            .collect();
-        bail!("no adapter refrakt can use: {}. {}", why.join("; "), no_adapter_help());
+        bail!("no adapter refrakt can use: {}. {}", refused.join("; "), no_adapter_help());
     }
     // A stable sort: adapters of one kind keep the driver's order (identical GPUs stay apart by index).
     usable.sort_by_key(|a| {

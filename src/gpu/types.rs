@@ -561,7 +561,7 @@ pub mod view_flags {
 /// `PhotonParams::flags` bits.
 pub mod photon_flags {
     /// The frame's photons carry wavelengths: their in-cell position and their wavelength are
-    /// drawn together (photons.wgsl's `cell_jitter`, march.wgsl's `spectral_flux`).
+    /// drawn together (photons.wgsl's `cell_sample`, march.wgsl's `spectral_flux`).
     pub const SPECTRAL: u32 = 1;
 }
 

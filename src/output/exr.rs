@@ -77,6 +77,15 @@ impl From<super::ExrCompression> for ExrSettings {
     }
 }
 
+/// Every file's `software` attribute.
+const SOFTWARE: &str = concat!("refrakt ", env!("CARGO_PKG_VERSION"));
+
+/// Whether layer `layer`'s channels are stored as 16-bit floats: colors with `half`; depth stays
+/// 32-bit, as 10¹⁰ is beyond half floats.
+fn stored_as_half(layer: &str, half: bool) -> bool {
+    half && layer != "depth"
+}
+
 /// The EXR channel name of a layer's channel.
 pub fn channel_name(layer: &str, channel: &str) -> String {
     if layer == "beauty" { channel.to_string() } else { format!("{layer}.{channel}") }
@@ -89,7 +98,7 @@ fn channels(image: &Image, half: bool) -> Vec<AnyChannel<FlatSamples>> {
         let n = layer.channels.len();
         for (c, name) in layer.channels.iter().enumerate() {
             let values = layer.data.iter().skip(c).step_by(n).copied();
-            let samples = if half && layer.name != "depth" {
+            let samples = if stored_as_half(&layer.name, half) {
                 FlatSamples::F16(values.map(half::f16::from_f32).collect())
             } else {
                 FlatSamples::F32(values.collect())
@@ -112,7 +121,7 @@ pub fn encode(image: &Image, settings: ExrSettings) -> Result<Vec<u8>> {
 fn encode_with_exr_crate(image: &Image, settings: ExrSettings) -> Result<Vec<u8>> {
     let size = (image.width as usize, image.height as usize);
     let attributes =
-        LayerAttributes { software_name: Some(Text::from(concat!("refrakt ", env!("CARGO_PKG_VERSION")))), ..Default::default() };
+        LayerAttributes { software_name: Some(Text::from(SOFTWARE)), ..Default::default() };
     let encoding = Encoding { compression: settings.codec.compression(), blocks: Blocks::ScanLines, line_order: LineOrder::Increasing };
     let channels = AnyChannels::sort(channels(image, settings.half).into());
     let exr_image = exr::image::Image::from_layer(exr::image::Layer::new(size, attributes, encoding, channels));

@@ -43,7 +43,7 @@ fn channels(image: &Image, half: bool) -> Vec<Channel<'_>> {
                 data: &layer.data,
                 offset,
                 stride,
-                half: half && layer.name != "depth",
+                half: super::stored_as_half(&layer.name, half),
             })
         })
         .collect();
@@ -91,7 +91,7 @@ fn header(image: &Image, channels: &[Channel]) -> Vec<u8> {
     attribute(&mut out, "screenWindowWidth", "float", &1f32.to_le_bytes());
     attribute(&mut out, "dataWindow", "box2i", &window);
     attribute(&mut out, "type", "string", b"scanlineimage");
-    attribute(&mut out, "software", "string", concat!("refrakt ", env!("CARGO_PKG_VERSION")).as_bytes());
+    attribute(&mut out, "software", "string", super::SOFTWARE.as_bytes());
     out.push(0);
     out
 }

@@ -790,31 +790,51 @@ pub(crate) mod layout {
         groups: &[&[wgpu::BindGroupLayoutEntry]],
         entry_points: &[&str],
     ) -> anyhow::Result<(Vec<wgpu::ComputePipeline>, Vec<wgpu::BindGroupLayout>)> {
-        let module = shaders.module(device, stage)?;
-        let layouts: Vec<wgpu::BindGroupLayout> = groups
-            .iter()
-            .map(|entries| device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(stage), entries }))
-            .collect();
-        let bind_group_layouts: Vec<Option<&wgpu::BindGroupLayout>> = layouts.iter().map(Some).collect();
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some(stage),
-            bind_group_layouts: &bind_group_layouts,
-            immediate_size: 0,
-        });
-        let pipelines = entry_points
-            .iter()
-            .map(|entry| {
-                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(entry),
-                    layout: Some(&pl),
-                    module: &module,
-                    entry_point: Some(entry),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
+        let parts = StageModule::new(device, shaders, stage, groups)?;
+        let pipelines = entry_points.iter().map(|entry| parts.pipeline(device, entry)).collect();
+        Ok((pipelines, parts.layouts))
+    }
+
+    /// A stage's compiled module and its pipeline layout of bind groups, kept where a pipeline
+    /// of another entry point is made only when first needed (each costs a driver compile).
+    pub struct StageModule {
+        module: wgpu::ShaderModule,
+        layout: wgpu::PipelineLayout,
+        pub layouts: Vec<wgpu::BindGroupLayout>,
+    }
+
+    impl StageModule {
+        pub fn new(
+            device: &wgpu::Device,
+            shaders: &crate::gpu::shaders::ShaderLibrary,
+            stage: &str,
+            groups: &[&[wgpu::BindGroupLayoutEntry]],
+        ) -> anyhow::Result<Self> {
+            let module = shaders.module(device, stage)?;
+            let layouts: Vec<wgpu::BindGroupLayout> = groups
+                .iter()
+                .map(|entries| device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(stage), entries }))
+                .collect();
+            let bind_group_layouts: Vec<Option<&wgpu::BindGroupLayout>> = layouts.iter().map(Some).collect();
+            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(stage),
+                bind_group_layouts: &bind_group_layouts,
+                immediate_size: 0,
+            });
+            Ok(Self { module, layout, layouts })
+        }
+
+        /// The compute pipeline of entry point `entry`.
+        pub fn pipeline(&self, device: &wgpu::Device, entry: &str) -> wgpu::ComputePipeline {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&self.layout),
+                module: &self.module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
             })
-            .collect();
-        Ok((pipelines, layouts))
+        }
     }
 
     /// A uniform buffer for one `T`.

@@ -20,9 +20,10 @@ pub const MEDIUM_EPS: f32 = 1.5e-3;
 pub struct View {
     pipeline: wgpu::ComputePipeline,
     /// `main_companions`: each pixel's hero and companion wavelength in threads of their own
-    /// (frames with `wavelengths_per_sample` 2).
-    companions: wgpu::ComputePipeline,
-    bgl: wgpu::BindGroupLayout,
+    /// (frames with `wavelengths_per_sample` 2), made from `module` the first time a frame
+    /// needs it — a second compile of the pass's large shader that most sessions never use.
+    companions: Option<wgpu::ComputePipeline>,
+    module: layout::StageModule,
     params: wgpu::Buffer,
     /// The uniforms of each dispatch when a frame's samples are split (CPU adapters), copied
     /// into `params` before its dispatch.
@@ -193,8 +194,8 @@ fn bindings() -> Vec<wgpu::BindGroupLayoutEntry> {
 
 impl View {
     pub fn new(device: &wgpu::Device, shaders: &ShaderLibrary) -> Result<Self> {
-        let (mut pipelines, mut layouts) = layout::pipelines(device, shaders, "view", &[&bindings()], &["main", "main_companions"])?;
-        let (companions, pipeline, bgl) = (pipelines.remove(1), pipelines.remove(0), layouts.remove(0));
+        let module = layout::StageModule::new(device, shaders, "view", &[&bindings()])?;
+        let pipeline = module.pipeline(device, "main");
         let params = layout::uniform_buffer::<ViewParams>(device, "view params");
         let steps = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("view steps"),
@@ -211,12 +212,15 @@ impl View {
                 usage: wgpu::BufferUsages::STORAGE,
             },
         );
-        Ok(Self { pipeline, companions, bgl, params, batches: None, steps, steps_staging, brdf_lut, bound: None })
+        Ok(Self { pipeline, companions: None, module, params, batches: None, steps, steps_staging, brdf_lut, bound: None })
     }
 
     pub fn encode(&mut self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder, profiler: &mut Profiler, desc: &FrameDesc, inputs: &ViewInputs) {
         let dispatches = dispatches(view_params(desc, inputs), ctx.info.device_type);
-        let pipeline = if dispatches[0].wavelengths_per_sample > 1 { &self.companions } else { &self.pipeline };
+        let with_companions = dispatches[0].wavelengths_per_sample > 1;
+        if with_companions && self.companions.is_none() {
+            self.companions = Some(self.module.pipeline(&ctx.device, "main_companions"));
+        }
         let size = std::mem::size_of::<ViewParams>() as u64;
         if dispatches.len() == 1 {
             ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&dispatches[0]));
@@ -238,7 +242,7 @@ impl View {
         if self.bound.as_ref().is_none_or(|(g, _)| *g != generations) {
             let bg = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("view"),
-                layout: &self.bgl,
+                layout: &self.module.layouts[0],
                 entries: &[
                     layout::bind(0, &self.params),
                     wgpu::BindGroupEntry { binding: 1, resource: layout::texture_view(&grids.ior_grid.view) },
@@ -275,6 +279,7 @@ impl View {
             self.bound = Some((generations, bg));
         }
         let (_, bg) = self.bound.as_ref().expect("bound above");
+        let pipeline = if with_companions { self.companions.as_ref().expect("made above") } else { &self.pipeline };
         enc.clear_buffer(&self.steps, 0, None);
         for b in 0..dispatches.len() as u64 {
             if let (Some(batches), true) = (&self.batches, dispatches.len() > 1) {

@@ -7,12 +7,16 @@ use std::path::Path;
 use std::process::Command;
 
 /// A tiny animated lens (no photons: quick on lavapipe; the frames still differ over time).
+/// 16 samples a pixel make its 24 frames take seconds on lavapipe, well past the spread in the
+/// two renderers' start-up (opening the adapter, compiling the pipelines): with one sample the
+/// frames took under a second, and the renderer that started first now and then took every
+/// chunk before the other was ready, which the queue rightly allows.
 const SCENE: &str = r#"local r = require("refrakt")
 local scene = r.scene{
   camera = r.camera{ position = {0, 0, 3}, target = {0, 0, 0}, fov = 35, size = {32, 18} },
   volume = { resolution = 16 },
   photons = 0,
-  samples = 1,
+  samples = 16,
 }
 local lens = r.node{ shape = r.luneburg{ radius = 0.5 } }
 scene:add(lens)

@@ -40,6 +40,12 @@ impl CameraDesc {
         }
     }
 
+    /// The angle (radians) one pixel spans at the image's centre: the cone a camera ray
+    /// stands for, over which a per-ray environment is filtered.
+    pub fn pixel_angle(&self) -> f32 {
+        2.0 * (0.5 * self.fov_y).tan() / self.height as f32
+    }
+
     /// The unit direction of the ray through pixel (x, y)'s centre — CPU twin of `camera_ray`.
     pub fn ray(&self, x: u32, y: u32) -> Vec3 {
         self.ray_through(glam::Vec2::new(x as f32 + 0.5, y as f32 + 0.5))

@@ -4,23 +4,70 @@
 // image row 0 at the top. `rotation` turns the environment about +Y (radians, counter-clockwise
 // seen from above): what was seen along d is then seen along R_y(rotation)·d.
 //
-// Needs: #import shared/types.wgsl. The CPU twin is `Environment::radiance` in src/scene/environment.rs.
+// Needs: #import shared/types.wgsl. The CPU twin is `Environment::radiance_over` in
+// src/scene/environment.rs (and `studio` there for `env_studio`).
 
 const PI: f32 = 3.14159265358979;
 
-fn env_uv(env: EnvParams, d: vec3<f32>) -> vec2<f32> {
+// Rotating the environment by +θ is looking it up along the direction turned by −θ.
+fn env_rotate(env: EnvParams, d: vec3<f32>) -> vec3<f32> {
     let c = cos(env.rotation);
     let s = sin(env.rotation);
-    // Rotating the environment by +θ is looking it up along the direction turned by −θ.
-    let r = vec3<f32>(c * d.x - s * d.z, d.y, s * d.x + c * d.z);
+    return vec3<f32>(c * d.x - s * d.z, d.y, s * d.x + c * d.z);
+}
+
+fn env_uv(env: EnvParams, d: vec3<f32>) -> vec2<f32> {
+    let r = env_rotate(env, d);
     let u = 0.5 + atan2(r.z, r.x) / (2.0 * PI);
     let v = 0.5 + asin(clamp(r.y, -1.0, 1.0)) / PI;
     return vec2<f32>(u, 1.0 - v);
 }
 
 fn env_radiance(env_map: texture_2d<f32>, lin: sampler, env: EnvParams, d: vec3<f32>) -> vec3<f32> {
-    if env.kind == 0u {
+    if env.kind == ENV_COLOR {
         return env.color * env.intensity;
     }
+    if env.kind == ENV_STUDIO {
+        return env_studio(env_rotate(env, d), env.footprint) * env.intensity;
+    }
     return textureSampleLevel(env_map, lin, env_uv(env, d), 0.0).rgb * env.color * env.intensity;
+}
+
+// The share of odd squares ((⌊x⌋ + ⌊y⌋) odd) in the box of width w centred on p: the checker
+// convolved with a box, in closed form. Per axis the ±1 square wave is −2× the slope of the
+// triangle wave |fract(x/2) − ½|, so its mean over the box is a difference of triangle waves
+// over w; the box is separable, so the 2D mean is the product of the axes' means.
+fn box_filtered_checker(p: vec2<f32>, w_in: vec2<f32>) -> f32 {
+    let w = max(w_in, vec2<f32>(1e-4));
+    let wave = 2.0 * (abs(fract((p - 0.5 * w) * 0.5) - 0.5) - abs(fract((p + 0.5 * w) * 0.5) - 0.5)) / w;
+    return 0.5 - 0.5 * wave.x * wave.y;
+}
+
+// The studio preset, per ray: a dim grey cyclorama, 0.5 m floor tiles 1.5 m below the eye
+// (box-filtered over the footprint of a cone `footprint` radians wide, so edges stay smooth at
+// any output size and far tiles fade to their mean), and two soft boxes.
+fn env_studio(d: vec3<f32>, footprint: f32) -> vec3<f32> {
+    let horizon = vec3<f32>(0.55, 0.56, 0.6);
+    if d.y < 0.0 {
+        let depth = max(-d.y, 1e-3);
+        // The cone's footprint on the floor: footprint·t across the ray, 1/|d.y| times that
+        // along its horizontal heading; its bounding box per axis is the filter's width.
+        let t = 1.5 / depth;
+        let p = d.xz * t * 2.0;
+        var heading = vec2<f32>(1.0, 0.0);
+        if dot(d.xz, d.xz) > 0.0 {
+            heading = normalize(d.xz);
+        }
+        let across = footprint * t * 2.0;
+        let along = across / depth;
+        let w = vec2<f32>(length(vec2<f32>(heading.x * along, heading.y * across)),
+                          length(vec2<f32>(heading.y * along, heading.x * across)));
+        let dark = box_filtered_checker(p, w);
+        let base = mix(vec3<f32>(0.62, 0.6, 0.56), vec3<f32>(0.16, 0.16, 0.18), dark);
+        return mix(horizon, base, smoothstep(0.0, 0.25, -d.y));
+    }
+    let wall = mix(horizon, vec3<f32>(0.22, 0.24, 0.3), smoothstep(0.0, 0.9, d.y));
+    let key = 14.0 * smoothstep(cos(0.28 * 1.15), cos(0.28), dot(d, normalize(vec3<f32>(-1.0, 1.2, 0.6))));
+    let rim = 8.0 * smoothstep(cos(0.18 * 1.15), cos(0.18), dot(d, normalize(vec3<f32>(1.0, 0.6, -1.0))));
+    return wall + vec3<f32>(1.0, 0.97, 0.92) * key + vec3<f32>(0.85, 0.9, 1.0) * rim;
 }

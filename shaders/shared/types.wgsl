@@ -27,8 +27,13 @@ struct EnvParams {
     rotation: f32,
     kind: u32,
     visible: u32,
-    _pad0: u32,
+    footprint: f32,
 }
+
+// EnvParams.kind (src/gpu/types.rs, env_kind).
+const ENV_COLOR: u32 = 0u;
+const ENV_IMAGE: u32 = 1u;
+const ENV_STUDIO: u32 = 2u;
 
 struct ViewParams {
     camera: Camera,

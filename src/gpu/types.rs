@@ -55,15 +55,17 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// The environment seen by rays that leave the scene: a constant color or an
-    /// equirectangular image (kind 1), scaled by `intensity` and turned about +Y by `rotation`.
+    /// The environment seen by rays that leave the scene: one of [`env_kind`]'s, scaled by
+    /// `intensity` and turned about +Y by `rotation`.
     pub struct EnvParams {
         pub color: [f32; 3],
         pub intensity: f32,
         pub rotation: f32,
         pub kind: u32,
         pub visible: u32,
-        pub _pad0: u32,
+        /// The angular width (radians) of a camera pixel: the cone a per-ray environment
+        /// (the studio preset) is filtered over.
+        pub footprint: f32,
     }
 }
 
@@ -497,6 +499,16 @@ gpu_struct! {
         pub coarsening: u32,
         pub reach: u32,
     }
+}
+
+/// Environment kinds, as `EnvParams::kind` (mirrored by constants in `types.wgsl`).
+pub mod env_kind {
+    /// A constant colour.
+    pub const COLOR: u32 = 0;
+    /// An equirectangular image, looked up bilinearly.
+    pub const IMAGE: u32 = 1;
+    /// The studio preset, evaluated per ray (`env_studio`); its image serves glossy lobes.
+    pub const STUDIO: u32 = 2;
 }
 
 /// Interface kinds, as `Interface::kind` (mirrored by constants in `types.wgsl`).

@@ -94,9 +94,11 @@ pub fn dispatches(params: ViewParams, device_type: wgpu::DeviceType) -> Vec<View
 pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
     let v = &desc.volume;
     let env = &desc.environment;
+    use crate::gpu::types::env_kind;
     let (color, kind) = match &env.source {
-        crate::scene::EnvironmentSource::Color(c) => (*c, 0),
-        _ => (glam::Vec3::ONE, 1),
+        crate::scene::EnvironmentSource::Color(c) => (*c, env_kind::COLOR),
+        _ if env.evaluated_per_ray() => (glam::Vec3::ONE, env_kind::STUDIO),
+        _ => (glam::Vec3::ONE, env_kind::IMAGE),
     };
     // (The environment texture holds the image's mean: uploaded before the view pass runs.)
     let ambient = match env.image() {
@@ -130,7 +132,7 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
     ViewParams {
         camera: desc.camera.to_gpu(),
         grid: v.to_gpu(),
-        env: EnvParams { color: color.into(), intensity: env.intensity, rotation: env.rotation, kind, visible: env.visible as u32, _pad0: 0 },
+        env: EnvParams { color: color.into(), intensity: env.intensity, rotation: env.rotation, kind, visible: env.visible as u32, footprint: desc.camera.pixel_angle() },
         width: desc.camera.width,
         height: desc.camera.height,
         max_steps,

@@ -135,12 +135,25 @@ impl Environment {
         }
     }
 
-    /// Radiance seen along unit direction `d` — the CPU twin of `env_radiance` in WGSL.
+    /// Whether the GPU evaluates the environment per ray (the studio preset, sharp at any
+    /// output size) rather than looking it up in its image.
+    pub fn evaluated_per_ray(&self) -> bool {
+        matches!(&self.source, EnvironmentSource::Preset { name, .. } if name == "studio")
+    }
+
+    /// Radiance seen along unit direction `d`, as a point.
     pub fn radiance(&self, d: Vec3) -> Vec3 {
+        self.radiance_over(d, 0.0)
+    }
+
+    /// Radiance seen along unit direction `d` by a cone `footprint` radians wide (a camera
+    /// pixel's) — the CPU twin of `env_radiance` in WGSL.
+    pub fn radiance_over(&self, d: Vec3, footprint: f32) -> Vec3 {
         let (s, c) = self.rotation.sin_cos();
         let r = Vec3::new(c * d.x - s * d.z, d.y, s * d.x + c * d.z);
         match &self.source {
             EnvironmentSource::Color(col) => *col * self.intensity,
+            _ if self.evaluated_per_ray() => studio(r, footprint) * self.intensity,
             EnvironmentSource::Image { image, .. } | EnvironmentSource::Preset { image, .. } => {
                 image.bilinear(dir_to_uv(r)) * self.intensity
             }
@@ -215,7 +228,11 @@ pub fn preset(name: &str) -> Result<Arc<EnvImage>> {
         return Ok(img.clone());
     }
     let img = Arc::new(match name {
-        "studio" => EnvImage::from_fn(2048, 1024, studio),
+        "studio" => {
+            // Two by two samples a texel: each stands for a cone half a texel wide.
+            let footprint = PI / 2048.0;
+            EnvImage::from_fn(2048, 1024, |d| studio(d, footprint))
+        }
         "sky" => EnvImage::from_fn(2048, 1024, sky),
         "checker" => EnvImage::from_fn(512, 256, checker),
         _ => bail!("unknown environment preset \"{name}\" (choose one of: {})", PRESETS.join(", ")),
@@ -229,16 +246,37 @@ fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
     t * t * (3.0 - 2.0 * t)
 }
 
+/// The studio floor's tiles: 0.5 m squares on a plane 1.5 m below the eye.
+const STUDIO_FLOOR_DEPTH: f32 = 1.5;
+const STUDIO_TILES_PER_METRE: f32 = 2.0;
+
 /// A photo studio: a dim grey cyclorama, a tiled floor that shows refraction clearly, and two
 /// soft boxes that put highlights and bright caustic-like shapes into glass.
-fn studio(d: Vec3) -> Vec3 {
+///
+/// `footprint` is the angular width (radians) of the cone of directions the lookup stands for
+/// (a camera pixel's): the floor's checker is box-filtered over that cone's footprint on the
+/// floor, so its edges are antialiased at any output size and its far tiles fade to their mean
+/// instead of aliasing. The GPU evaluates this per ray (`env_studio` in
+/// `shaders/shared/environment.wgsl`); the equirectangular image made from it serves only the
+/// environment's mean and the glossy receivers' prefiltered lobes.
+pub fn studio(d: Vec3, footprint: f32) -> Vec3 {
     let horizon = Vec3::new(0.55, 0.56, 0.6);
     if d.y < 0.0 {
-        // Floor tiles seen from 1.5 m above a plane: tile index from the hit point.
-        let t = 1.5 / (-d.y).max(1e-3);
-        let p = Vec2::new(d.x, d.z) * t;
-        let tile = ((p.x * 2.0).floor() as i64 + (p.y * 2.0).floor() as i64).rem_euclid(2);
-        let base = if tile == 0 { Vec3::new(0.62, 0.6, 0.56) } else { Vec3::new(0.16, 0.16, 0.18) };
+        let depth = (-d.y).max(1e-3);
+        // Where the ray meets the floor, in tiles, and the cone's footprint there: across the
+        // ray it is footprint·t wide, along the ray's horizontal heading stretched by 1/|d.y|
+        // (the grazing angle); its bounding box per axis is the box filter's width.
+        let t = STUDIO_FLOOR_DEPTH / depth;
+        let p = Vec2::new(d.x, d.z) * t * STUDIO_TILES_PER_METRE;
+        let heading = Vec2::new(d.x, d.z).normalize_or(Vec2::X);
+        let across = footprint * t * STUDIO_TILES_PER_METRE;
+        let along = across / depth;
+        let w = Vec2::new(
+            (heading.x * along).hypot(heading.y * across),
+            (heading.y * along).hypot(heading.x * across),
+        );
+        let dark = box_filtered_checker(p, w);
+        let base = Vec3::new(0.62, 0.6, 0.56).lerp(Vec3::new(0.16, 0.16, 0.18), dark);
         let fade = smoothstep(0.0, 0.25, -d.y);
         return horizon.lerp(base, fade);
     }
@@ -251,6 +289,23 @@ fn studio(d: Vec3) -> Vec3 {
     let key = softbox(Vec3::new(-1.0, 1.2, 0.6), 0.28, 14.0);
     let rim = softbox(Vec3::new(1.0, 0.6, -1.0), 0.18, 8.0);
     wall + Vec3::new(1.0, 0.97, 0.92) * key + Vec3::new(0.85, 0.9, 1.0) * rim
+}
+
+/// The share of odd squares ((⌊x⌋ + ⌊y⌋) odd) in the box of width `w` centred on `p`: the
+/// checker convolved with a box, in closed form. Per axis, the square wave s(x) = ±1 (+1 where
+/// ⌊x⌋ is even) is −2× the slope of the triangle wave tri(x) = |fract(x/2) − ½|, so its mean
+/// over the box is 2·(tri(p − w/2) − tri(p + w/2))/w; the box is separable, so the 2D mean of
+/// s(x)·s(y) is the product of the axes' means, and the odd share is (1 − that)/2. At w → 0 it
+/// is the plain checker; over many squares it tends to ½.
+pub fn box_filtered_checker(p: Vec2, w: Vec2) -> f32 {
+    let w = w.max(Vec2::splat(1e-4));
+    let tri = |x: Vec2| (fract(x * 0.5) - Vec2::splat(0.5)).abs();
+    let wave = 2.0 * (tri(p - 0.5 * w) - tri(p + 0.5 * w)) / w;
+    0.5 - 0.5 * wave.x * wave.y
+}
+
+fn fract(x: Vec2) -> Vec2 {
+    x - x.floor()
 }
 
 /// A clear sky: blue zenith, bright hazy horizon, brown ground, and a small warm sun.
@@ -306,6 +361,53 @@ mod tests {
                 assert_eq!(t[3], 1.0);
             }
         }
+    }
+
+    /// The checker's closed-form box filter against the mean of the plain checker over the box,
+    /// by a 256×256 grid of points, for boxes from a tenth of a square to many squares.
+    #[test]
+    fn the_box_filtered_checker_is_the_checkers_mean_over_the_box() {
+        let plain = |p: Vec2| ((p.x.floor() as i64 + p.y.floor() as i64).rem_euclid(2)) as f32;
+        for (p, w) in [
+            (Vec2::new(0.3, 0.7), Vec2::new(0.1, 0.1)),
+            (Vec2::new(1.05, -2.5), Vec2::new(0.3, 0.05)),
+            (Vec2::new(-0.5, 3.2), Vec2::new(1.7, 0.6)),
+            (Vec2::new(10.25, 4.9), Vec2::new(6.3, 11.0)),
+        ] {
+            let n = 256;
+            let mut sum = 0.0;
+            for i in 0..n {
+                for j in 0..n {
+                    let o = (Vec2::new(i as f32, j as f32) + 0.5) / n as f32 - 0.5;
+                    sum += plain(p + o * w);
+                }
+            }
+            let mean = sum / (n * n) as f32;
+            let filtered = box_filtered_checker(p, w);
+            assert!((filtered - mean).abs() < 0.01, "at {p}, width {w}: {filtered} vs the mean {mean}");
+        }
+        // A vanishing box is the plain checker; a box of many squares their mean.
+        assert!(box_filtered_checker(Vec2::new(0.5, 0.5), Vec2::ZERO).abs() < 1e-3);
+        assert!((box_filtered_checker(Vec2::new(1.5, 0.5), Vec2::ZERO) - 1.0).abs() < 1e-3);
+        assert!((box_filtered_checker(Vec2::new(0.2, 0.9), Vec2::splat(40.3)) - 0.5).abs() < 0.02);
+    }
+
+    /// The studio's floor tiles are sharp for a point and filtered for a cone: across a tile
+    /// edge, a pixel's value moves smoothly from one tile's colour to the other's, and far away
+    /// near the horizon the tiles average out instead of aliasing.
+    #[test]
+    fn the_studio_floor_is_filtered_over_the_lookups_cone() {
+        let dir = |x: f32, z: f32| Vec3::new(x, -1.5, z).normalize();
+        // A point exactly at an edge of tiles (x = 0.5 m) is one tile or the other; a cone
+        // stepping across it moves through the values in between.
+        let steps: Vec<f32> = (0..9).map(|i| studio(dir(0.5 + (i as f32 - 4.0) * 0.002, 0.25), 0.004).x).collect();
+        assert!(steps.windows(2).all(|w| w[1] >= w[0] - 1e-6) || steps.windows(2).all(|w| w[1] <= w[0] + 1e-6), "{steps:?}");
+        assert!(steps[0] != steps[8] && steps[4] != steps[0] && steps[4] != steps[8], "{steps:?}");
+        // Near the horizon a pixel's cone covers many tiles: their mean, not one of them.
+        let far = Vec3::new(1.0, -0.02, 0.3).normalize();
+        let (bright, dark) = (studio(far, 0.0), studio(far, 0.002));
+        let mean = Vec3::new(0.55, 0.56, 0.6).lerp((Vec3::new(0.62, 0.6, 0.56) + Vec3::new(0.16, 0.16, 0.18)) * 0.5, smoothstep(0.0, 0.25, -far.y));
+        assert!((dark - mean).length() < 0.02, "{dark} vs the tiles' mean {mean} (a point sees {bright})");
     }
 
     #[test]

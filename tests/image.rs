@@ -90,9 +90,13 @@ fn beer_lambert_attenuates_each_channel() {
     assert_eq!(px[3], 1.0, "absorbing glass counts as covered");
 }
 
+/// The default example renders the same bytes every time, and shows what refrakt is for: the
+/// ball's caustic on the floor, brighter than the sunlit floor beside it.
 #[test]
-fn same_scene_renders_identical_bytes() {
-    let desc = frame_from_lua(&std::fs::read_to_string("examples/default.lua").unwrap().replace("size = {1024, 576}", "size = {96, 54}"));
+fn the_default_example_renders_identical_bytes_and_shows_its_caustic() {
+    let source = std::fs::read_to_string("examples/default.lua").unwrap();
+    assert!(source.contains("size = {640, 360}") && source.contains("photons     = 200000"), "the sizes this test shrinks");
+    let desc = frame_from_lua(&source.replace("size = {640, 360}", "size = {96, 54}").replace("photons     = 200000", "photons     = 20000"));
     let a = renderer().frame(&desc).unwrap();
     let mut r = renderer();
     let b = r.frame(&desc).unwrap();
@@ -107,6 +111,16 @@ fn same_scene_renders_identical_bytes() {
         std::fs::read(p).unwrap()
     };
     assert_eq!(write("a.exr"), write("b.exr"), "EXR files");
+    // Light the ball focused: its caustic's brightest pixels outshine the floor's direct sun
+    // (E·albedo/π where nothing shadows it), and the layer carries a fair share of the light.
+    let (caustic, direct) = (&b.layer("caustic").unwrap().data, &b.layer("direct").unwrap().data);
+    let luminance = |v: &[f32]| v.chunks(4).map(|p| (p[0] + p[1] + p[2]) / 3.0).collect::<Vec<f32>>();
+    let (caustic, direct) = (luminance(caustic), luminance(direct));
+    let (peak, lit) = (max(&caustic), max(&direct));
+    let share = caustic.iter().sum::<f32>() / direct.iter().sum::<f32>();
+    eprintln!("default example: caustic peak {peak:.3}, direct sunlit floor {lit:.3}, caustic/direct {share:.3}");
+    assert!(peak > 2.0 * lit, "the ball's focus ({peak}) should outshine the sunlit floor ({lit})");
+    assert!(share > 0.02, "the caustic layer holds {share} of the direct light");
 }
 
 /// Many camera samples keep all their light: 64 samples through an absorbing ball give the same
@@ -165,4 +179,47 @@ fn a_frame_larger_than_one_binding_renders_layer_by_layer() {
         assert_eq!(a.name, b.name);
         assert!(a.data == b.data, "layer {} differs when each layer is bound on its own", a.name);
     }
+}
+
+/// The studio preset is evaluated per camera ray, not looked up in its image: at a field of
+/// view where a pixel spans a quarter of the image's texel, each pixel of the floor's tiles
+/// equals the CPU twin filtered over that pixel's cone (no texel-sized stair steps), where the
+/// image's bilinear lookup would be off by far more at the tiles' edges.
+#[test]
+fn the_studio_floor_is_sharp_at_any_output_size() {
+    let desc = frame_from_lua(
+        r#"local r = require("refrakt")
+        local scene = r.scene{
+          camera = r.camera{ position = {0, 0, 0}, target = {0.52, -1.5, -0.48}, fov = 2, size = {48, 48} },
+          environment = r.environment{ preset = "studio", intensity = 1.0, rotation = 0.3 },
+          volume = { resolution = 8 }, samples = 1, photons = 0,
+        }
+        scene:add(r.node{ name = "ball", translation = {0, 0, 5}, shape = r.sphere{ radius = 0.1 },
+                          material = r.glass{ ior = 1.5 } })
+        return scene"#,
+    );
+    let image = renderer().frame(&desc).unwrap();
+    let cam = &desc.camera;
+    let env = &desc.environment;
+    let image_lookup = |d: Vec3| {
+        let img = env.image().unwrap();
+        let (s, c) = env.rotation.sin_cos();
+        let r = Vec3::new(c * d.x - s * d.z, d.y, s * d.x + c * d.z);
+        img.bilinear(refrakt::scene::environment::dir_to_uv(r)) * env.intensity
+    };
+    let (mut worst, mut worst_image, mut lo, mut hi) = (0.0f32, 0.0f32, f32::MAX, 0.0f32);
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let d = cam.ray(x, y);
+            let expected = env.radiance_over(d, cam.pixel_angle());
+            let px = image.beauty(x, y);
+            worst = worst.max((Vec3::new(px[0], px[1], px[2]) - expected).abs().max_element());
+            worst_image = worst_image.max((image_lookup(d) - expected).abs().max_element());
+            (lo, hi) = (lo.min(expected.x), hi.max(expected.x));
+        }
+    }
+    eprintln!("studio floor: per-ray {worst:.5}, image lookup {worst_image:.4}, values {lo:.3}…{hi:.3}");
+    assert!(lo < 0.25 && hi > 0.5, "the view holds a dark and a bright tile and their edge ({lo}…{hi})");
+    assert!(worst < 2e-3, "the GPU's studio differs from its CPU twin by {worst}");
+    assert!(worst_image > 0.03, "the case this test is about: the image's texels would show ({worst_image})");
 }

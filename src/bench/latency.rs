@@ -31,7 +31,7 @@ use crate::watch::{self, FrameEvent, Moment, Quality, Report, WatchOptions};
 
 const DEFAULT_SCENE: &str = include_str!("../../examples/default.lua");
 /// The lines of the default scene the edits rewrite.
-const CAMERA_LINE: &str = "position = {0, 0.25, 3}";
+const CAMERA_LINE: &str = "position = {0, 0.9, 3.1}";
 const BALL_LINE: &str = "absorption = {0.4, 0.15, 0.0}";
 /// Longest wait for one frame (a full-size frame on a CPU adapter takes a while).
 const FRAME_TIMEOUT: Duration = Duration::from_secs(600);
@@ -156,7 +156,7 @@ fn edit_and_time(script: &Path, heard: &Receiver<Heard>, edits: u32) -> Result<(
     for i in 0..edits {
         // Alternate two values, so that every save changes the scene, and only in one line.
         let (x, blue) = if i % 2 == 0 { ("0.05", "0.05") } else { ("0", "0.0") };
-        let edited = [format!("position = {{{x}, 0.25, 3}}"), format!("absorption = {{0.4, 0.15, {blue}}}")];
+        let edited = [format!("position = {{{x}, 0.9, 3.1}}"), format!("absorption = {{0.4, 0.15, {blue}}}")];
         for (kind, line) in edited.into_iter().enumerate() {
             lines[kind] = line;
             let source = DEFAULT_SCENE.replace(CAMERA_LINE, &lines[0]).replace(BALL_LINE, &lines[1]);

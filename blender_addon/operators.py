@@ -29,18 +29,24 @@ def _report_warnings(op, warnings):
 class REFRAKT_OT_check_binary(bpy.types.Operator):
     bl_idname = "refrakt.check_binary"
     bl_label = "Check refrakt"
-    bl_description = "Run `refrakt info` to check that the executable works and which GPU it uses"
+    bl_description = (
+        "Run `refrakt info` to check that the executable works and which GPU it uses "
+        "(the one set here, else the one bundled with the add-on, else refrakt on PATH)"
+    )
 
     def execute(self, context):
         prefs = preferences.get(context)
         try:
-            path, report = binary.check(prefs.binary)
+            checked = binary.check(prefs.binary)
         except binary.BinaryError as e:
             prefs.check_report = ""
+            prefs.check_source = ""
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
-        prefs.check_report = report
-        self.report({"INFO"}, f"{path}: {report.splitlines()[0] if report else 'works'}")
+        prefs.check_report = checked.report
+        prefs.check_source = checked.source
+        first = checked.report.splitlines()[0] if checked.report else "works"
+        self.report({"INFO"}, f"{binary.describe(checked.path, checked.source)}: {first}")
         return {"FINISHED"}
 
 

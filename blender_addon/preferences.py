@@ -1,4 +1,5 @@
-"""Add-on preferences: where the refrakt executable is."""
+"""Add-on preferences: where the refrakt executable is (empty: the one bundled with the add-on,
+else refrakt on PATH)."""
 
 import bpy
 from bpy.props import StringProperty
@@ -11,7 +12,7 @@ class RefraktPreferences(bpy.types.AddonPreferences):
 
     binary: StringProperty(
         name="refrakt Executable",
-        description="Path to the refrakt executable; empty: find refrakt on PATH",
+        description="Path to the refrakt executable; empty: the refrakt bundled with the add-on, else refrakt on PATH",
         default="",
         subtype="FILE_PATH",
     )
@@ -22,6 +23,8 @@ class RefraktPreferences(bpy.types.AddonPreferences):
         subtype="FILE_PATH",
     )
     check_report: StringProperty(default="", options={"SKIP_SAVE"})
+    # Where the checked refrakt came from: binary.PREFERENCES, BUNDLED or PATH ("" before a check).
+    check_source: StringProperty(default="", options={"SKIP_SAVE"})
 
     def draw(self, context):
         layout = self.layout
@@ -30,7 +33,7 @@ class RefraktPreferences(bpy.types.AddonPreferences):
         row = layout.row()
         row.operator("refrakt.check_binary", icon="CHECKMARK")
         try:
-            row.label(text=f"Using {binary.resolve(self.binary)}")
+            row.label(text=f"Using {binary.describe(*binary.locate(self.binary))}")
         except binary.BinaryError as e:
             layout.label(text=str(e), icon="ERROR")
         for line in self.check_report.splitlines():

@@ -40,14 +40,22 @@ def addon_zip(tmp_path_factory):
     return build_blender_addon.build(tmp_path_factory.mktemp("dist"))
 
 
-@pytest.fixture(scope="session")
-def installed(addon_zip):
+def install(zip_path):
+    """Installs an extension zip as Install from Disk does (replacing the add-on installed
+    before, if any) and enables it; returns the add-on's module."""
     result = bpy.ops.extensions.package_install_files(
-        filepath=str(addon_zip), repo="user_default", enable_on_install=True
+        filepath=str(zip_path), repo="user_default", enable_on_install=True
     )
     assert result == {"FINISHED"}
     assert MODULE in bpy.context.preferences.addons
     return sys.modules[MODULE]
+
+
+@pytest.fixture(scope="session")
+def installed(addon_zip):
+    """The platform-independent zip (no bundled refrakt), installed once for the session.
+    (test_bundle.py installs the zip that carries refrakt over it, and this one back after.)"""
+    return install(addon_zip)
 
 
 @pytest.fixture
@@ -55,7 +63,7 @@ def addon(installed):
     """The enabled add-on on an empty scene, with live mode and renders stopped afterwards."""
     bpy.ops.wm.read_homefile(use_empty=True)
     prefs().binary = ""
-    yield installed
+    yield sys.modules[MODULE]  # not `installed`: a reinstall imports the add-on anew
     sys.modules[MODULE + ".live"].stop(bpy.context)
     render = sys.modules[MODULE + ".operators"].current_render
     if render is not None and render.running:

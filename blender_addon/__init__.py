@@ -1,6 +1,6 @@
 """refrakt for Blender: export the scene as animated glTF, render it with refrakt (caustics,
 light shafts, gradient-index lenses), and bring the EXR frames back into the image editor and
-the compositor. See the README's "Blender" section."""
+the compositor. See docs/blender.md."""
 
 from . import engine, gltf_hooks, operators, preferences, properties, ui
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Markdown tables from `refrakt bench` JSON files, for the README's performance section.
+"""Markdown tables from `refrakt bench` JSON files, for the guide's performance page (docs/performance.md).
 
     python3 scripts/bench_table.py h200.json [lavapipe.json …]
 

@@ -1,4 +1,4 @@
-"""Screenshots of refrakt as Blender's render engine, in Blender's user interface, for the README.
+"""Screenshots of refrakt as Blender's render engine, in Blender's user interface, for the guide (docs/blender.md).
 
 Runs like scripts/blender_screenshots.py (whose helpers and scene it uses), in Blender with its
 user interface under a virtual X display of 1600×1200:

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Makes the README's Blender figure headless, through the add-on as a user would use it: a
+"""Makes the guide's Blender figure (docs/blender.md) headless, through the add-on as a user would use it: a
 Blender scene (floor, a glass ball and a Luneburg lens marked as refrakt index fields, a sun,
 a sky-colored World) is rendered by refrakt with *Render Animation*, loaded back with *Frames in
 Blender ▸ Compositor*, and composited by Blender (Cycles) over its own render of the scene.

@@ -1,4 +1,4 @@
-"""Screenshots of the refrakt add-on inside Blender's user interface, for the README.
+"""Screenshots of the refrakt add-on inside Blender's user interface, for the guide (docs/blender.md).
 
 Runs in Blender with its user interface (not `-b`), under a virtual X display of 1600×1200:
 
@@ -45,7 +45,7 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "scripts"))
 sys.path.insert(0, str(ROOT / "tests" / "blender"))
 _resources = os.environ.get("BLENDER_USER_RESOURCES")
-import blender_figure  # noqa: E402  (its scene, as the README's Blender figure uses it)
+import blender_figure  # noqa: E402  (its scene, as the guide's Blender figure uses it)
 
 # blender_figure points BLENDER_USER_RESOURCES at a temporary folder for the bpy module; in this
 # running Blender that would send the extension install elsewhere than Blender looks for it.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Screenshots of the Blender add-on in Blender's own user interface, for the README:
+# Screenshots of the Blender add-on in Blender's own user interface, for the guide (docs/blender.md):
 #   blender_frame_in_blender.png  the whole window: 3D viewport, refrakt's frame in the image
 #                                 editor, Object ▸ refrakt of the lens, Render ▸ refrakt
 #   blender_panel.png             Render Properties ▸ refrakt, every subpanel open

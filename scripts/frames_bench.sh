@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # `refrakt render --frames` end to end on the seed scene (the bunny): frames on disk per second
 # under each flow and EXR codec, where the time goes, and each codec's encode cost on one core
-# (refrakt bench --scenes frames), then the README's tables. For the H200 machine:
+# (refrakt bench --scenes frames), then docs/performance.md's tables. For the H200 machine:
 #
 #   bash scripts/frames_bench.sh [BUNNY.obj] [OUT.json] [FRAMES]
 #

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Turns rendered PNG frames into a looping GIF for the README (needs Pillow).
+"""Turns rendered PNG frames into a looping GIF for the guide (needs Pillow).
 
     python3 scripts/frames_to_gif.py OUT.gif FRAME.png… [--fps 24]
 

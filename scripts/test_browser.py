@@ -6,7 +6,7 @@ the W3C WebDriver protocol spoken over plain HTTP: the standard library is enoug
 Selenium to install), waits for frames, drags the mouse across the image, checks that the
 camera orbited (the page sent a move, the next frame shows it and differs), and checks a
 screenshot of the page for a frame that is not blank. With --screenshot PATH the screenshot is
-kept (the README's picture is made this way).
+kept (docs/live.md's picture is made this way).
 
 With --measure SECONDS it then drags the camera round for that long and prints the frames per
 second the page drew, with the medians of the frame headers' times (the browser half of

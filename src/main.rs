@@ -65,7 +65,7 @@ struct BenchArgs {
     /// Measured frames per scene (after two warm-up frames).
     #[arg(long, default_value_t = 30)]
     frames: u32,
-    /// An OBJ mesh for `seed` (e.g. ../shared/assets/bunny.obj) instead of the procedural pebble.
+    /// An OBJ mesh for `seed` (e.g. the Stanford bunny, bunny.obj) instead of the procedural pebble.
     #[arg(long, value_name = "PATH")]
     mesh: Option<PathBuf>,
     /// Also sweep photons, volume and image size on `seed` (stage times for a scaling table).

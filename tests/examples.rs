@@ -25,7 +25,7 @@ fn every_example_animates_and_renders() {
         assert!(names.iter().any(|n| n == expected), "examples/{expected} is missing");
     }
     // Small everything: the test is that each example loads, animates and covers the frame,
-    // not how it looks (README's gallery), and lavapipe marches a million photons slowly.
+    // not how it looks (the guide's pictures), and lavapipe marches a million photons slowly.
     let opts = EvalOptions { size: Some((32, 18)), resolution: Some(24), samples: Some(1), photons: Some(20_000), ..Default::default() };
     let mut renderer = common::renderer();
     for path in &files {

@@ -16,7 +16,7 @@ use refrakt::pipeline::voxelize_mesh::FAR;
 use refrakt::scene::eval::{EvalOptions, evaluate};
 use refrakt::scene::{Glass, Material, MeshData, Node, Scene, Shape, Transform, mesh, obj, shared};
 
-/// The seed assets, shared by every worktree and CI (not part of the project: see the README).
+/// The seed assets, shared by every worktree and CI (not part of the project: see docs/testing.md).
 fn asset(name: &str) -> MeshData {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/assets").join(name);
     obj::load(&path).unwrap_or_else(|e| panic!("{e:#} (the test meshes live in ../shared/assets)"))

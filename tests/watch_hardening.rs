@@ -99,7 +99,7 @@ fn a_gpu_limit_error_names_the_scenes_size_not_the_fast_frames() {
     assert!(!message.contains(&format!("{n}×{n}×{n}")), "not the fast frame's {n}³: {message}");
 }
 
-/// Five saves 1 ms apart, at the default debounce: one frame, of the last save (the README
+/// Five saves 1 ms apart, at the default debounce: one frame, of the last save (docs/live.md
 /// promises one per burst). And a save that truncates the file, then writes it, is not
 /// reported as the error of the empty file in between.
 #[test]

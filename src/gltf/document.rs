@@ -28,7 +28,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
 
 /// Required extensions refrakt cannot decode, with what to do about each: a tool that writes
 /// the same scene without them.
-const UNDECODABLE: &[(&str, &str)] = &[
+pub const UNDECODABLE: &[(&str, &str)] = &[
     (
         "KHR_draco_mesh_compression",
         "its meshes are Draco-compressed, and no maintained Rust Draco decoder exists yet; decompress them first, e.g. \

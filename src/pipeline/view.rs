@@ -69,7 +69,7 @@ pub const CPU_SAMPLES_PER_DISPATCH: u32 = 4;
 /// — does not turn a caustic seen through the glass into the colour of one wavelength (a
 /// wavelength's sample weighs its colour by M·x̄ȳz̄(λ)/p(λ), up to 5.6× on a channel). Two, not
 /// more: those pixels are the view's slowest, and each wavelength retraces them (measured on
-/// the H200, README "Dispersion"). The companion runs in a thread of its own, the z = 1 half of
+/// the H200, docs/performance.md, Dispersion). The companion runs in a thread of its own, the z = 1 half of
 /// `main_companions`' workgroups (8 × 8 × 2): this must stay 2.
 pub const SPECTRAL_WAVELENGTHS_PER_PIXEL: u32 = 2;
 

@@ -7,10 +7,9 @@
 //! smallest levels became one pass that sums in floating point instead of rounding each level's
 //! layer to fixed point: statistics identical, chart sum within 5e-6, no texel off by more than
 //! 1.3e-5 of the brightest; and the view's beauty once more when the studio preset began to be
-evaluated per ray, its floor filtered over each pixel's cone — with the old image lookup kept,
-the view differed from its reference by at most 0.0028, in the preset's re-made texels), so a
-change that alters
-//! the non-dispersive path — a spectral photon, a wavelength-dependent index where none was asked
+//! evaluated per ray, its floor filtered over each pixel's cone — with the old image lookup kept,
+//! the view differed from its reference by at most 0.0028, in the preset's re-made texels), so a
+//! change that alters the non-dispersive path — a spectral photon, a wavelength-dependent index where none was asked
 //! for — fails here bit for bit.
 //!
 //! The scenes avoid receivers' shading and fog on purpose (other work changes those): the view

@@ -159,12 +159,8 @@ fn the_readme_is_a_front_page() {
 /// `-` and `_` kept), spaces to hyphens; a repeated heading gets `-1`, `-2`….
 fn anchors(text: &str) -> HashSet<String> {
     let mut seen = HashSet::new();
-    let mut in_code = false;
-    for line in text.lines() {
-        if line.trim_start().starts_with("```") {
-            in_code = !in_code;
-        }
-        let Some(heading) = line.strip_prefix('#').filter(|_| !in_code) else { continue };
+    for line in lines_outside_code_blocks(text) {
+        let Some(heading) = line.strip_prefix('#') else { continue };
         let title = heading.trim_start_matches('#').trim();
         let slug: String = title
             .to_lowercase()
@@ -182,21 +178,23 @@ fn anchors(text: &str) -> HashSet<String> {
     seen
 }
 
+/// The lines of a Markdown text outside its fenced code blocks (fences left out too).
+fn lines_outside_code_blocks(text: &str) -> impl Iterator<Item = &str> {
+    let mut in_code = false;
+    text.lines().filter(move |line| {
+        let fence = line.trim_start().starts_with("```");
+        in_code ^= fence;
+        !fence && !in_code
+    })
+}
+
 /// The text outside code blocks and inline code spans, where links are links.
 fn prose(text: &str) -> String {
     let mut out = String::new();
-    let mut in_code = false;
-    for line in text.lines() {
-        if line.trim_start().starts_with("```") {
-            in_code = !in_code;
-            out.push('\n');
-            continue;
-        }
-        if !in_code {
-            for (i, part) in line.split('`').enumerate() {
-                if i % 2 == 0 {
-                    out.push_str(part);
-                }
+    for line in lines_outside_code_blocks(text) {
+        for (i, part) in line.split('`').enumerate() {
+            if i % 2 == 0 {
+                out.push_str(part);
             }
         }
         out.push('\n');

@@ -4,15 +4,20 @@
 Starts `refrakt serve` on a tiny scene, loads the page in Chromium (through chromedriver, with
 the W3C WebDriver protocol spoken over plain HTTP: the standard library is enough, no
 Selenium to install), waits for frames, drags the mouse across the image, checks that the
-camera orbited (the page sent a move, the next frame shows it and differs), and checks a
-screenshot of the page for a frame that is not blank. With --screenshot PATH the screenshot is
-kept (docs/live.md's picture is made this way).
+camera orbited (the page sent a move, the next frame shows it and differs), that the busy
+indicator showed while that frame rendered, and checks a screenshot of the page for a frame
+that is not blank. Then it switches the layer to `caustic` and reloads the page: the reloaded
+page must show the same camera and layer (the server keeps the state). Then a second window
+opens the page and the first one orbits again: the second must follow. With --screenshot PATH
+the first screenshot is kept (docs/live.md's picture is made this way), with --pair PATH the
+two windows side by side after the second orbit.
 
 With --measure SECONDS it then drags the camera round for that long and prints the frames per
 second the page drew, with the medians of the frame headers' times (the browser half of
 `refrakt bench --scenes serve`).
 
-Usage: test_browser.py REFRAKT_BINARY [--scene FILE] [--screenshot PATH] [--size WxH] [--volume N] [--measure SECONDS]
+Usage: test_browser.py REFRAKT_BINARY [--scene FILE] [--screenshot PATH] [--pair PATH] [--size WxH] [--volume N]
+                       [--refine SAMPLES] [--measure SECONDS]
 """
 
 import argparse
@@ -55,10 +60,10 @@ def fail(message):
 class WebDriver:
     """The few W3C WebDriver commands the test needs."""
 
-    def __init__(self, port):
+    def __init__(self, port, size="1280,800"):
         self.base = f"http://127.0.0.1:{port}"
         caps = {"capabilities": {"alwaysMatch": {"browserName": "chrome", "goog:chromeOptions": {
-            "args": ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1280,800"]}}}}
+            "args": ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", f"--window-size={size}"]}}}}
         self.session = self.call("POST", "/session", caps)["sessionId"]
 
     def call(self, method, path, body=None):
@@ -136,6 +141,92 @@ def png_pixels(data):
     return width, height, rows
 
 
+def png_encode(width, height, rows):
+    """An 8-bit RGB PNG of rows of (r, g, b) tuples."""
+    raw = b"".join(b"\x00" + bytes(c for p in row for c in p) for row in rows)
+    chunk = lambda kind, data: struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b"")
+
+
+def side_by_side(shots, gap=8):
+    """Screenshots (PNG bytes) next to each other on a dark ground, as one PNG."""
+    decoded = [png_pixels(s) for s in shots]
+    height = max(h for _, h, _ in decoded)
+    width = sum(w for w, _, _ in decoded) + gap * (len(decoded) - 1)
+    rows = []
+    for y in range(height):
+        row = []
+        for i, (w, h, pixels) in enumerate(decoded):
+            if i:
+                row += [(40, 40, 44)] * gap
+            row += pixels[y] if y < h else [(40, 40, 44)] * w
+        rows.append(row)
+    return png_encode(width, height, rows)
+
+
+def element(wd, css):
+    return wd.s("POST", "/element", {"using": "css selector", "value": css})["element-6066-11e4-a52e-4f735466cecf"]
+
+
+def orbit_and_wait(wd, canvas, dx, dy):
+    """Drags to orbit; waits for the frame of the move and returns the id of the page's last edit."""
+    frames = wd.js("return window.refrakt.frames")
+    wd.drag(canvas, dx, dy)
+    sent = wd.wait("the drag's camera move", "return window.refrakt.nextId > 1 && window.refrakt.nextId - 1")
+    wd.wait("a frame of the orbited camera", f"return window.refrakt.last && window.refrakt.last.input >= {sent} && window.refrakt.frames > {frames}")
+    return sent
+
+
+def same_camera(camera):
+    """A JavaScript expression: whether the page's camera is `camera`."""
+    return (f"((a, b) => !!b && ['position', 'target'].every(k => a[k].every((v, i) => Math.abs(v - b[k][i]) < 1e-5)) "
+            f"&& Math.abs(a.fov - b.fov) < 1e-5)({json.dumps(camera)}, window.refrakt.camera)")
+
+
+def reload_keeps_camera_and_layer(wd, canvas):
+    """Switches to the caustic layer, reloads: the page comes back with the same camera and layer."""
+    wd.js("const l = document.getElementById('layer'); l.value = 'caustic'; l.dispatchEvent(new Event('input'))")
+    wd.wait("the server's state with the caustic layer", "const s = window.refrakt.server; return s && s.display.layer === 'caustic' && s.camera")
+    wd.wait("a caustic frame", "return window.refrakt.last.layer === 'caustic'")
+    camera = wd.js("return window.refrakt.server.camera")
+    wd.s("POST", "/refresh", {})
+    wd.wait("the first frame after the reload", "return window.refrakt && window.refrakt.frames >= 1 && window.refrakt.server")
+    wd.wait("the reloaded page's state", "return window.refrakt.frames >= 1 && window.refrakt.camera")
+    if not wd.js(f"return {same_camera(camera)}"):
+        fail(f"the reloaded page's camera {wd.js('return window.refrakt.camera')} is not the session's {camera}")
+    shown = wd.js("return [document.getElementById('layer').value, window.refrakt.last.layer]")
+    if shown != ["caustic", "caustic"]:
+        fail(f"the reloaded page shows the layer {shown}, not the session's caustic")
+    return camera
+
+
+def second_window_follows(wd, driver_port, url, canvas, pair):
+    """A second window opens the page; the first orbits; the second's camera and frame follow."""
+    other = WebDriver(driver_port, size="900,640")
+    try:
+        other.s("POST", "/url", {"url": url})
+        other.wait("the second window's first frame", "return window.refrakt && window.refrakt.frames >= 1")
+        wd.js("const l = document.getElementById('layer'); l.value = 'beauty'; l.dispatchEvent(new Event('input'))")
+        other.wait("the second window's layer following the first's", "return document.getElementById('layer').value === 'beauty'")
+        sent = orbit_and_wait(wd, canvas, -90, 20)
+        camera = wd.js("return window.refrakt.camera")
+        other.wait("the second window following the first's orbit",
+                   f"return {same_camera(camera)}")
+        if pair:
+            # Both windows idle on the same frame (a still view refines first).
+            shown = "const r = window.refrakt; return r.last && !r.activity.busy && r.last.layer === 'beauty' && r.last.frame"
+            until = time.time() + PATIENCE
+            while time.time() < until and not (wd.js(shown) and wd.js(shown) == other.js(shown)):
+                time.sleep(0.3)
+            time.sleep(0.5)
+            first = base64.b64decode(wd.s("GET", "/screenshot"))
+            with open(pair, "wb") as f:
+                f.write(side_by_side([first, base64.b64decode(other.s("GET", "/screenshot"))]))
+    finally:
+        other.quit()
+
+
 def measure(wd, canvas, seconds):
     """Drags back and forth for `seconds`; prints what the page drew and the headers' times."""
     wd.js("window.refrakt.log = []; const f = window.refrakt; const old = f.last; "
@@ -164,6 +255,8 @@ def main():
     ap.add_argument("refrakt")
     ap.add_argument("--scene")
     ap.add_argument("--screenshot")
+    ap.add_argument("--pair")
+    ap.add_argument("--refine")
     ap.add_argument("--size")
     ap.add_argument("--volume")
     ap.add_argument("--measure", type=float)
@@ -176,6 +269,7 @@ def main():
             with open(scene, "w") as f:
                 f.write(SCENE)
         extra = (["--size", args.size] if args.size else []) + (["--volume", args.volume] if args.volume else [])
+        extra += ["--refine", args.refine] if args.refine else []
         server = subprocess.Popen([args.refrakt, "serve", scene, "--port", "0", *extra], stdout=subprocess.PIPE, text=True)
         driver_port = free_port()
         driver = subprocess.Popen([chromedriver, f"--port={driver_port}"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -192,12 +286,12 @@ def main():
             wd.s("POST", "/url", {"url": url})
             wd.wait("the first frame", "return window.refrakt && window.refrakt.frames >= 1")
             before = wd.js("return document.getElementById('frame').toDataURL('image/png')")
-            frames = wd.js("return window.refrakt.frames")
-            canvas = wd.s("POST", "/element", {"using": "css selector", "value": "#frame"})
-            canvas = canvas["element-6066-11e4-a52e-4f735466cecf"]
-            wd.drag(canvas, 120, 30)
-            sent = wd.wait("the drag's camera move", "return window.refrakt.nextId > 1 && window.refrakt.nextId - 1")
-            wd.wait("a frame of the orbited camera", f"return window.refrakt.last && window.refrakt.last.input >= {sent} && window.refrakt.frames > {frames}")
+            canvas = element(wd, "#frame")
+            wd.js("window.refrakt.busySeen = []")
+            sent = orbit_and_wait(wd, canvas, 120, 30)
+            busy = wd.js("return window.refrakt.busySeen")
+            if not any(b.startswith("rendering:") for b in busy):
+                fail(f"no busy indicator while the orbited frame rendered (seen: {busy})")
             time.sleep(0.3)  # the frame is drawn when it is decoded
             after = wd.js("return document.getElementById('frame').toDataURL('image/png')")
             if after == before:
@@ -216,10 +310,13 @@ def main():
             spread = (sum((v - mean) ** 2 for v in levels) / len(levels)) ** 0.5
             if mean < 8 or spread < 4:
                 fail(f"the screenshot's frame looks blank (mean {mean:.1f}, spread {spread:.1f} over {len(levels)} samples)")
+            reload_keeps_camera_and_layer(wd, canvas)
+            canvas = element(wd, "#frame")
+            second_window_follows(wd, driver_port, url, canvas, args.pair)
             if args.measure:
                 measure(wd, canvas, args.measure)
-            print(f"test_browser: ok: {wd.js('return window.refrakt.frames')} frames; the drag orbited "
-                  f"(input {sent}); screenshot's frame mean {mean:.1f}, spread {spread:.1f}")
+            print(f"test_browser: ok: the drag orbited (input {sent}) with the busy indicator up; screenshot's frame mean "
+                  f"{mean:.1f}, spread {spread:.1f}; a reload kept the camera and the caustic layer; a second window followed")
         finally:
             if wd:
                 wd.quit()

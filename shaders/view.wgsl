@@ -575,8 +575,9 @@ fn sample_wavelength_of(k: u32, j: u32) {
     if !has(VIEW_FLAG_SPECTRAL) {
         return;
     }
-    let slot = f32(k) + f32(j) / f32(wavelengths_per_sample());
-    let u = fract(random01(0x5bd1e995u, pixel_key, 0u) + slot / f32(params.samples));
+    // (A refinement pass's samples, k ≥ samples, hash a hero wavelength of their own.)
+    let slot = f32(k % params.samples) + f32(j) / f32(wavelengths_per_sample());
+    let u = fract(random01(0x5bd1e995u, pixel_key, k / params.samples) + slot / f32(params.samples));
     path_wavelength = sample_wavelength(u);
     grid_dispersion_scale = dispersion_scale(params.grid_dispersion, path_wavelength);
 }

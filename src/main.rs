@@ -293,6 +293,16 @@ struct ServeArgs {
     /// JPEG quality of the frames sent, 1 to 100.
     #[arg(long, default_value_t = 85, value_parser = clap::value_parser!(u8).range(1..=100))]
     quality: u8,
+    /// Camera rays per pixel a still view refines to, pass by pass (0: it does not refine).
+    #[arg(long, value_name = "SAMPLES", default_value_t = 64)]
+    refine: u32,
+    /// Stop refining a still view after this many seconds.
+    #[arg(long, value_name = "SECONDS", default_value_t = 120.0)]
+    refine_seconds: f64,
+    /// The page's public origin behind a proxy (e.g. https://render.example), taken as the
+    /// page's own by the WebSocket's Origin and Host checks; may be given more than once.
+    #[arg(long, value_name = "URL")]
+    origin: Vec<String>,
     #[command(flatten)]
     scene_args: SceneArgs,
     #[command(flatten)]
@@ -488,6 +498,9 @@ fn run(cli: Cli) -> Result<()> {
                 debounce: Duration::from_millis(a.debounce),
                 time: a.time,
                 display: refrakt::serve::protocol::Display { exposure: a.output.exposure, tonemap: a.output.tonemap, quality: a.quality, ..Default::default() },
+                refine: a.refine.min(1 << 16),
+                refine_for: Duration::try_from_secs_f64(a.refine_seconds).map_err(|_| anyhow::anyhow!("--refine-seconds: a number of seconds, 0 or more"))?,
+                origins: a.origin.iter().map(|o| o.trim_end_matches('/').to_string()).collect(),
             };
             refrakt::serve::run(&a.scene, &opts)
         }

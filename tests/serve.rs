@@ -30,6 +30,9 @@ return scene
 
 const SCENE_CAMERA: &str = "position = {0, 0.5, 3}, target = {0, 0, 0}";
 
+/// A still view refines by default; tests of other things leave it at the scene's samples.
+const NO_REFINE: &[&str] = &["--refine", "0"];
+
 fn scene(camera: &str, env: &str) -> String {
     SCENE.replace("CAMERA", camera).replace("ENV", env)
 }
@@ -59,7 +62,7 @@ fn render_beauty(dir: &Path, source: &str) -> Vec<f32> {
 #[test]
 fn a_camera_move_reruns_only_the_view_pass_and_equals_render_with_that_camera() {
     let dir = folder_with(&[("scene.lua", &scene(SCENE_CAMERA, "0.1, 0.1, 0.12"))]);
-    let server = Server::start(&dir.path().join("scene.lua"), &[]);
+    let server = Server::start(&dir.path().join("scene.lua"), NO_REFINE);
     let mut page = Client::connect(&server);
     let info = page.event("scene");
     assert_eq!(info["size"], json!([64, 36]));
@@ -96,7 +99,7 @@ fn a_camera_move_reruns_only_the_view_pass_and_equals_render_with_that_camera() 
 fn a_lua_error_reaches_the_page_and_the_next_good_save_recovers() {
     let dir = folder_with(&[("scene.lua", &scene(SCENE_CAMERA, "0.2, 0.3, 0.4"))]);
     let path = dir.path().join("scene.lua");
-    let server = Server::start(&path, &[]);
+    let server = Server::start(&path, NO_REFINE);
     let mut page = Client::connect(&server);
     let (first, _) = page.frame("jpeg", |_| true);
 
@@ -132,7 +135,7 @@ fn a_lua_error_reaches_the_page_and_the_next_good_save_recovers() {
 #[test]
 fn origin_host_and_token_checks_refuse_what_they_must() {
     let dir = folder_with(&[("scene.lua", &scene(SCENE_CAMERA, "0.2, 0.3, 0.4"))]);
-    let local = Server::start(&dir.path().join("scene.lua"), &[]);
+    let local = Server::start(&dir.path().join("scene.lua"), NO_REFINE);
     let url = local.ws_url();
     let own = format!("http://127.0.0.1:{}", local.port);
     assert!(Client::connect_with(&url, &[("Origin", &own)]).is_ok(), "the server's own page");
@@ -147,7 +150,7 @@ fn origin_host_and_token_checks_refuse_what_they_must() {
         assert!(local.get_status(path).contains("404"), "{path} is not served");
     }
 
-    let open = Server::start(&dir.path().join("scene.lua"), &["--bind", "0.0.0.0"]);
+    let open = Server::start(&dir.path().join("scene.lua"), &["--bind", "0.0.0.0", "--refine", "0"]);
     assert!(open.url.contains("?token="), "beyond loopback the URL carries a token: {}", open.url);
     let with_token = open.ws_url();
     let without = format!("ws://127.0.0.1:{}/ws", open.port);
@@ -162,7 +165,7 @@ fn origin_host_and_token_checks_refuse_what_they_must() {
 #[test]
 fn a_flood_of_camera_messages_never_queues_nor_grows_memory() {
     let dir = folder_with(&[("scene.lua", &scene(SCENE_CAMERA, "0.2, 0.3, 0.4"))]);
-    let server = Server::start(&dir.path().join("scene.lua"), &[]);
+    let server = Server::start(&dir.path().join("scene.lua"), NO_REFINE);
     let mut page = Client::connect(&server);
     page.frame("jpeg", |_| true);
     let camera = |i: u64| json!({ "type": "camera", "id": i, "camera": { "position": [3.0 * (i as f64 * 0.01).sin(), 0.5, 3.0 * (i as f64 * 0.01).cos()], "target": [0, 0, 0], "fov": 35 } });
@@ -209,7 +212,7 @@ fn a_flood_of_camera_messages_never_queues_nor_grows_memory() {
 #[test]
 fn display_changes_reencode_and_layers_come_from_the_next_frame() {
     let dir = folder_with(&[("scene.lua", &scene(SCENE_CAMERA, "0.2, 0.3, 0.4"))]);
-    let server = Server::start(&dir.path().join("scene.lua"), &[]);
+    let server = Server::start(&dir.path().join("scene.lua"), NO_REFINE);
     let mut page = Client::connect(&server);
     let (first, payload) = page.frame("jpeg", |_| true);
     let dark = picture(&first, &payload);
@@ -234,7 +237,7 @@ fn display_changes_reencode_and_layers_come_from_the_next_frame() {
 fn a_param_slider_runs_the_script_again_with_its_value() {
     let source = scene(SCENE_CAMERA, r#"r.param{ name = "red", default = 0.2, min = 0, max = 1 }, 0.3, 0.4"#);
     let dir = folder_with(&[("scene.lua", &source)]);
-    let server = Server::start(&dir.path().join("scene.lua"), &[]);
+    let server = Server::start(&dir.path().join("scene.lua"), NO_REFINE);
     let mut page = Client::connect(&server);
     let info = page.event("scene");
     assert_eq!(info["params"], json!([{ "name": "red", "value": 0.2, "default": 0.2, "min": 0.0, "max": 1.0, "step": 0.01 }]));
@@ -253,4 +256,140 @@ fn a_param_slider_runs_the_script_again_with_its_value() {
     let img = frame.unwrap();
     let px = img.get_pixel(0, 0);
     assert!(px[0] > 200 && px[0] as i32 - px[2] as i32 > 40, "the environment's red follows the slider: {px:?}");
+}
+
+/// The state one page sets reaches the others, and a page that connects later starts from it;
+/// what answers one page (HDR values, the edits as Lua) reaches no other.
+#[test]
+fn pages_share_one_state_and_replies_go_to_the_page_that_asked() {
+    let dir = folder_with(&[("scene.lua", &scene(SCENE_CAMERA, "0.2, 0.3, 0.4"))]);
+    let server = Server::start(&dir.path().join("scene.lua"), NO_REFINE);
+    let (mut a, mut b) = (Client::connect(&server), Client::connect(&server));
+    let me = a.event("hello")["connection"].as_u64().unwrap();
+    a.frame("jpeg", |_| true);
+    let pose = json!({ "position": [1.5, 0.75, 2.5], "target": [0.25, 0.0, 0.0], "fov": 40.0 });
+    a.send(json!({ "type": "camera", "id": 5, "camera": pose }));
+    a.send(json!({ "type": "light", "id": 6, "name": "key", "intensity": 2.0 }));
+    a.send(json!({ "type": "display", "id": 7, "layer": "caustic", "exposure": 1.0, "tonemap": "aces", "quality": 80 }));
+    let in_step = |s: &Value| s["camera"] == pose && s["lights"]["key"]["intensity"] == 2.0 && s["display"]["layer"] == "caustic";
+    let seen = b.wait_for("the state a set", |r| match r {
+        Received::Event(e) if e["type"] == "state" && in_step(e) => Some(e.clone()),
+        _ => None,
+    });
+    assert_eq!((seen["by"].as_u64(), seen["id"].as_u64(), seen["can_undo"].as_bool()), (Some(me), Some(7), Some(true)), "{seen}");
+    let (frame, _) = b.frame("jpeg", |h| h["input"] == 6 && h["layer"] == "caustic");
+    assert!(frame["revision"].as_u64().unwrap() >= 2, "{frame}");
+
+    // A page that connects now (a reload) is told the same state before anything else changes.
+    let mut late = Client::connect(&server);
+    let first = late.event("state");
+    assert!(in_step(&first), "a reloaded page starts from the session's state: {first}");
+    assert_eq!(late.frame("jpeg", |_| true).0["layer"], "caustic");
+
+    // Undo steps back over a's light edit, for every page.
+    b.send(json!({ "type": "undo" }));
+    late.wait_for("the undone light", |r| match r {
+        Received::Event(e) if e["type"] == "state" && e["lights"].get("key").is_none() && e["camera"] == pose => Some(()),
+        _ => None,
+    });
+
+    // a's HDR request and its edits as Lua are answered to a alone.
+    a.send(json!({ "type": "hdr", "region": [10, 5, 4, 3] }));
+    a.send(json!({ "type": "lua" }));
+    let (hdr, payload) = a.frame("hdr", |_| true);
+    assert_eq!((hdr["region"].clone(), hdr["layer"].clone(), hdr["channels"].as_u64()), (json!([10, 5, 4, 3]), json!("caustic"), Some(3)), "{hdr}");
+    assert_eq!(payload.len(), 4 * 3 * 3 * 4, "4 × 3 pixels of 3 floats");
+    let lua = a.event("lua")["lua"].as_str().unwrap().to_string();
+    assert!(lua.contains("scene.camera = r.camera{ position = {1.5, 0.75, 2.5}"), "{lua}");
+    a.send(json!({ "type": "hdr", "region": [60, 30, 10, 10] }));
+    assert!(a.event("warning")["message"].as_str().unwrap().contains("not inside"));
+    let until = Instant::now() + Duration::from_secs(2);
+    while let Some(left) = until.checked_duration_since(Instant::now()) {
+        match b.next_within(left) {
+            Some(Received::Frame { header, .. }) => assert_ne!(header["kind"], "hdr", "b received a's HDR values"),
+            Some(Received::Event(e)) => assert!(e["type"] != "lua" && e["type"] != "warning", "b received a's answer: {e}"),
+            None => break,
+        }
+    }
+}
+
+/// Light and param names the scene lacks are refused, whatever their number: the server's maps
+/// hold only the scene's names, so 20,000 unknown names grow nothing.
+#[test]
+fn unknown_names_are_refused_and_grow_nothing() {
+    let dir = folder_with(&[("scene.lua", &scene(SCENE_CAMERA, "0.2, 0.3, 0.4"))]);
+    let server = Server::start(&dir.path().join("scene.lua"), NO_REFINE);
+    let mut pages: Vec<Client> = (0..4).map(|_| Client::connect(&server)).collect();
+    pages[0].frame("jpeg", |_| true);
+    let name = |i: usize| format!("{i:06}{}", "x".repeat(200));
+    let light = |i: usize| json!({ "type": "light", "id": i + 1, "name": name(i), "position": [0.0, 1.0, 0.0] });
+    let flood = |pages: &mut Vec<Client>, range: std::ops::Range<usize>| {
+        let per = range.len() / pages.len();
+        for (k, page) in pages.iter_mut().enumerate() {
+            let first = range.start + k * per;
+            page.send_all((first..first + per).map(light));
+        }
+    };
+    flood(&mut pages, 0..2000); // warm up the connections' buffers
+    std::thread::sleep(Duration::from_millis(1500));
+    let before = server.rss_kib();
+    for round in 0..6 {
+        flood(&mut pages, 2000 + round * 3000..2000 + (round + 1) * 3000);
+        std::thread::sleep(Duration::from_millis(1000)); // within every page's and the server's rate
+    }
+    std::thread::sleep(Duration::from_millis(500));
+    let after = server.rss_kib();
+    let mut warnings = Vec::new();
+    for page in &mut pages {
+        while let Some(r) = page.next_within(Duration::from_millis(200)) {
+            if let Received::Event(e) = r
+                && e["type"] == "warning"
+            {
+                warnings.push(e["message"].as_str().unwrap().to_string());
+            }
+        }
+    }
+    eprintln!("20,000 unknown light names: RSS {before} → {after} KiB, {} warnings", warnings.len());
+    assert!(warnings.iter().all(|w| w.contains("no light of that name")), "none were dropped by the rate limits: {:?}", warnings.iter().find(|w| !w.contains("no light")));
+    assert!(warnings.len() < 4 * 200, "warnings are rate-limited too: {}", warnings.len());
+    assert!(after < before + 2048, "memory grew by {} KiB for 18,000 unknown names", after as i64 - before as i64);
+    pages[0].send(json!({ "type": "param", "name": "nope", "value": 1.0 }));
+    assert!(pages[0].event("warning")["message"].as_str().unwrap().contains("no param of that name"));
+    pages[0].send(json!({ "type": "light", "id": 99, "name": "key", "position": [0.0, 1.5, 0.0] }));
+    let state = pages[1].event("state");
+    assert_eq!(state["lights"].as_object().unwrap().len(), 1, "only the scene's light: {state}");
+}
+
+/// A still view keeps refining: each frame averages more camera rays, the page is told what the
+/// renderer is doing, and the still converges to `refrakt render --samples N`.
+#[test]
+fn a_still_view_refines_to_render_with_that_many_samples() {
+    let source = scene(SCENE_CAMERA, "0.2, 0.3, 0.4");
+    let dir = folder_with(&[("scene.lua", &source)]);
+    let server = Server::start(&dir.path().join("scene.lua"), &["--refine", "8"]);
+    let mut page = Client::connect(&server);
+    let (mut samples, mut busy) = (Vec::new(), Vec::new());
+    page.wait_for("the still refined to 8 samples", |r| {
+        match r {
+            Received::Frame { header, .. } if header["kind"] == "jpeg" => samples.push(header["samples"].as_u64().unwrap()),
+            Received::Event(e) if e["type"] == "activity" && e["busy"] == true => busy.push(e.clone()),
+            _ => {}
+        }
+        (samples.last() == Some(&8)).then_some(())
+    });
+    assert!(samples.windows(2).all(|w| w[0] < w[1]) && samples[0] == 1, "the samples of the frames rise: {samples:?}");
+    assert!(busy.iter().any(|a| a["refining"] == true && a["target"] == 8), "the page hears of the refinement: {busy:?}");
+    assert!(busy.iter().any(|a| a["refining"] == false), "and of the first frame: {busy:?}");
+    std::thread::sleep(Duration::from_millis(300));
+    page.send(json!({ "type": "hdr" }));
+    let (hdr, payload) = page.frame("hdr", |_| true);
+    assert_eq!(hdr["samples"], 8, "the refinement stops at its target: {hdr}");
+    let served = floats(&payload);
+    let reference = render_beauty(dir.path(), &source.replace("samples = 1,", "samples = 8,"));
+    let one = render_beauty(dir.path(), &source);
+    let differ = |a: &[f32], b: &[f32]| a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
+    let peak = reference.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    eprintln!("refined vs render --samples 8: max |Δ| {:.2e} (peak {peak:.3}); vs 1 sample {:.3}", differ(&served, &reference), differ(&one, &reference));
+    assert!(differ(&served, &reference) <= 1e-5 * peak.max(1.0), "the refined still is render --samples 8's (float rounding apart)");
+    assert!(differ(&one, &reference) > 1e-2, "8 samples differ from 1: the test could tell");
 }

@@ -1,6 +1,8 @@
 // refrakt serve's page: shows the frames the server sends and sends the user's edits.
-// Protocol: src/serve/protocol.rs. Edits are sent at most once per animation frame (the server
-// keeps only the newest state anyway).
+// Protocol: src/serve/protocol.rs. The server keeps the one truth (src/serve/state.rs): every
+// edit goes to it and comes back to every page as a `state` message, so pages in several
+// windows, or a reloaded page, show what the frame shows. Edits are sent at most once per
+// animation frame (the server keeps only the newest state anyway).
 "use strict";
 
 const $ = (id) => document.getElementById(id);
@@ -11,35 +13,48 @@ const film = document.createElement("canvas");
 const filmCtx = film.getContext("2d");
 const token = new URLSearchParams(location.search).get("token");
 const state = {
-  scene: null, camera: null, lights: {}, selected: null, time: 0, playing: false,
-  frames: 0, last: null, arrivals: [], hdr: null, nextId: 1, outbox: new Map(),
+  me: null, scene: null, camera: null, lights: {}, params: {}, selected: null, time: 0, playing: false,
+  frames: 0, last: null, arrivals: [], probe: null, probing: false, nextId: 1, flushed: 0, outbox: new Map(),
+  server: null, activity: null, busySeen: [],
 };
 window.refrakt = state; // for the browser test and the curious
 
 // ---- connection -------------------------------------------------------------------------
 let socket;
 function connect() {
-  const url = `ws://${location.host}/ws${token ? `?token=${encodeURIComponent(token)}` : ""}`;
-  socket = new WebSocket(url);
+  // wss:// where the page came over https:// (behind a TLS proxy), ws:// otherwise.
+  const scheme = location.protocol === "https:" ? "wss" : "ws";
+  socket = new WebSocket(`${scheme}://${location.host}/ws${token ? `?token=${encodeURIComponent(token)}` : ""}`);
   socket.binaryType = "arraybuffer";
   socket.onopen = () => { $("stats").textContent = "connected, waiting for the first frame…"; flush(); };
   socket.onclose = () => { $("stats").textContent = "disconnected; retrying…"; setTimeout(connect, 1000); };
   socket.onmessage = (m) => (typeof m.data === "string" ? onEvent(JSON.parse(m.data)) : onFrame(m.data));
 }
 
-// Queues a message by kind (and light name): a newer one of the same kind replaces it.
+// Queues an edit by kind (and light name): a newer one of the same kind replaces it.
 function send(key, message) {
   state.outbox.set(key, { ...message, id: state.nextId++ });
   requestAnimationFrame(flush);
 }
 function flush() {
   if (!socket || socket.readyState !== WebSocket.OPEN) return;
-  for (const m of state.outbox.values()) socket.send(JSON.stringify(m));
+  for (const m of state.outbox.values()) {
+    socket.send(JSON.stringify(m));
+    state.flushed = Math.max(state.flushed, m.id);
+  }
   state.outbox.clear();
+}
+// A request that is not an edit (no id, not queued).
+function ask(message) {
+  if (socket?.readyState === WebSocket.OPEN) socket.send(JSON.stringify(message));
 }
 
 function onEvent(e) {
-  if (e.type === "scene") onScene(e);
+  if (e.type === "hello") state.me = e.connection;
+  else if (e.type === "scene") onScene(e);
+  else if (e.type === "state") onState(e);
+  else if (e.type === "activity") { state.activity = e; showActivity(); }
+  else if (e.type === "lua") showLua(e.lua);
   else if (e.type === "error") showError(e.message);
   else if (e.type === "ok") showError(null);
   else if (e.type === "warning") console.warn(e.message);
@@ -50,16 +65,38 @@ function showError(message) {
   $("error").textContent = message ? `${message}\n(the last good frame stays; save a fix to render again)` : "";
 }
 
+// The server's state: what this page shows, unless this page has sent newer edits that the
+// state does not hold yet (their own echo follows).
+function onState(e) {
+  state.server = e;
+  $("undo").disabled = !e.can_undo;
+  $("redo").disabled = !e.can_redo;
+  if (e.by === state.me && e.id !== 0 && (e.id < state.flushed || state.outbox.size)) return;
+  state.camera = e.camera ? { ...e.camera } : state.scene && { ...state.scene.camera };
+  state.lights = structuredClone(e.lights);
+  state.params = { ...e.params };
+  state.time = e.time;
+  $("time").value = e.time;
+  $("time-value").textContent = e.time.toFixed(2);
+  $("layer").value = e.display.layer;
+  $("exposure").value = e.display.exposure;
+  $("exposure-value").textContent = e.display.exposure;
+  $("tonemap").value = e.display.tonemap;
+  for (const input of document.querySelectorAll("[data-param]")) {
+    const v = state.params[input.dataset.param];
+    if (v !== undefined) { input.value = v; input.nextElementSibling.textContent = v; }
+  }
+  showCamera();
+  showLight();
+  redraw();
+}
+
 async function onFrame(buffer) {
   const view = new DataView(buffer);
   const length = view.getUint32(0, true);
   const header = JSON.parse(new TextDecoder().decode(new Uint8Array(buffer, 4, length)));
   const payload = new Uint8Array(buffer, 4 + length);
-  if (header.kind === "hdr") {
-    state.hdr = { header, values: new Float32Array(payload.slice().buffer) };
-    $("probe").textContent = "HDR values loaded: point at the image";
-    return;
-  }
+  if (header.kind === "hdr") return showProbe(header, new Float32Array(payload.slice().buffer));
   // JPEG strips of rows, one after another (encoded on several cores): decode all, then draw.
   let offset = 0;
   const strips = header.strips.map(([y, rows, bytes]) => {
@@ -78,42 +115,68 @@ async function onFrame(buffer) {
     filmCtx.drawImage(bitmap, 0, y);
     bitmap.close();
   }
-  ctx2d.drawImage(film, 0, 0);
-  drawLights();
+  redraw();
   state.frames += 1;
   state.last = header;
-  const now = performance.now();
-  state.arrivals.push(now);
-  while (state.arrivals.length && state.arrivals[0] < now - 1000) state.arrivals.shift();
-  showStats(header, now);
+  state.arrivals.push(performance.now());
+  showStats();
 }
 
-function showStats(h, now) {
+function redraw() {
+  if (film.width) ctx2d.drawImage(film, 0, 0);
+  drawLights();
+}
+
+// Frames per second over the last second, kept current between frames (it falls to 0 when
+// none arrive), with the samples the shown frame averages.
+function showStats() {
+  const h = state.last;
+  if (!h) return;
+  const now = performance.now();
+  while (state.arrivals.length && state.arrivals[0] < now - 1000) state.arrivals.shift();
   const t = h.times;
   const gpu = t.gpu.map(([stage, ms]) => `${stage} ${ms.toFixed(2)}`).join(", ");
   const reused = [h.reused.volume && "volume", h.reused.photons && "photons"].filter(Boolean).join(" + ") || "nothing";
   const delivered = Math.max(0, Date.now() - h.ready_us / 1000);
   $("stats").textContent =
-    `${state.arrivals.length} fps · frame ${h.frame} ${h.width}×${h.height} · reused ${reused}\n` +
+    `${state.arrivals.length} fps · frame ${h.frame} ${h.width}×${h.height} · ${h.samples} samples · reused ${reused}\n` +
     `render ${t.render_ms.toFixed(1)} ms · readback ${t.readback_ms.toFixed(1)} · encode ${t.encode_ms.toFixed(1)} · ` +
     `scene ${t.scene_ms.toFixed(1)} · delivery ${delivered.toFixed(1)} ms\nGPU ms: ${gpu || "(no timestamps on this adapter)"}`;
+}
+setInterval(showStats, 250);
+
+const STAGES = { volume: "building the volume", photons: "tracing photons", view: "tracing camera rays" };
+// What the renderer is doing: the part of the frame the GPU is on, how long it has taken and
+// how long the last such frame took; or how far a still view has refined.
+function showActivity() {
+  const a = state.activity;
+  const busy = $("busy");
+  if (!a) return;
+  busy.hidden = !a.busy;
+  if (a.busy) {
+    const doing = a.refining ? `refining to ${a.samples} of ${a.target} samples` : "rendering";
+    const eta = a.eta_ms ? ` of ~${(a.eta_ms / 1000).toFixed(1)} s` : "";
+    busy.textContent = `${doing}: ${STAGES[a.stage] || "starting"} · ${(a.elapsed_ms / 1000).toFixed(1)} s${eta}`;
+    state.busySeen = [...state.busySeen.slice(-19), busy.textContent]; // (for the browser test)
+  }
+  $("samples").textContent = a.busy ? "" : `${a.samples} of ${a.target} samples`;
 }
 
 // ---- scene and controls -------------------------------------------------------------------
 function onScene(e) {
-  const first = !state.scene;
   state.scene = e;
   $("title").textContent = e.name;
-  if (first) state.camera = { ...e.camera };
+  if (!state.server?.camera) state.camera = { ...e.camera };
   $("time-controls").hidden = !e.animated;
+  $("time").max = e.duration || 10;
   const select = $("light");
   select.replaceChildren(...e.lights.map((l) => new Option(`${l.name} (${l.kind})`, l.name)));
   $("light-controls").hidden = e.lights.length === 0;
   if (!e.lights.some((l) => l.name === state.selected)) state.selected = e.lights.length ? e.lights[0].name : null;
   select.value = state.selected ?? "";
   showParams(e.params);
+  showCamera();
   showLight();
-  showLua();
 }
 
 // The script's refrakt.param{…}s as sliders; moving one runs the script again with the value.
@@ -122,11 +185,13 @@ function showParams(params) {
   box.hidden = params.length === 0;
   box.replaceChildren(...params.map((p) => {
     const label = document.createElement("label");
-    const input = Object.assign(document.createElement("input"), { type: "range", min: p.min, max: p.max, step: p.step, value: p.value });
-    const out = Object.assign(document.createElement("output"), { textContent: p.value });
+    const value = state.params[p.name] ?? p.value;
+    const input = Object.assign(document.createElement("input"), { type: "range", min: p.min, max: p.max, step: p.step, value });
+    const out = Object.assign(document.createElement("output"), { textContent: value });
     input.dataset.param = p.name;
     input.addEventListener("input", () => {
       out.textContent = input.value;
+      state.params[p.name] = Number(input.value);
       send(`param:${p.name}`, { type: "param", name: p.name, value: Number(input.value) });
     });
     label.append(`${p.name} `, input, " ", out);
@@ -135,7 +200,7 @@ function showParams(params) {
 }
 
 function sceneLight(name) { return state.scene?.lights.find((l) => l.name === name); }
-// A light as shown: the scene's, with the page's edits on top.
+// A light as shown: the scene's, with the edits on top.
 function light(name) {
   const l = sceneLight(name);
   return l && { ...l, ...(state.lights[name] || {}) };
@@ -144,8 +209,17 @@ function light(name) {
 function editLight(name, edit) {
   state.lights[name] = { ...(state.lights[name] || {}), ...edit };
   send(`light:${name}`, { type: "light", name, ...state.lights[name] });
-  drawLights();
+  showLight();
+  redraw();
 }
+
+// Numeric fields: three inputs for a vector (x y z) or one for a number.
+const fields = (prefix) => [0, 1, 2].map((i) => $(`${prefix}-${"xyz"[i]}`));
+const round = (v) => +Number(v).toFixed(4);
+function showVector(prefix, v) {
+  fields(prefix).forEach((f, i) => { if (document.activeElement !== f) f.value = round(v[i]); });
+}
+const readVector = (prefix) => fields(prefix).map((f) => Number(f.value));
 
 function showLight() {
   const l = state.selected && light(state.selected);
@@ -153,6 +227,18 @@ function showLight() {
   $("intensity").value = l.intensity ?? 1;
   $("intensity-value").textContent = Number(l.intensity ?? 1).toFixed(2);
   $("color").value = toHex(l.color);
+  showVector("light-position", l.position);
+  showVector("light-direction", l.direction);
+  $("light-direction-row").hidden = l.kind === "point";
+  $("light-position-row").hidden = l.kind === "sun";
+}
+
+function showCamera() {
+  const c = state.camera;
+  if (!c) return;
+  showVector("camera-position", c.position);
+  showVector("camera-target", c.target);
+  if (document.activeElement !== $("camera-fov")) $("camera-fov").value = round(c.fov);
 }
 
 const toHex = (c) => "#" + c.map((v) => Math.round(255 * Math.pow(Math.min(1, Math.max(0, v)), 1 / 2.2)).toString(16).padStart(2, "0")).join("");
@@ -164,18 +250,31 @@ function sendDisplay() {
 }
 ["layer", "exposure", "tonemap"].forEach((id) => $(id).addEventListener("input", sendDisplay));
 
-$("light").addEventListener("change", () => { state.selected = $("light").value; showLight(); drawLights(); });
+$("light").addEventListener("change", () => { state.selected = $("light").value; showLight(); redraw(); });
 $("intensity").addEventListener("input", () => {
   $("intensity-value").textContent = Number($("intensity").value).toFixed(2);
   if (state.selected) editLight(state.selected, { intensity: Number($("intensity").value) });
 });
 $("color").addEventListener("input", () => state.selected && editLight(state.selected, { color: fromHex($("color").value) }));
+for (const [prefix, key] of [["light-position", "position"], ["light-direction", "direction"]]) {
+  fields(prefix).forEach((f) => f.addEventListener("change", () => {
+    const v = readVector(prefix);
+    if (state.selected && v.every(Number.isFinite)) editLight(state.selected, { [key]: v });
+  }));
+}
+for (const id of ["camera-position-x", "camera-position-y", "camera-position-z", "camera-target-x", "camera-target-y", "camera-target-z", "camera-fov"]) {
+  $(id).addEventListener("change", () => {
+    if (!state.camera) return;
+    const c = { position: readVector("camera-position"), target: readVector("camera-target"), fov: Number($("camera-fov").value) };
+    if ([...c.position, ...c.target, c.fov].every(Number.isFinite)) { state.camera = c; sendCamera(); }
+  });
+}
 $("light-reset").addEventListener("click", () => {
   if (!state.selected) return;
   delete state.lights[state.selected];
   send(`light:${state.selected}`, { type: "light", name: state.selected, reset: true });
   showLight();
-  drawLights();
+  redraw();
 });
 
 function setTime(t) {
@@ -202,32 +301,40 @@ $("play").addEventListener("click", () => {
 $("camera-reset").addEventListener("click", () => {
   state.camera = { ...state.scene.camera };
   send("camera", { type: "camera", camera: null });
-  showLua();
+  showCamera();
 });
+$("undo").addEventListener("click", () => ask({ type: "undo" }));
+$("redo").addEventListener("click", () => ask({ type: "redo" }));
+document.addEventListener("keydown", (e) => {
+  if (!(e.ctrlKey || e.metaKey) || e.target.tagName === "INPUT") return;
+  const key = e.key.toLowerCase();
+  if (key === "z" || key === "y") {
+    e.preventDefault();
+    ask({ type: key === "y" || e.shiftKey ? "redo" : "undo" });
+  }
+});
+// The shown frame as a PNG, named after the scene, the frame's own time and its number.
 $("save").addEventListener("click", () => {
-  if (!state.frames) return;
+  const h = state.last;
+  if (!h) return;
   film.toBlob((blob) => {
     const a = document.createElement("a");
     a.href = URL.createObjectURL(blob);
-    a.download = `${(state.scene?.name || "refrakt").replace(/\.[^.]*$/, "")}.t${state.time.toFixed(2)}s.png`;
+    a.download = `${(state.scene?.name || "refrakt").replace(/\.[^.]*$/, "")}.t${h.time.toFixed(2)}s.frame${h.frame}.${h.layer}.png`;
     a.click();
     setTimeout(() => URL.revokeObjectURL(a.href), 1000);
   }, "image/png");
 });
-$("copy").addEventListener("click", async () => {
-  const text = showLua();
-  try { await navigator.clipboard.writeText(text); } catch { /* shown below the button instead */ }
-});
-$("hdr").addEventListener("click", () => socket?.readyState === WebSocket.OPEN && socket.send(JSON.stringify({ type: "hdr" })));
-
-function showLua() {
-  const c = state.camera, s = state.scene;
-  if (!c || !s) return "";
-  const v = (a) => `{${a.map((x) => +x.toFixed(4)).join(", ")}}`;
-  const text = `camera = r.camera{ position = ${v(c.position)}, target = ${v(c.target)}, fov = ${+c.fov.toFixed(3)}, size = {${s.size[0]}, ${s.size[1]}} },`;
+$("copy").addEventListener("click", () => ask({ type: "lua" }));
+function showLua(text) {
   $("lua").textContent = text;
-  return text;
+  navigator.clipboard?.writeText(text).catch(() => { /* shown below the button instead */ });
 }
+$("probe-button").addEventListener("click", () => {
+  state.probing = !state.probing;
+  $("probe-button").textContent = state.probing ? "Stop reading values" : "Read HDR values";
+  $("probe").textContent = state.probing ? "point at the image" : "";
+});
 
 // ---- camera and light geometry ---------------------------------------------------------------
 const sub = (a, b) => a.map((v, i) => v - b[i]);
@@ -277,7 +384,8 @@ function drawLights() {
 
 function sendCamera() {
   send("camera", { type: "camera", camera: state.camera });
-  showLua();
+  showCamera();
+  redraw();
 }
 
 function orbit(dx, dy) {
@@ -376,15 +484,18 @@ canvas.addEventListener("pointerup", release);
 canvas.addEventListener("pointercancel", release);
 canvas.addEventListener("wheel", (e) => { e.preventDefault(); if (state.camera) zoom(Math.exp(e.deltaY * 0.001)); }, { passive: false });
 
-// The linear value under the cursor, from the last HDR frame.
+// The linear values under the cursor, asked of the server for that one pixel of the shown frame.
+let probeAsked = false;
 function probe([x, y]) {
-  const h = state.hdr;
-  if (!h) return;
-  const { width, height, channels, layer } = h.header;
-  const i = Math.floor(y) * width + Math.floor(x);
-  if (x < 0 || y < 0 || x >= width || y >= height) return;
-  const v = Array.from(h.values.slice(i * channels, (i + 1) * channels), (f) => f.toPrecision(4));
-  $("probe").textContent = `${layer} at (${Math.floor(x)}, ${Math.floor(y)}): ${v.join(", ")}`;
+  if (!state.probing || !state.last || probeAsked) return;
+  const px = Math.floor(x), py = Math.floor(y);
+  if (px < 0 || py < 0 || px >= state.last.width || py >= state.last.height) return;
+  probeAsked = true;
+  requestAnimationFrame(() => { probeAsked = false; ask({ type: "hdr", region: [px, py, 1, 1] }); });
+}
+function showProbe(header, values) {
+  const [x, y] = header.region;
+  $("probe").textContent = `${header.layer} at (${x}, ${y}): ${Array.from(values, (f) => f.toPrecision(4)).join(", ")}`;
 }
 
 connect();

@@ -43,6 +43,10 @@ pub fn measure(opts: &BenchOptions, eval: &EvalOptions, seconds: f64) -> Result<
         debounce: Duration::from_millis(10),
         time: 0.0,
         display: Display::default(),
+        // Moves arrive every 2 ms: a still view never forms; refinement would only blur that.
+        refine: 0,
+        refine_for: Duration::ZERO,
+        origins: Vec::new(),
     };
     let running = start(&path, &serve)?;
     let url = format!("ws://{}/ws", running.addr);

@@ -71,6 +71,13 @@ impl Player {
         self.clips.iter().any(|c| !c.channels.is_empty())
     }
 
+    /// The length of the longest clip, seconds (its samplers' last key); `None` when nothing
+    /// is animated.
+    pub fn duration(&self) -> Option<f64> {
+        let ends = self.clips.iter().flat_map(|c| c.channels.iter().filter_map(|ch| c.samplers.get(ch.sampler)?.times.last().copied()));
+        ends.map(f64::from).reduce(f64::max)
+    }
+
     /// Sets transforms and weights to the animations' values at `t` seconds.
     pub fn pose(&mut self, t: f64) {
         let (nodes, weights) = (&self.nodes, &mut self.weights);

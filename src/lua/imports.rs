@@ -107,6 +107,11 @@ pub fn deform(lua: &Lua, scene: &Scene) {
 }
 
 /// Whether any import has an animation.
+/// The longest animation of the imported files, seconds.
+pub fn duration(lua: &Lua) -> Option<f64> {
+    lua.app_data_ref::<Imports>().and_then(|i| i.0.borrow().iter().filter_map(Player::duration).reduce(f64::max))
+}
+
 pub fn is_animated(lua: &Lua) -> bool {
     lua.app_data_ref::<Imports>().is_some_and(|i| i.0.borrow().iter().any(Player::is_animated))
 }

@@ -145,6 +145,11 @@ impl ScriptHost {
         self.update.is_some() || imports::is_animated(&self.lua)
     }
 
+    /// The longest animation of the glTF files the script imported, seconds.
+    pub fn imports_duration(&self) -> Option<f64> {
+        imports::duration(&self.lua)
+    }
+
     /// Poses imported glTF files at t (seconds), calls `update(scene, t)` if the script
     /// defines it, then deforms the imports' skinned and morphed meshes for the final pose.
     pub fn update(&self, t: f64) -> Result<()> {

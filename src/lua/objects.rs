@@ -172,7 +172,7 @@ impl UserData for LQuat {
 // ---------------------------------------------------------------------------------------------
 // Scene.
 
-const SCENE_FIELDS: &[&str] = &["camera", "environment", "volume", "photons", "samples", "fog", "children"];
+const SCENE_FIELDS: &[&str] = &["camera", "environment", "volume", "photons", "samples", "duration", "fog", "children"];
 
 impl LuaObject for Scene {
     fn kind(&self) -> &'static str {
@@ -188,6 +188,7 @@ impl LuaObject for Scene {
             "volume" => Obj(self.volume.clone()).into_lua(lua),
             "photons" => Ok(Value::Integer(self.photons as i64)),
             "samples" => Ok(Value::Integer(self.samples as i64)),
+            "duration" => Ok(self.duration.map_or(Value::Nil, Value::Number)),
             "fog" => obj_value(lua, &self.fog),
             "children" => node_list(lua, &self.roots),
             _ => Err(unknown_field(lua, "scene", key, SCENE_FIELDS)),
@@ -221,6 +222,12 @@ impl LuaObject for Scene {
             }
             "photons" => self.photons = cv::integer(lua, name, &value, 0, 1 << 30)? as u32,
             "samples" => self.samples = cv::integer(lua, name, &value, 1, 256)? as u32,
+            "duration" => {
+                self.duration = match value {
+                    Value::Nil => None,
+                    _ => Some(cv::number_in(lua, name, &value, Some(0.0), Some(1e6), "a length in seconds from 0 to 10⁶")?),
+                }
+            }
             "fog" => {
                 self.fog = match &value {
                     Value::Table(t) => Some(construct(lua, Fog::default(), Some(t.clone()), &[])?.0),

@@ -141,6 +141,12 @@ pub struct Renderer {
     /// Which layers frames bring back (`Layers::Beauty` when only a PNG or a preview is made).
     /// Not a [`RenderSettings`]: it changes what is read, not what is rendered.
     pub layers: Layers,
+    /// Progressive refinement (`refrakt serve` while the view is still): pass k > 0 traces
+    /// camera samples k·samples … (k+1)·samples − 1 and adds their mean to the planes the pass
+    /// before left, so after K passes the planes hold K times the mean of K·samples samples —
+    /// the caller divides by K. Pass k must follow pass k − 1 of the same frame description;
+    /// 0 (the default) renders a frame of its own.
+    pub refinement: u32,
     pub profiler: Profiler,
     pub counters: Counters,
     stats: Option<PhotonStats>,
@@ -241,6 +247,7 @@ impl Renderer {
             target: None,
             settings: RenderSettings::default(),
             layers: Layers::All,
+            refinement: 0,
             profiler,
             counters: Counters::default(),
             stats: None,
@@ -520,6 +527,7 @@ impl Renderer {
             target,
             caustics: photons,
             scattering: deposit,
+            sample_first: self.refinement * desc.samples.max(1),
         };
         self.view.encode(&self.ctx, &mut enc, &mut self.profiler, desc, &inputs); // grids, octree, receivers, lights, radiance, environment → frame
         target.encode_readback(&mut enc, readback, self.layers);

@@ -49,6 +49,8 @@ pub struct ViewInputs<'a> {
     pub caustics: bool,
     /// Whether the radiance grid holds this frame's fluence.
     pub scattering: bool,
+    /// The frame's first camera sample ([`Renderer::refinement`](super::Renderer::refinement)).
+    pub sample_first: u32,
 }
 
 /// Where camera sample k falls inside its pixel (0..1 on each axis): the R2 low-discrepancy
@@ -84,9 +86,10 @@ pub fn dispatches(params: ViewParams, device_type: wgpu::DeviceType) -> Vec<View
     // On a CPU adapter, a dispatch traces at most CPU_SAMPLES_PER_DISPATCH paths per pixel,
     // companions included.
     let per = if device_type == wgpu::DeviceType::Cpu { (CPU_SAMPLES_PER_DISPATCH / params.wavelengths_per_sample.max(1)).max(1) } else { params.samples };
-    (0..params.samples)
+    let end = params.sample_first + params.sample_count;
+    (params.sample_first..end)
         .step_by(per as usize)
-        .map(|first| ViewParams { sample_first: first, sample_count: per.min(params.samples - first), ..params })
+        .map(|first| ViewParams { sample_first: first, sample_count: per.min(end - first), ..params })
         .collect()
 }
 
@@ -141,6 +144,7 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
         step: v.step,
         medium_eps: MEDIUM_EPS,
         samples: desc.samples.max(1),
+        sample_first: inputs.sample_first,
         sample_count: desc.samples.max(1),
         light_count: inputs.lights.light_count,
         // In a scattering medium the in-scattered light varies voxel to voxel: sample each.
@@ -151,7 +155,6 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
         camera_media_hi: camera_media[1],
         grid_dispersion: spectrum.grid_dispersion,
         wavelengths_per_sample: wavelengths_per_sample(spectrum.spectral, desc.samples),
-        ..Default::default()
     }
 }
 

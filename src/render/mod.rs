@@ -207,6 +207,15 @@ impl SceneSource {
         }
     }
 
+    /// The animation's length, seconds: the scene's `duration` if it says, else the longest of
+    /// its glTF animations.
+    pub fn duration(&self) -> Option<f64> {
+        match self {
+            SceneSource::Lua(host) => host.scene().borrow().duration.or_else(|| host.imports_duration()),
+            SceneSource::Gltf(g) => g.player.duration(),
+        }
+    }
+
     /// The scene graph as it stands (after the last `frame_desc`).
     pub fn with_scene<R>(&self, f: impl FnOnce(&Scene) -> R) -> R {
         match self {

@@ -189,6 +189,8 @@ pub struct Scene {
     pub fog: Option<Shared<Fog>>,
     /// Camera rays per pixel.
     pub samples: u32,
+    /// The animation's length, seconds, where the script says (live sessions' time slider).
+    pub duration: Option<f64>,
     pub roots: Vec<Shared<Node>>,
     /// Folder of the scene file: relative asset paths resolve here.
     pub base_dir: PathBuf,
@@ -203,6 +205,7 @@ impl Default for Scene {
             photons: 70_000,
             fog: None,
             samples: 4,
+            duration: None,
             roots: Vec::new(),
             base_dir: PathBuf::from("."),
         }

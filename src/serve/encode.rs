@@ -130,10 +130,20 @@ pub fn jpeg(image: &Image, d: &Display) -> Result<(Vec<u8>, Vec<[u32; 3]>)> {
     Ok((bytes, table))
 }
 
-/// The layer's linear values as little-endian `f32`s, and how many a pixel has.
-pub fn hdr(image: &Image, layer: LayerChoice) -> Result<(Vec<u8>, u32)> {
+/// The layer's linear values in `region` (x, y, width, height) as little-endian `f32`s, rows
+/// top to bottom, and how many a pixel has. The region must lie inside the frame.
+pub fn hdr(image: &Image, layer: LayerChoice, [x, y, w, h]: [u32; 4]) -> Result<(Vec<u8>, u32)> {
     let (data, channels, _) = layer_data(image, layer)?;
-    Ok((bytemuck::cast_slice(data).to_vec(), channels as u32))
+    let inside = x.checked_add(w).is_some_and(|r| r <= image.width) && y.checked_add(h).is_some_and(|b| b <= image.height);
+    if !inside || w == 0 || h == 0 {
+        return Err(anyhow!("the region {w}×{h} at ({x}, {y}) is not inside the {}×{} frame", image.width, image.height));
+    }
+    let mut out = Vec::with_capacity(4 * channels * (w * h) as usize);
+    for row in y..y + h {
+        let start = channels * (row * image.width + x) as usize;
+        out.extend_from_slice(bytemuck::cast_slice(&data[start..start + channels * w as usize]));
+    }
+    Ok((out, channels as u32))
 }
 
 #[cfg(test)]
@@ -172,6 +182,20 @@ mod tests {
         let (jpeg, strips) = jpeg(&image([0.3; 4], None), &Display::default()).unwrap();
         assert_eq!(&jpeg[..2], &[0xFF, 0xD8]);
         assert_eq!(strips, vec![[0, 2, jpeg.len() as u32]]);
+    }
+
+    #[test]
+    fn an_hdr_region_is_its_rows_of_the_layer_and_one_outside_is_refused() {
+        let data: Vec<f32> = (0..24).map(|i| i as f32).collect();
+        let img = Image { width: 3, height: 2, layers: vec![Layer::new("beauty", &["R", "G", "B", "A"], data)] };
+        let (bytes, channels) = hdr(&img, LayerChoice::Beauty, [1, 0, 2, 2]).unwrap();
+        let values: Vec<f32> = bytes.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+        assert_eq!(channels, 4);
+        assert_eq!(values, [4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 16.0, 17.0, 18.0, 19.0, 20.0, 21.0, 22.0, 23.0]);
+        assert_eq!(hdr(&img, LayerChoice::Beauty, [0, 0, 3, 2]).unwrap().0.len(), 4 * 24);
+        for bad in [[2, 0, 2, 1], [0, 1, 1, 2], [u32::MAX, 0, 2, 1], [0, 0, 0, 1]] {
+            assert!(hdr(&img, LayerChoice::Beauty, bad).is_err(), "{bad:?}");
+        }
     }
 
     #[test]

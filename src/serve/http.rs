@@ -6,11 +6,16 @@
 //!   page's URL; an upgrade without it is refused.
 //! - **Host**: bound to loopback, the `Host` must be a loopback name or address, so a web page
 //!   whose own name resolves to 127.0.0.1 (DNS rebinding) is refused.
-//! - **Origin**: when present (browsers always send it), it must be this server's own origin, so
-//!   a page from anywhere else open in the same browser cannot drive the renderer.
+//! - **Origin**: when present (browsers always send it), it must be this server's own origin
+//!   (`http://` or, behind a TLS proxy, `https://` and the same host), so a page from anywhere
+//!   else open in the same browser cannot drive the renderer.
 //!
-//! Messages are bounded in size ([`MAX_MESSAGE_BYTES`]) and rate ([`Bucket`]); each is merged
-//! into the session's state at once (newest wins), so a flood never queues work.
+//! Messages are bounded in size ([`MAX_MESSAGE_BYTES`]) and rate ([`Bucket`]: per page and for
+//! all pages together), pages in number ([`MAX_CONNECTIONS`]); each message is merged into the
+//! session's state at once (newest wins), so a flood never queues work. What answers one page
+//! (a warning, HDR values) goes to that page alone. The page's own files come with a
+//! Content-Security-Policy that allows nothing but themselves and the WebSocket, and may be
+//! framed by no other site.
 
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
@@ -27,16 +32,28 @@ use serde::Deserialize;
 use serde_json::json;
 
 use super::protocol::{ClientMessage, MAX_MESSAGE_BYTES};
-use super::{Event, Shared};
+use super::{Event, MAX_CONNECTIONS, Shared};
 
 const INDEX_HTML: &str = include_str!("../../web/index.html");
 const APP_JS: &str = include_str!("../../web/app.js");
 const STYLE_CSS: &str = include_str!("../../web/style.css");
+const FAVICON_SVG: &str = include_str!("../../web/favicon.svg");
 
 /// Messages a page may send per second, on average…
 const RATE: f64 = 1000.0;
 /// …and in one burst.
 const BURST: f64 = 2000.0;
+/// Messages all pages together may send per second, and in one burst.
+pub const SERVER_RATE: f64 = 4000.0;
+pub const SERVER_BURST: f64 = 8000.0;
+/// Warnings a page is sent per second, and in one burst (more are dropped).
+const WARNING_RATE: f64 = 10.0;
+const WARNING_BURST: f64 = 50.0;
+
+/// The page's files may load only themselves and speak only to this server's WebSocket (the
+/// frames are drawn from `blob:` URLs), and no other site may frame them.
+const CONTENT_SECURITY_POLICY: &str = "default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' blob: data:; \
+     connect-src 'self'; base-uri 'none'; form-action 'none'; frame-ancestors 'self'";
 
 /// Serves until the session stops (run on a thread of its own).
 pub fn serve(listener: std::net::TcpListener, shared: Arc<Shared>) -> Result<()> {
@@ -63,13 +80,22 @@ fn router(shared: Arc<Shared>) -> Router {
         .route("/", get(|| async { asset("text/html; charset=utf-8", INDEX_HTML) }))
         .route("/app.js", get(|| async { asset("text/javascript; charset=utf-8", APP_JS) }))
         .route("/style.css", get(|| async { asset("text/css; charset=utf-8", STYLE_CSS) }))
+        .route("/favicon.svg", get(|| async { asset("image/svg+xml", FAVICON_SVG) }))
+        .route("/favicon.ico", get(|| async { asset("image/svg+xml", FAVICON_SVG) }))
         .route("/ws", get(upgrade))
         .fallback(|| async { (StatusCode::NOT_FOUND, "refrakt serve has only its page: /") })
         .with_state(shared)
 }
 
 fn asset(kind: &'static str, body: &'static str) -> Response {
-    ([(header::CONTENT_TYPE, kind), (header::CACHE_CONTROL, "no-cache")], body).into_response()
+    let headers = [
+        (header::CONTENT_TYPE, kind),
+        (header::CACHE_CONTROL, "no-cache"),
+        (header::CONTENT_SECURITY_POLICY, CONTENT_SECURITY_POLICY),
+        (header::X_CONTENT_TYPE_OPTIONS, "nosniff"),
+        (header::REFERRER_POLICY, "no-referrer"),
+    ];
+    (headers, body).into_response()
 }
 
 #[derive(Deserialize)]
@@ -78,15 +104,19 @@ struct WsQuery {
 }
 
 async fn upgrade(State(shared): State<Arc<Shared>>, Query(q): Query<WsQuery>, headers: HeaderMap, ws: WebSocketUpgrade) -> Response {
-    if let Err(why) = check_upgrade(&headers, q.token.as_deref(), shared.token.as_deref()) {
+    if let Err(why) = check_upgrade(&headers, q.token.as_deref(), shared.token.as_deref(), &shared.origins) {
         tracing::warn!("refused a WebSocket: {why}");
         return (StatusCode::FORBIDDEN, why).into_response();
+    }
+    if shared.open.load(Ordering::SeqCst) >= MAX_CONNECTIONS {
+        return (StatusCode::SERVICE_UNAVAILABLE, format!("refrakt serve takes at most {MAX_CONNECTIONS} pages at once")).into_response();
     }
     ws.max_message_size(MAX_MESSAGE_BYTES).max_frame_size(MAX_MESSAGE_BYTES).on_upgrade(move |socket| connection(socket, shared))
 }
 
-/// Whether an upgrade may go ahead (see the module's notes); the reason when not.
-pub fn check_upgrade(headers: &HeaderMap, token: Option<&str>, expected: Option<&str>) -> Result<(), &'static str> {
+/// Whether an upgrade may go ahead (see the module's notes); the reason when not. `origins`:
+/// the page's public origins behind a proxy (`--origin`), taken as its own, Host and Origin.
+pub fn check_upgrade(headers: &HeaderMap, token: Option<&str>, expected: Option<&str>, origins: &[String]) -> Result<(), &'static str> {
     let text = |name| headers.get(name).and_then(|v| v.to_str().ok());
     if let Some(expected) = expected
         && !token.is_some_and(|t| constant_time_eq(t.as_bytes(), expected.as_bytes()))
@@ -94,11 +124,16 @@ pub fn check_upgrade(headers: &HeaderMap, token: Option<&str>, expected: Option<
         return Err("the access token is missing or wrong (use the URL refrakt serve printed)");
     }
     let host = text(header::HOST).ok_or("no Host header")?;
-    if expected.is_none() && !is_loopback_host(host) {
-        return Err("this server listens on loopback only; the Host is not a loopback name");
+    let public = |host: &str| origins.iter().any(|o| o.split_once("://").is_some_and(|(_, h)| h.eq_ignore_ascii_case(host)));
+    if expected.is_none() && !is_loopback_host(host) && !public(host) {
+        return Err("this server listens on loopback only; the Host is not a loopback name (behind a proxy, name its origin with --origin)");
     }
+    // Behind a TLS proxy that passes the Host on, the page is https:// on the same Host.
+    let own = |origin: &str| {
+        ["http://", "https://"].iter().any(|scheme| origin.eq_ignore_ascii_case(&format!("{scheme}{host}"))) || origins.iter().any(|o| o.eq_ignore_ascii_case(origin))
+    };
     match text(header::ORIGIN) {
-        Some(origin) if !origin.eq_ignore_ascii_case(&format!("http://{host}")) => Err("the Origin is not this server's page"),
+        Some(origin) if !own(origin) => Err("the Origin is not this server's page (behind a proxy, name its origin with --origin)"),
         _ => Ok(()),
     }
 }
@@ -116,33 +151,29 @@ fn is_loopback_host(host: &str) -> bool {
     name.eq_ignore_ascii_case("localhost") || name.parse::<std::net::IpAddr>().is_ok_and(|ip| ip.is_loopback())
 }
 
-/// A token bucket: `BURST` messages at once, `RATE` a second after that.
+/// A token bucket: `burst` messages at once, `rate` a second after that.
 pub struct Bucket {
     tokens: f64,
+    rate: f64,
+    burst: f64,
     last: Instant,
 }
 
 impl Bucket {
-    pub fn new() -> Self {
-        Self { tokens: BURST, last: Instant::now() }
+    pub fn new(rate: f64, burst: f64) -> Self {
+        Self { tokens: burst, rate, burst, last: Instant::now() }
     }
 
     /// Whether one more message may be taken now.
     pub fn take(&mut self) -> bool {
         let now = Instant::now();
-        self.tokens = (self.tokens + RATE * (now - self.last).as_secs_f64()).min(BURST);
+        self.tokens = (self.tokens + self.rate * (now - self.last).as_secs_f64()).min(self.burst);
         self.last = now;
         if self.tokens < 1.0 {
             return false;
         }
         self.tokens -= 1.0;
         true
-    }
-}
-
-impl Default for Bucket {
-    fn default() -> Self {
-        Self::new()
     }
 }
 
@@ -153,24 +184,41 @@ fn text_message(event: &Event) -> Message {
     }
 }
 
-/// One page's connection: sends it the newest frame and the events; merges its messages into
-/// the session. Ends (freeing what it holds) when the page goes or the server stops.
+/// Counts a page's connection while it is open.
+struct Open<'a>(&'a Shared);
+
+impl Drop for Open<'_> {
+    fn drop(&mut self) {
+        self.0.open.fetch_sub(1, Ordering::SeqCst);
+    }
+}
+
+/// One page's connection: tells it who it is and the session as it stands (scene, state,
+/// error, activity, the newest frame), then every change; takes its messages. Ends (freeing
+/// what it holds) when the page goes or the server stops.
 async fn connection(mut socket: WebSocket, shared: Arc<Shared>) {
+    shared.open.fetch_add(1, Ordering::SeqCst);
+    let _open = Open(&shared);
+    let me = shared.connections.fetch_add(1, Ordering::SeqCst) + 1;
     let mut frames = shared.frames.subscribe();
     let mut events = shared.events.subscribe();
+    let (mut state, mut activity) = (shared.state.subscribe(), shared.activity.subscribe());
+    let hello = Event::text("hello", json!({ "connection": me }));
     let greeting: Vec<Event> = [&shared.scene, &shared.error].iter().filter_map(|m| m.lock().unwrap_or_else(|e| e.into_inner()).clone()).collect();
-    for event in &greeting {
+    for event in std::iter::once(&hello).chain(&greeting) {
         if socket.send(text_message(event)).await.is_err() {
             return;
         }
     }
-    frames.mark_changed(); // the newest frame, if there is one, goes first
-    let mut bucket = Bucket::new();
-    let mut warned = false;
+    // The state, the activity and the newest frame, if there is one, go first.
+    state.mark_changed();
+    activity.mark_changed();
+    frames.mark_changed();
+    let mut page = Page { me, shared: &shared, bucket: Bucket::new(RATE, BURST), warnings: Bucket::new(WARNING_RATE, WARNING_BURST), warned: false };
     let mut tick = tokio::time::interval(Duration::from_millis(200));
     loop {
-        // Biased, in this order: an event (rare: a scene load, an error) goes before the frame
-        // that follows it, and a flood of incoming messages cannot starve the frames.
+        // Biased, in this order: an event (rare: a scene load, an error) goes before the state
+        // and the frame that follow it, and a flood of incoming messages cannot starve them.
         let outgoing = tokio::select! {
             biased;
             event = events.recv() => match event {
@@ -178,15 +226,20 @@ async fn connection(mut socket: WebSocket, shared: Arc<Shared>) {
                 Err(tokio::sync::broadcast::error::RecvError::Lagged(_)) => None,
                 Err(_) => return,
             },
+            changed = state.changed() => match changed {
+                Ok(()) => Some(Message::text(state.borrow_and_update().to_string())),
+                Err(_) => return,
+            },
+            changed = activity.changed() => match changed {
+                Ok(()) => Some(Message::text(activity.borrow_and_update().to_string())),
+                Err(_) => return,
+            },
             changed = frames.changed() => match changed {
                 Ok(()) => frames.borrow_and_update().clone().map(Message::binary),
                 Err(_) => return,
             },
             incoming = socket.recv() => match incoming {
-                Some(Ok(Message::Text(text))) if bucket.take() => take_message(&text, &shared).map(|e| Message::text(e.to_string())),
-                Some(Ok(Message::Text(_))) if !std::mem::replace(&mut warned, true) => {
-                    Some(Message::text(json!({ "type": "warning", "message": "too many messages: some were dropped" }).to_string()))
-                }
+                Some(Ok(Message::Text(text))) => page.take(&text),
                 Some(Ok(Message::Close(_))) | Some(Err(_)) | None => return,
                 Some(Ok(_)) => None,
             },
@@ -201,63 +254,44 @@ async fn connection(mut socket: WebSocket, shared: Arc<Shared>) {
     }
 }
 
-/// Merges one page message into the session; a message that cannot be taken gets an answer.
-fn take_message(text: &str, shared: &Shared) -> Option<serde_json::Value> {
-    let message: ClientMessage = match serde_json::from_str(text) {
-        Ok(m) => m,
-        Err(e) => return Some(json!({ "type": "warning", "message": format!("a message the server does not understand: {e}") })),
-    };
-    if let Err(e) = message.check() {
-        return Some(json!({ "type": "warning", "message": e }));
-    }
-    apply(message, shared);
-    None
+/// One page, as its connection sees it: who it is and its allowances.
+struct Page<'a> {
+    me: u64,
+    shared: &'a Shared,
+    bucket: Bucket,
+    warnings: Bucket,
+    /// Whether it has been told that it sends too much.
+    warned: bool,
 }
 
-/// Puts a checked message into the session's state.
-pub fn apply(message: ClientMessage, shared: &Shared) {
-    let mark = |s: &mut super::ViewState, id: u64| {
-        if id != 0 {
-            s.input = id;
+impl Page<'_> {
+    /// Takes one message from the page; what answers it, for this page alone.
+    fn take(&mut self, text: &str) -> Option<Message> {
+        if !self.bucket.take() || !lock(&self.shared.bucket).take() {
+            return (!std::mem::replace(&mut self.warned, true)).then(|| warning("too many messages: some were dropped"));
         }
-    };
-    match message {
-        ClientMessage::Camera { id, camera } => shared.view.update(|s| {
-            s.camera = camera;
-            mark(s, id)
-        }),
-        ClientMessage::Light { id, name, edit, reset } => shared.view.update(|s| {
-            if reset {
-                s.lights.remove(&name);
-            } else {
-                let e = s.lights.entry(name).or_default();
-                e.position = edit.position.or(e.position);
-                e.direction = edit.direction.or(e.direction);
-                e.intensity = edit.intensity.or(e.intensity);
-                e.color = edit.color.or(e.color);
-            }
-            mark(s, id)
-        }),
-        ClientMessage::Param { id, name, value } => shared.view.update(|s| {
-            s.params.insert(name, value);
-            mark(s, id)
-        }),
-        ClientMessage::Time { id, time } => shared.view.update(|s| {
-            s.time = time;
-            mark(s, id)
-        }),
-        ClientMessage::Display { id, display } => {
-            let all = display.layer.needs_all_layers();
-            if shared.view.peek().all_layers != all || id != 0 {
-                shared.view.update(|s| {
-                    s.all_layers = all;
-                    mark(s, id)
-                });
-            }
-            shared.encoder.update(|i| i.display = display);
+        self.warned = false;
+        let answer = match serde_json::from_str::<ClientMessage>(text) {
+            Err(e) => Err(format!("a message the server does not understand: {e}")),
+            Ok(message) => message.check().and_then(|()| match message {
+                ClientMessage::Hdr { region } => super::hdr_message(self.shared, region).map(|m| Some(Message::binary(m))),
+                ClientMessage::Lua => Ok(self.shared.edits_lua().map(|lua| Message::text(json!({ "type": "lua", "lua": lua }).to_string()))),
+                message => self.shared.edit(&message, self.me).map(|()| None),
+            }),
+        };
+        match answer {
+            Ok(reply) => reply,
+            Err(why) => self.warnings.take().then(|| warning(&why)),
         }
-        ClientMessage::Hdr => shared.encoder.update(|i| i.hdr_requests += 1),
     }
+}
+
+fn warning(message: &str) -> Message {
+    Message::text(json!({ "type": "warning", "message": message }).to_string())
+}
+
+fn lock<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 #[cfg(test)]
@@ -276,28 +310,44 @@ mod tests {
 
     #[test]
     fn loopback_takes_its_own_page_and_refuses_other_origins_and_rebound_names() {
-        assert!(check_upgrade(&headers("127.0.0.1:8080", Some("http://127.0.0.1:8080")), None, None).is_ok());
-        assert!(check_upgrade(&headers("localhost:8080", Some("http://localhost:8080")), None, None).is_ok());
-        assert!(check_upgrade(&headers("[::1]:8080", Some("http://[::1]:8080")), None, None).is_ok());
-        assert!(check_upgrade(&headers("127.0.0.1:8080", None), None, None).is_ok(), "a client that is not a browser");
-        assert!(check_upgrade(&headers("127.0.0.1:8080", Some("http://evil.example")), None, None).is_err());
-        assert!(check_upgrade(&headers("127.0.0.1:8080", Some("http://127.0.0.1:9999")), None, None).is_err());
-        assert!(check_upgrade(&headers("evil.example:8080", Some("http://evil.example:8080")), None, None).is_err());
+        assert!(check_upgrade(&headers("127.0.0.1:8080", Some("http://127.0.0.1:8080")), None, None, &[]).is_ok());
+        assert!(check_upgrade(&headers("localhost:8080", Some("http://localhost:8080")), None, None, &[]).is_ok());
+        assert!(check_upgrade(&headers("[::1]:8080", Some("http://[::1]:8080")), None, None, &[]).is_ok());
+        assert!(check_upgrade(&headers("127.0.0.1:8080", None), None, None, &[]).is_ok(), "a client that is not a browser");
+        assert!(check_upgrade(&headers("127.0.0.1:8080", Some("http://evil.example")), None, None, &[]).is_err());
+        assert!(check_upgrade(&headers("127.0.0.1:8080", Some("http://127.0.0.1:9999")), None, None, &[]).is_err());
+        assert!(check_upgrade(&headers("evil.example:8080", Some("http://evil.example:8080")), None, None, &[]).is_err());
+    }
+
+    #[test]
+    fn behind_a_tls_proxy_the_https_origin_of_the_same_host_is_the_page() {
+        assert!(check_upgrade(&headers("localhost:8443", Some("https://localhost:8443")), None, None, &[]).is_ok());
+        let h = headers("render.example:443", Some("https://render.example:443"));
+        assert!(check_upgrade(&h, Some("t"), Some("t"), &[]).is_ok());
+        assert!(check_upgrade(&headers("render.example:443", Some("https://evil.example")), Some("t"), Some("t"), &[]).is_err());
+        assert!(check_upgrade(&headers("localhost:8443", Some("ftp://localhost:8443")), None, None, &[]).is_err());
+        // A proxy that passes its own Host on to a server on loopback: named by --origin.
+        let public = ["https://render.example".to_string()];
+        let proxied = headers("render.example", Some("https://render.example"));
+        assert!(check_upgrade(&proxied, None, None, &[]).is_err());
+        assert!(check_upgrade(&proxied, None, None, &public).is_ok());
+        assert!(check_upgrade(&headers("localhost:8080", Some("https://render.example")), None, None, &public).is_ok(), "a proxy that sets Host");
+        assert!(check_upgrade(&headers("render.example", Some("https://evil.example")), None, None, &public).is_err());
     }
 
     #[test]
     fn beyond_loopback_the_token_is_required() {
         let h = headers("10.0.0.5:8080", Some("http://10.0.0.5:8080"));
-        assert!(check_upgrade(&h, Some("abc123"), Some("abc123")).is_ok());
-        assert!(check_upgrade(&h, Some("abc124"), Some("abc123")).is_err());
-        assert!(check_upgrade(&h, None, Some("abc123")).is_err());
+        assert!(check_upgrade(&h, Some("abc123"), Some("abc123"), &[]).is_ok());
+        assert!(check_upgrade(&h, Some("abc124"), Some("abc123"), &[]).is_err());
+        assert!(check_upgrade(&h, None, Some("abc123"), &[]).is_err());
         let elsewhere = headers("10.0.0.5:8080", Some("http://evil.example"));
-        assert!(check_upgrade(&elsewhere, Some("abc123"), Some("abc123")).is_err());
+        assert!(check_upgrade(&elsewhere, Some("abc123"), Some("abc123"), &[]).is_err());
     }
 
     #[test]
     fn the_bucket_allows_a_burst_then_its_rate() {
-        let mut b = Bucket::new();
+        let mut b = Bucket::new(RATE, BURST);
         let taken = (0..3 * BURST as usize).filter(|_| b.take()).count();
         assert!(taken >= BURST as usize && taken < BURST as usize + 100, "{taken}");
     }

@@ -4,9 +4,11 @@
 //!
 //! - **HTTP + WebSocket** ([`http`], axum on tokio): serves the page (static files built into
 //!   the binary, `web/`), checks each WebSocket upgrade (Origin, Host, token), and merges each
-//!   page message into the session's [`ViewState`] or [`Display`].
+//!   page message into the session's one truth ([`state::Truth`]), which every page is sent
+//!   whole on connect and after each change: pages stay in step with each other and the frame.
 //! - **Renderer thread** ([`session`]): owns the GPU; takes the newest view state, renders it
-//!   with the renderer's stage reuse, reloads the scene on saves as `refrakt watch` does.
+//!   with the renderer's stage reuse, reloads the scene on saves as `refrakt watch` does, and
+//!   while nothing changes refines the still view, sample by sample.
 //! - **Encoder thread** ([`encode`]): takes the newest rendered image and display settings,
 //!   encodes a JPEG and publishes it; every connection sends the newest one it has not sent.
 //!   A display change (exposure, tone mapping, layer) re-encodes without rendering.
@@ -16,10 +18,11 @@ pub mod http;
 pub mod protocol;
 pub mod session;
 pub mod slot;
+pub mod state;
 
 use std::net::{IpAddr, SocketAddr};
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
@@ -31,8 +34,9 @@ use tokio::sync::{broadcast, watch};
 use crate::output::Image;
 use crate::pipeline::reuse::Reuse;
 use crate::render::SceneOptions;
-use protocol::{Display, FrameHeader, FrameTimes, SceneInfo, ViewState, frame_message};
+use protocol::{ClientMessage, Display, FrameHeader, FrameTimes, SceneInfo, ViewState, frame_message};
 use slot::{Slot, Taken};
+use state::{PageState, Truth};
 
 /// Everything `refrakt serve` was asked to do.
 #[derive(Clone, Debug)]
@@ -46,6 +50,21 @@ pub struct ServeOptions {
     /// The scene clock's start, seconds.
     pub time: f64,
     pub display: Display,
+    /// Camera rays per pixel a still view refines to (0: it does not refine)…
+    pub refine: u32,
+    /// …for at most this long after the last change.
+    pub refine_for: Duration,
+    /// The page's public origins behind a proxy (`https://render.example`): taken as its own.
+    pub origins: Vec<String>,
+}
+
+/// Pages connected at once, at most.
+pub const MAX_CONNECTIONS: usize = 32;
+
+/// `{"type": kind, …fields}` as text.
+fn message_text(kind: &str, mut fields: Value) -> Arc<str> {
+    fields["type"] = json!(kind);
+    fields.to_string().into()
 }
 
 /// A message for every connected page.
@@ -57,9 +76,8 @@ pub enum Event {
 
 impl Event {
     /// `{"type": kind, …fields}`.
-    pub fn text(kind: &str, mut fields: Value) -> Event {
-        fields["type"] = json!(kind);
-        Event::Text(fields.to_string().into())
+    pub fn text(kind: &str, fields: Value) -> Event {
+        Event::Text(message_text(kind, fields))
     }
 }
 
@@ -68,24 +86,56 @@ pub struct Rendered {
     pub image: Image,
     pub frame: u64,
     pub input: u64,
+    pub revision: u64,
+    /// Camera rays per pixel the image averages.
+    pub samples: u32,
     pub time: f64,
     pub reused: Reuse,
     pub times: FrameTimes,
 }
 
-/// What the encoder thread reads: the newest frame, how to show it, and HDR requests.
+/// What the encoder thread reads: the newest frame and how to show it.
 #[derive(Clone, Default)]
 pub struct EncoderInbox {
     pub frame: Option<Arc<Rendered>>,
     pub display: Display,
-    /// Counts requests; the encoder answers each new count with the shown frame's floats.
-    pub hdr_requests: u64,
+}
+
+/// What the renderer is doing, for the pages' busy indicator.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Activity {
+    pub busy: bool,
+    /// The part of the frame the GPU is on: `volume`, `photons`, `view`.
+    pub stage: Option<&'static str>,
+    /// Whether the frame refines a still view (rather than showing an edit).
+    pub refining: bool,
+    /// Milliseconds the frame has taken so far, and the time the last frame of its kind took.
+    pub elapsed_ms: f64,
+    pub eta_ms: Option<f64>,
+    /// Camera rays per pixel of the newest frame, and what a still view refines to.
+    pub samples: u32,
+    pub target: u32,
 }
 
 /// What the server's threads share.
 pub struct Shared {
     pub view: Slot<ViewState>,
     pub encoder: Slot<EncoderInbox>,
+    /// The one truth: what every page shows.
+    pub truth: Mutex<Truth>,
+    /// The truth as the pages are told it (a `state` message, JSON), and the renderer's activity
+    /// (an `activity` message): the newest of each goes to every page.
+    pub state: watch::Sender<Arc<str>>,
+    pub activity: watch::Sender<Arc<str>>,
+    /// The frame the newest JPEG shows, and how: what HDR requests read.
+    pub shown: Mutex<Option<(Arc<Rendered>, Display)>>,
+    /// The scene as last loaded.
+    pub info: Mutex<Option<SceneInfo>>,
+    /// Numbers the connections, and counts those open.
+    pub connections: AtomicU64,
+    pub open: AtomicUsize,
+    /// Messages all pages together may send (besides each page's own allowance).
+    pub bucket: Mutex<http::Bucket>,
     /// The newest encoded frame message (JPEG).
     pub frames: watch::Sender<Option<Bytes>>,
     /// Scene loads, errors, HDR answers: small and rare; a page that falls behind skips some.
@@ -96,19 +146,31 @@ pub struct Shared {
     pub stop: AtomicBool,
     /// When set (`--bind` beyond loopback), WebSocket upgrades must carry `?token=`.
     pub token: Option<String>,
+    /// `ServeOptions::origins`.
+    pub origins: Vec<String>,
 }
 
 impl Shared {
-    pub fn new(state: ViewState, display: Display, token: Option<String>) -> Self {
+    pub fn new(state: PageState, token: Option<String>, origins: Vec<String>) -> Self {
+        let truth = Truth::new(state);
         Self {
-            view: Slot::new(state),
-            encoder: Slot::new(EncoderInbox { display, ..Default::default() }),
+            view: Slot::new(truth.state.view(0, 0)),
+            encoder: Slot::new(EncoderInbox { display: truth.state.display, ..Default::default() }),
+            state: watch::Sender::new(state_text(&truth)),
+            activity: watch::Sender::new(message_text("activity", json!(Activity::default()))),
+            truth: Mutex::new(truth),
+            shown: Mutex::new(None),
+            info: Mutex::new(None),
+            connections: AtomicU64::new(0),
+            open: AtomicUsize::new(0),
+            bucket: Mutex::new(http::Bucket::new(http::SERVER_RATE, http::SERVER_BURST)),
             frames: watch::Sender::new(None),
             events: broadcast::Sender::new(16),
             scene: Mutex::new(None),
             error: Mutex::new(None),
             stop: AtomicBool::new(false),
             token,
+            origins,
         }
     }
 
@@ -130,10 +192,51 @@ impl Shared {
         self.send_event(Event::text("ok", json!({})));
     }
 
+    /// A scene loaded: the pages are told of it, and edits of names it lacks are dropped.
     pub fn set_scene(&self, info: SceneInfo) {
-        let event = Event::text("scene", serde_json::to_value(info).unwrap_or_default());
+        let event = Event::text("scene", serde_json::to_value(&info).unwrap_or_default());
         *self.scene.lock().unwrap_or_else(|e| e.into_inner()) = Some(event.clone());
         let _ = self.events.send(event);
+        let mut truth = lock(&self.truth);
+        if truth.scene_loaded(&info) {
+            self.publish(&truth);
+        }
+        *lock(&self.info) = Some(info);
+    }
+
+    /// Merges an edit from connection `by` into the truth and tells the renderer, the encoder
+    /// and every page; the reason when it cannot be taken.
+    pub fn edit(&self, message: &ClientMessage, by: u64) -> Result<(), String> {
+        let mut truth = lock(&self.truth);
+        truth.apply(message, by)?;
+        self.publish(&truth);
+        Ok(())
+    }
+
+    /// Passes the truth on: to the renderer when what it renders changed, to the encoder, and
+    /// to the pages.
+    fn publish(&self, truth: &Truth) {
+        let view = truth.state.view(truth.input, truth.revision);
+        // (A display change alone re-encodes the frame shown: no render.)
+        let unchanged = |v: &ViewState| ViewState { revision: view.revision, ..v.clone() } == view;
+        if !unchanged(&self.view.peek()) {
+            self.view.update(|v| *v = view);
+        }
+        let display = truth.state.display;
+        if self.encoder.peek().display != display {
+            self.encoder.update(|i| i.display = display);
+        }
+        self.state.send_replace(state_text(truth));
+    }
+
+    pub fn set_activity(&self, activity: &Activity) {
+        self.activity.send_replace(message_text("activity", json!(activity)));
+    }
+
+    /// The scene edits as Lua (`None` before a scene loaded).
+    pub fn edits_lua(&self) -> Option<String> {
+        let info = lock(&self.info);
+        Some(lock(&self.truth).edits_lua(info.as_ref()?))
     }
 
     /// Stops both threads.
@@ -144,10 +247,19 @@ impl Shared {
     }
 }
 
-/// The encoder thread: encodes the newest frame whenever it, the display settings or an HDR
-/// request change; stops when the slot closes.
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+fn state_text(truth: &Truth) -> Arc<str> {
+    message_text("state", serde_json::to_value(truth.message()).unwrap_or_default())
+}
+
+
+/// The encoder thread: encodes the newest frame whenever it or the display settings change;
+/// stops when the slot closes.
 pub fn encode_loop(shared: &Shared) {
-    let (mut shown, mut hdr_sent) = (None, 0);
+    let mut shown = None;
     loop {
         let inbox = match shared.encoder.wait(Duration::from_secs(1)) {
             Taken::Closed => return,
@@ -162,18 +274,25 @@ pub fn encode_loop(shared: &Shared) {
         if shown != Some((frame.frame, inbox.display)) {
             shown = Some((frame.frame, inbox.display));
             match encode_jpeg(&frame, &inbox.display) {
-                Ok(message) => drop(shared.frames.send_replace(Some(Bytes::from(message)))),
+                Ok(message) => {
+                    *lock(&shared.shown) = Some((frame.clone(), inbox.display));
+                    shared.frames.send_replace(Some(Bytes::from(message)));
+                }
                 Err(e) => tracing::error!("{e:#}"),
             }
         }
-        if inbox.hdr_requests != hdr_sent {
-            hdr_sent = inbox.hdr_requests;
-            if let Ok((payload, channels)) = encode::hdr(&frame.image, inbox.display.layer) {
-                let header = header(&frame, &inbox.display, "hdr", channels, frame.times.clone(), Vec::new());
-                shared.send_event(Event::Binary(Bytes::from(frame_message(&header, &payload))));
-            }
-        }
     }
+}
+
+/// The shown frame's layer as linear floats, of `region` (the whole frame when `None`), as a
+/// binary frame message; why not, when there is none to send.
+pub fn hdr_message(shared: &Shared, region: Option<[u32; 4]>) -> Result<Vec<u8>, String> {
+    let (frame, display) = lock(&shared.shown).clone().ok_or("no frame is shown yet")?;
+    let region = region.unwrap_or([0, 0, frame.image.width, frame.image.height]);
+    let (payload, channels) = encode::hdr(&frame.image, display.layer, region).map_err(|e| format!("hdr: {e:#}"))?;
+    let mut header = header(&frame, &display, "hdr", channels, frame.times.clone(), Vec::new());
+    header.region = Some(region);
+    Ok(frame_message(&header, &payload))
 }
 
 fn encode_jpeg(frame: &Rendered, display: &Display) -> Result<Vec<u8>> {
@@ -193,6 +312,9 @@ fn header(frame: &Rendered, display: &Display, kind: &'static str, channels: u32
         layer: display.layer,
         channels,
         strips,
+        region: None,
+        samples: frame.samples,
+        revision: frame.revision,
         time: frame.time,
         reused: frame.reused,
         times,
@@ -231,8 +353,8 @@ impl Running {
 /// Starts the server: binds, starts the GPU and the threads, returns once it listens.
 pub fn start(scene: &Path, opts: &ServeOptions) -> Result<Running> {
     let token = if opts.bind.is_loopback() { None } else { Some(new_token()?) };
-    let state = ViewState { time: opts.time, ..Default::default() };
-    let shared = Arc::new(Shared::new(state, opts.display, token));
+    let state = PageState { time: opts.time, display: opts.display, ..Default::default() };
+    let shared = Arc::new(Shared::new(state, token, opts.origins.clone()));
     let listener = std::net::TcpListener::bind((opts.bind, opts.port)).with_context(|| format!("cannot listen on {}:{}", opts.bind, opts.port))?;
     listener.set_nonblocking(true)?;
     let addr = listener.local_addr()?;

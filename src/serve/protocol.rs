@@ -99,6 +99,8 @@ pub struct ViewState {
     pub params: BTreeMap<String, f64>,
     /// The id of the newest edit in this state.
     pub input: u64,
+    /// The session state's revision this is.
+    pub revision: u64,
 }
 
 /// A message from the page.
@@ -141,11 +143,32 @@ pub enum ClientMessage {
         #[serde(flatten)]
         display: Display,
     },
-    /// Send the next frame's layer as linear floats too.
-    Hdr,
+    /// Send the shown frame's layer as linear floats, of `region` (x, y, width, height in
+    /// pixels; the whole frame when left out), to this page alone.
+    Hdr {
+        #[serde(default)]
+        region: Option<[u32; 4]>,
+    },
+    /// Step back over the last scene edit (camera, light, param): one gesture at a time.
+    Undo,
+    Redo,
+    /// Send this page the scene edits as Lua (a `lua` event).
+    Lua,
 }
 
 impl ClientMessage {
+    /// The edit's id (0 when it has none).
+    pub fn id(&self) -> u64 {
+        match self {
+            ClientMessage::Camera { id, .. }
+            | ClientMessage::Light { id, .. }
+            | ClientMessage::Param { id, .. }
+            | ClientMessage::Time { id, .. }
+            | ClientMessage::Display { id, .. } => *id,
+            ClientMessage::Hdr { .. } | ClientMessage::Undo | ClientMessage::Redo | ClientMessage::Lua => 0,
+        }
+    }
+
     /// Checks the numbers a page sent: finite, and in range where a range applies.
     pub fn check(&self) -> Result<(), String> {
         let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
@@ -174,6 +197,7 @@ impl ClientMessage {
             ClientMessage::Display { display, .. } if !display.exposure.is_finite() || !(1..=100).contains(&display.quality) => {
                 return Err("display: exposure must be finite and quality from 1 to 100".into());
             }
+            ClientMessage::Hdr { region: Some([_, _, w, h]) } if *w == 0 || *h == 0 => return Err("hdr: an empty region".into()),
             _ => {}
         }
         Ok(())
@@ -266,6 +290,9 @@ pub struct SceneInfo {
     pub size: [u32; 2],
     pub lights: Vec<LightInfo>,
     pub animated: bool,
+    /// The animation's length, seconds: the scene's `duration`, else its glTF clips' (`None`:
+    /// not known; the page's time slider then spans 10 s).
+    pub duration: Option<f64>,
     pub fps: f64,
     /// The script's `refrakt.param`s, with the values in use.
     pub params: Vec<crate::lua::params::Param>,
@@ -304,6 +331,13 @@ pub struct FrameHeader {
     pub channels: u32,
     /// A `jpeg` payload's strips, one after another: (first row, rows, bytes) each.
     pub strips: Vec<[u32; 3]>,
+    /// An `hdr` payload's pixels: (x, y, width, height) of the frame.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub region: Option<[u32; 4]>,
+    /// Camera rays per pixel so far (a still view refines: it rises frame by frame).
+    pub samples: u32,
+    /// The revision of the session's state the frame shows ([`super::state::StateMessage`]).
+    pub revision: u64,
     pub time: f64,
     /// Which stages were taken from the frame before: `volume`, `photons`.
     pub reused: crate::pipeline::reuse::Reuse,

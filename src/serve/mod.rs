@@ -148,10 +148,12 @@ pub struct Shared {
     pub token: Option<String>,
     /// `ServeOptions::origins`.
     pub origins: Vec<String>,
+    /// `ServeOptions::refine`: what a still view refines to (the pages say so).
+    pub refine: u32,
 }
 
 impl Shared {
-    pub fn new(state: PageState, token: Option<String>, origins: Vec<String>) -> Self {
+    pub fn new(state: PageState, token: Option<String>, origins: Vec<String>, refine: u32) -> Self {
         let truth = Truth::new(state);
         Self {
             view: Slot::new(truth.state.view(0, 0)),
@@ -171,6 +173,7 @@ impl Shared {
             stop: AtomicBool::new(false),
             token,
             origins,
+            refine,
         }
     }
 
@@ -354,7 +357,7 @@ impl Running {
 pub fn start(scene: &Path, opts: &ServeOptions) -> Result<Running> {
     let token = if opts.bind.is_loopback() { None } else { Some(new_token()?) };
     let state = PageState { time: opts.time, display: opts.display, ..Default::default() };
-    let shared = Arc::new(Shared::new(state, token, opts.origins.clone()));
+    let shared = Arc::new(Shared::new(state, token, opts.origins.clone(), opts.refine));
     let listener = std::net::TcpListener::bind((opts.bind, opts.port)).with_context(|| format!("cannot listen on {}:{}", opts.bind, opts.port))?;
     listener.set_nonblocking(true)?;
     let addr = listener.local_addr()?;

@@ -33,6 +33,9 @@ use crate::watch::files::SceneFiles;
 
 /// How often the renderer looks at the files while no view change arrives.
 const FILE_POLL: Duration = Duration::from_millis(20);
+/// A frame that takes longer than this shows the pages a busy indicator (the wait reports on
+/// each part and every 150 ms); a quicker one is only its frame.
+const BUSY_AFTER: Duration = Duration::from_millis(100);
 
 /// The scene as loaded, and what is being tried.
 struct Session<'a> {
@@ -196,7 +199,6 @@ impl Session<'_> {
         let would = self.renderer.would_reuse(&desc);
         let kind = (would.volume, would.photons, refinement > 0);
         let mut activity = Activity { busy: true, refining: refinement > 0, eta_ms: self.took.get(&kind).copied(), samples, target: self.opts.refine.max(desc.samples), ..Default::default() };
-        self.shared.set_activity(&activity);
         let submitted = Instant::now();
         let ticket = self.renderer.submit(&desc)?;
         let reused = ticket.reused;
@@ -208,7 +210,9 @@ impl Session<'_> {
                 crate::pipeline::parts::Part::View => "view",
             });
             activity.elapsed_ms = ms(p.elapsed);
-            shared.set_activity(&activity);
+            if p.elapsed >= BUSY_AFTER {
+                shared.set_activity(&activity);
+            }
         })?;
         let rendered = Instant::now();
         let mut image = self.renderer.finish(ticket)?;
@@ -225,7 +229,9 @@ impl Session<'_> {
             self.shared.set_scene(info); // before the frame: the page knows the scene it shows
         }
         self.took.insert(kind, ms(started.elapsed()));
-        self.shared.set_activity(&Activity { busy: false, samples, target: activity.target, ..Default::default() });
+        if activity.elapsed_ms >= ms(BUSY_AFTER) {
+            self.shared.set_activity(&Activity { busy: false, samples, target: activity.target, ..Default::default() });
+        }
         let frame = Rendered { image, frame: self.frames, input: state.input, revision: state.revision, samples, time: state.time, reused, times };
         self.shared.encoder.update(|inbox| inbox.frame = Some(Arc::new(frame)));
         for w in desc.warnings() {

@@ -32,7 +32,7 @@ use serde::Deserialize;
 use serde_json::json;
 
 use super::protocol::{ClientMessage, MAX_MESSAGE_BYTES};
-use super::{Event, MAX_CONNECTIONS, Shared};
+use super::{Event, MAX_CONNECTIONS, Shared, lock};
 
 const INDEX_HTML: &str = include_str!("../../web/index.html");
 const APP_JS: &str = include_str!("../../web/app.js");
@@ -204,7 +204,7 @@ async fn connection(mut socket: WebSocket, shared: Arc<Shared>) {
     let mut events = shared.events.subscribe();
     let (mut state, mut activity) = (shared.state.subscribe(), shared.activity.subscribe());
     let hello = Event::text("hello", json!({ "connection": me, "refine": shared.refine }));
-    let greeting: Vec<Event> = [&shared.scene, &shared.error].iter().filter_map(|m| m.lock().unwrap_or_else(|e| e.into_inner()).clone()).collect();
+    let greeting: Vec<Event> = [&shared.scene, &shared.error].iter().filter_map(|m| lock(m).clone()).collect();
     for event in std::iter::once(&hello).chain(&greeting) {
         if socket.send(text_message(event)).await.is_err() {
             return;
@@ -288,10 +288,6 @@ impl Page<'_> {
 
 fn warning(message: &str) -> Message {
     Message::text(json!({ "type": "warning", "message": message }).to_string())
-}
-
-fn lock<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 #[cfg(test)]

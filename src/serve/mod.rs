@@ -185,20 +185,20 @@ impl Shared {
     /// frame stays on screen.
     pub fn report_error(&self, message: &str, kept: bool) {
         let event = Event::text("error", json!({ "message": message, "kept": kept }));
-        *self.error.lock().unwrap_or_else(|e| e.into_inner()) = Some(event.clone());
+        *lock(&self.error) = Some(event.clone());
         self.send_event(event);
     }
 
     /// Tells the pages that the error is gone (a frame rendered).
     pub fn clear_error(&self) {
-        *self.error.lock().unwrap_or_else(|e| e.into_inner()) = None;
+        *lock(&self.error) = None;
         self.send_event(Event::text("ok", json!({})));
     }
 
     /// A scene loaded: the pages are told of it, and edits of names it lacks are dropped.
     pub fn set_scene(&self, info: SceneInfo) {
         let event = Event::text("scene", serde_json::to_value(&info).unwrap_or_default());
-        *self.scene.lock().unwrap_or_else(|e| e.into_inner()) = Some(event.clone());
+        *lock(&self.scene) = Some(event.clone());
         let _ = self.events.send(event);
         let mut truth = lock(&self.truth);
         if truth.scene_loaded(&info) {
@@ -250,6 +250,7 @@ impl Shared {
     }
 }
 
+/// A lock that a panicked holder left whole (every update is a single assignment).
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|e| e.into_inner())
 }

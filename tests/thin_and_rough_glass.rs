@@ -6,7 +6,7 @@ mod common;
 
 use common::*;
 use glam::{Mat4, Vec3};
-use refrakt::cpu::interface::{fresnel_dielectric, reflect, thin_sheet_reflectance};
+use refrakt::cpu::interface::reflect;
 use refrakt::output::{Image, Layer};
 
 fn rgb(layer: &Layer, i: usize) -> Vec3 {
@@ -18,6 +18,21 @@ fn beauty(image: &Image) -> &Layer {
     image.layer("beauty").expect("a beauty layer")
 }
 
+/// The exact incoherent thin slab of index 1.5 at incidence θᵢ, from Fresnel's equations in his
+/// own angle form (Born & Wolf §1.5.3), written out here rather than taken from refrakt: per
+/// polarization R_s = sin²(θᵢ − θₜ)/sin²(θᵢ + θₜ), R_p = tan²(θᵢ − θₜ)/tan²(θᵢ + θₜ), each summed
+/// over the pane's inner reflections to 2R/(1 + R), then averaged.
+fn thin_slab_reflectance(theta_i: f32) -> f32 {
+    let sum = |r: f32| 2.0 * r / (1.0 + r);
+    if theta_i < 1e-3 {
+        return sum(0.04); // ((n − 1)/(n + 1))², both polarizations alike
+    }
+    let theta_t = (theta_i.sin() / 1.5).asin();
+    let rs = ((theta_i - theta_t).sin() / (theta_i + theta_t).sin()).powi(2);
+    let rp = ((theta_i - theta_t).tan() / (theta_i + theta_t).tan()).powi(2);
+    0.5 * (sum(rs) + sum(rp))
+}
+
 /// A square pane (a quad, two triangles) of side `size` in its local xy plane, as Lua.
 fn pane_mesh(size: f32) -> String {
     let h = size / 2.0;
@@ -25,8 +40,8 @@ fn pane_mesh(size: f32) -> String {
 }
 
 /// Sunlight through a tinted thin pane 1 m above the floor, at 0° and 60° from its normal: the
-/// patch of light it casts gets E cos θ · tint · (1 − R)/(1 + R) (R: Fresnel at θ; glTF's
-/// thin-walled transmission tints once), per channel, in absolute terms, within 2%.
+/// patch of light it casts gets E cos θ · tint · (1 − R_thin) (R_thin: the thin slab at θ, each
+/// polarization's reflections summed; glTF's thin-walled transmission tints once), per channel, in absolute terms, within 2%.
 #[test]
 fn a_thin_pane_casts_the_thin_slab_fraction_of_sunlight_tinted_once() {
     let tint = Vec3::new(0.9, 0.6, 0.3);
@@ -64,23 +79,28 @@ fn a_thin_pane_casts_the_thin_slab_fraction_of_sunlight_tinted_once() {
                 }
             }
         }
-        let passed = 1.0 - thin_sheet_reflectance(fresnel_dielectric(c, 1.5));
+        let passed = 1.0 - thin_slab_reflectance(degrees.to_radians());
         for (k, v) in patch.iter().enumerate() {
             let (got, expected) = (mean(v), c * tint[k] * passed);
-            eprintln!("thin pane at {degrees}°, channel {k}: patch irradiance {got:.4} W/m², E cos θ · tint · (1 − R)/(1 + R) = {expected:.4}");
+            eprintln!("thin pane at {degrees}°, channel {k}: patch irradiance {got:.4} W/m², E cos θ · tint · (1 − R_thin) = {expected:.4}");
             assert!((got / expected - 1.0).abs() < 0.02, "{degrees}°, channel {k}: {got} vs {expected}");
         }
     }
 }
 
-/// A tilted tinted pane in front of a striped wall, seen by the camera: every pixel through it is
-/// what the same pixel shows without the pane, times tint · (1 − R_thin(θ)), plus R_thin(θ) of the
-/// sky in the mirror direction. A sheet that displaced the stripes (as a refracting slab would)
-/// or reflected a single surface's Fresnel fails it.
+/// A tilted pane in front of a striped wall, seen by the camera: every pixel through it is what
+/// the same pixel shows without the pane, times tint · (1 − R_thin(θ)), plus R_thin(θ) of the sky
+/// in the mirror direction — tinted at 35°, clear at 55° (where summing the averaged Fresnel
+/// instead of each polarization's overshoots most: +0.016 of the sky). A sheet that displaced the
+/// stripes (as a refracting slab would) or reflected a single surface's Fresnel fails it.
 #[test]
 fn a_thin_pane_bends_nothing_and_reflects_a_thin_slabs_fresnel() {
-    let tint = Vec3::new(0.9, 0.7, 0.5);
-    let angle = 35.0f32;
+    for (angle, tint) in [(35.0f32, Vec3::new(0.9, 0.7, 0.5)), (55.0, Vec3::ONE)] {
+        pane_against_the_exact_thin_slab(angle, tint);
+    }
+}
+
+fn pane_against_the_exact_thin_slab(angle: f32, tint: Vec3) {
     let scene = |with_pane: bool| {
         let pane = if with_pane {
             format!(
@@ -129,7 +149,7 @@ fn a_thin_pane_bends_nothing_and_reflects_a_thin_slabs_fresnel() {
             }
             let i = (y * with.camera.width + x) as usize;
             let behind = rgb(beauty(&bare), i);
-            let r_thin = thin_sheet_reflectance(fresnel_dielectric(d.dot(normal).abs(), 1.5));
+            let r_thin = thin_slab_reflectance(d.dot(normal).abs().min(1.0).acos());
             let exact = tint * (1.0 - r_thin) * behind + r_thin * with.environment.radiance(reflect(d, normal));
             let got = rgb(beauty(&seen), i);
             errors.push((got - exact).abs().element_sum() / 3.0);
@@ -138,9 +158,9 @@ fn a_thin_pane_bends_nothing_and_reflects_a_thin_slabs_fresnel() {
         }
     }
     let (mae, level) = (mean(&errors), mean(&values));
-    eprintln!("thin pane at {angle}°: MAE {mae:.5} over {} pixels ({stripes} on stripes), mean radiance {level:.4}", errors.len());
+    eprintln!("thin pane at {angle}°, tint {tint}: MAE {mae:.5} over {} pixels ({stripes} on stripes), mean radiance {level:.4}", errors.len());
     assert!(errors.len() > 300 && stripes > 30, "the pane must cover the stripes: {} pixels, {stripes} on stripes", errors.len());
-    assert!(mae < 0.01 * level, "MAE {mae} against a mean of {level}");
+    assert!(mae < 0.012 && mae < 0.01 * level, "{angle}°: MAE {mae} against a mean of {level}");
 }
 
 /// A small glass block (0.4 × 0.1 × 0.4 m) 1 m above the floor under a vertical sun, at

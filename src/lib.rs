@@ -21,4 +21,5 @@ pub mod progress;
 pub mod render;
 pub mod scene;
 pub mod serve;
+pub mod warnings;
 pub mod watch;

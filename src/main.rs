@@ -25,6 +25,20 @@ struct Cli {
     /// More log output (repeat for more).
     #[arg(short, long, action = clap::ArgAction::Count, global = true)]
     verbose: u8,
+    /// Say no warnings about the scene (errors are still said).
+    #[arg(short, long, global = true)]
+    quiet: bool,
+    /// How warnings about the scene are said: a line of text each, or a JSON object per line
+    /// on stderr (`{"type": "warning", "file", "message", "subjects", "count", "at"}`).
+    #[arg(long, value_name = "FORMAT", global = true, default_value = "text")]
+    warnings: WarningFormat,
+}
+
+/// `--warnings`: the formats a user picks (`--quiet` is the third).
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum WarningFormat {
+    Text,
+    Json,
 }
 
 #[derive(Subcommand)]
@@ -553,6 +567,11 @@ fn main() -> ExitCode {
         .without_time()
         .with_target(false)
         .init();
+    refrakt::warnings::set_format(match (cli.quiet, cli.warnings) {
+        (true, _) => refrakt::warnings::Format::Quiet,
+        (false, WarningFormat::Text) => refrakt::warnings::Format::Text,
+        (false, WarningFormat::Json) => refrakt::warnings::Format::Json,
+    });
     std::panic::set_hook(Box::new(|info| {
         eprintln!("refrakt: internal error (a bug in refrakt, please report it): {info}");
     }));

@@ -311,7 +311,7 @@ fn animations_are_picked_by_name_and_all_play_by_default() {
     assert_eq!(at(Some("Side"), 3.0), Vec3::new(2.0, 0.0, 0.0));
     assert_eq!(at(None, 1.0), Vec3::new(1.0, 0.0, 0.0), "all play, the later animation wins the shared channel");
     let import = refrakt::gltf::import(&path, "two.glb", &refrakt::lua::sandbox::FileAccess::new(path.parent().unwrap(), &[]).unwrap(), &ImportOptions::default()).unwrap();
-    assert!(import.warnings.iter().any(|w| w.contains("\"Up\" and \"Side\" both drive")), "{:?}", import.warnings);
+    assert!(import.warnings.iter().any(|w| w.to_string().contains("\"Up\" and \"Side\" both drive")), "{:?}", import.warnings);
     let e = format!("{:#}", GltfScene::load(&path, &[], &ImportOptions { animation: Some("Down".into()), ..Default::default() }).err().unwrap());
     assert!(e.contains("no animation called \"Down\"") && e.contains("0 \"Up\", 1 \"Side\""), "{e}");
 }

@@ -29,7 +29,8 @@ fn load(path: &Path, opts: &ImportOptions) -> anyhow::Result<GltfScene> {
 fn warnings(path: &Path) -> Vec<String> {
     let access = FileAccess::new(path.parent().unwrap(), &[]).unwrap();
     let name = path.file_name().unwrap().to_string_lossy().to_string();
-    refrakt::gltf::import(path, &name, &access, &ImportOptions::default()).unwrap_or_else(|e| panic!("{e:#}")).warnings
+    let import = refrakt::gltf::import(path, &name, &access, &ImportOptions::default()).unwrap_or_else(|e| panic!("{e:#}"));
+    import.warnings.iter().map(ToString::to_string).collect()
 }
 
 /// `refrakt dump ARGS…`: (exit code, stdout, stderr).
@@ -426,7 +427,7 @@ fn overlapping_animations_warn_once_per_pair() {
     let w = warnings(&g.write_glb(&dir.path().join("fox.glb")));
     let overlaps: Vec<&String> = w.iter().filter(|w| w.contains("both drive")).collect();
     assert_eq!(overlaps.len(), 2, "{overlaps:#?}");
-    assert!(overlaps[0].contains("\"Walk\" and \"Run\" both drive the Translation of nodes[0] and 9 more properties"), "{}", overlaps[0]);
+    assert!(overlaps[0].contains("\"Walk\" and \"Run\" both drive the translation of nodes[0] and 9 more properties"), "{}", overlaps[0]);
     assert!(overlaps[1].contains("\"Run\" and \"Survey\""), "{}", overlaps[1]);
 }
 
@@ -458,4 +459,39 @@ fn dump_prints_zero_not_negative_zero() {
     assert_eq!(absorption[0].as_f64(), Some(0.0));
     assert!(["0.0", "0"].contains(&absorption[0].to_string().as_str()), "{absorption}");
     assert!((absorption[1].as_f64().unwrap() - 2f64.ln() / 2.0).abs() < 1e-6);
+}
+
+/// The same remark about five materials is one line that counts and names them; `--warnings
+/// json` says it as one JSON object; `--quiet` says nothing (and the scene still loads).
+#[test]
+fn a_remark_about_many_materials_is_said_once_and_json_or_quiet_on_request() {
+    let mut g = GltfBuilder::new();
+    let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let nodes: Vec<usize> = (0..5)
+        .map(|k| {
+            let m = g.push("materials", json!({ "name": format!("Paint{k}"), "extras": { "refrakt": { "shine": 1 } } }));
+            let mesh = g.mesh(&tri, &[[0, 1, 2]], Some(m));
+            g.push("nodes", json!({ "mesh": mesh }))
+        })
+        .collect();
+    g.scene("S", &nodes);
+    let dir = tempfile::tempdir().unwrap();
+    let path = g.write_glb(&dir.path().join("car.glb"));
+    let w = warnings(&path);
+    let about: Vec<&String> = w.iter().filter(|w| w.contains("extras.refrakt.shine")).collect();
+    assert_eq!(about.len(), 1, "{w:#?}");
+    assert!(about[0].starts_with("car.glb: materials[0] \"Paint0\", materials[1] \"Paint1\", materials[2] \"Paint2\" and 2 more (5 in all): "), "{}", about[0]);
+    let run = |extra: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_refrakt")).arg("dump").arg(&path).args(extra).output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8(out.stderr).unwrap()
+    };
+    let text = run(&[]);
+    assert_eq!(text.matches("extras.refrakt.shine").count(), 1, "{text}");
+    let json = run(&["--warnings", "json"]);
+    let said: Vec<Value> = json.lines().filter_map(|l| serde_json::from_str(l).ok()).collect();
+    let shine = said.iter().find(|w| w["message"].as_str().is_some_and(|m| m.contains("shine"))).unwrap_or_else(|| panic!("{json}"));
+    assert_eq!((shine["type"].as_str(), shine["file"].as_str(), shine["count"].as_u64()), (Some("warning"), Some(path.to_str().unwrap()), Some(5)));
+    assert_eq!(shine["subjects"][4], "materials[4] \"Paint4\"");
+    assert_eq!(run(&["--quiet"]), "", "--quiet says nothing");
 }

@@ -164,8 +164,8 @@ fn transmission_ior_and_volume_make_glass_with_beer_lambert_absorption() {
     assert_eq!(paint.color, Vec3::new(0.2, 0.4, 0.6));
     let path = dir.path().join("m.glb");
     let import = refrakt::gltf::import(&path, "m.glb", &refrakt::lua::sandbox::FileAccess::new(dir.path(), &[]).unwrap(), &ImportOptions::default()).unwrap();
-    assert!(import.warnings.iter().any(|w| w.contains("KHR_materials_sheen is not supported")), "{:?}", import.warnings);
-    assert!(!import.warnings.iter().any(|w| w.contains("KHR_materials_dispersion")), "{:?}", import.warnings);
+    assert!(import.warnings.iter().any(|w| w.to_string().contains("KHR_materials_sheen is not supported")), "{:?}", import.warnings);
+    assert!(!import.warnings.iter().any(|w| w.to_string().contains("KHR_materials_dispersion")), "{:?}", import.warnings);
 }
 
 #[test]
@@ -254,7 +254,7 @@ fn a_light_radius_in_node_extras_sizes_point_and_spot_bulbs() {
     let access = refrakt::lua::sandbox::FileAccess::new(dir.path(), &[]).unwrap();
     let import = refrakt::gltf::import(&dir.path().join("r.glb"), "r.glb", &access, &ImportOptions::default()).unwrap();
     let warned = "r.glb: nodes[3] \"Sun\": extras.refrakt.light_radius is for point and spot lights; skipped";
-    assert!(import.warnings.iter().any(|w| w == warned), "{:?}", import.warnings);
+    assert!(import.warnings.iter().any(|w| w.to_string() == warned), "{:?}", import.warnings);
     let desc = evaluate(&s, 0.0, &EvalOptions::default()).unwrap();
     assert_eq!(desc.lights.iter().map(|l| l.radius).take(3).collect::<Vec<_>>(), [0.25, 0.0, DEFAULT_LIGHT_RADIUS]);
 
@@ -319,7 +319,7 @@ fn refrakt_extras_set_the_scene_and_turn_nodes_into_fields_or_leave_them_out() {
     assert_eq!((desc.fields.len(), desc.meshes.len(), desc.receivers.len()), (3, 0, 0));
     // The unknown key is reported, not fatal.
     let import = refrakt::gltf::import(&path, "x.glb", &refrakt::lua::sandbox::FileAccess::new(dir.path(), &[]).unwrap(), &ImportOptions::default()).unwrap();
-    assert!(import.warnings.iter().any(|w| w.contains("future_setting")), "{:?}", import.warnings);
+    assert!(import.warnings.iter().any(|w| w.to_string().contains("future_setting")), "{:?}", import.warnings);
 }
 
 #[test]

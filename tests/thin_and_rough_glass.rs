@@ -91,7 +91,7 @@ fn a_thin_pane_casts_the_thin_slab_fraction_of_sunlight_tinted_once() {
 /// A tilted pane in front of a striped wall, seen by the camera: every pixel through it is what
 /// the same pixel shows without the pane, times tint · (1 − R_thin(θ)), plus R_thin(θ) of the sky
 /// in the mirror direction — tinted at 35°, clear at 55° (where summing the averaged Fresnel
-/// instead of each polarization's overshoots most: +0.016 of the sky). A sheet that displaced the
+/// instead of each polarization's reflects 0.008 more of the sky). A sheet that displaced the
 /// stripes (as a refracting slab would) or reflected a single surface's Fresnel fails it.
 #[test]
 fn a_thin_pane_bends_nothing_and_reflects_a_thin_slabs_fresnel() {

@@ -232,7 +232,7 @@ fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
 
 // A thin sheet's reflectance: per polarization the first reflection and every one leaving after
 // inner bounces, 2R / (1 + R), then averaged (the polarizations do not mix inside a pane; the sum
-// of the averaged R overshoots by up to 0.016 at 55° for n = 1.5).
+// of the averaged R overshoots, by 0.008 at 55° and 0.022 at 74° for n = 1.5).
 fn thin_sheet_reflectance(cos_i: f32, eta: f32) -> f32 {
     let r = fresnel_polarized(cos_i, eta);
     let sheet = 2.0 * r / (1.0 + r);

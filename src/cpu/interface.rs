@@ -57,7 +57,7 @@ pub fn slab_transmittance(eta: f32) -> f32 {
 /// R + T²R / (1 − R²) = 2R / (1 + R) (incoherent sums: a pane, not a soap film's interference),
 /// then the mean of the two. The polarizations do not mix inside a pane, so the sum must be
 /// taken for each before averaging: 2R̄/(1 + R̄) of the averaged R̄ is too large wherever R_s and
-/// R_p differ (+0.016 at 55° for n = 1.5). What passes, 1 − R_thin, goes on undeviated.
+/// R_p differ (+0.008 at 55°, +0.022 at 74° for n = 1.5). What passes, 1 − R_thin, goes on undeviated.
 pub fn thin_sheet_reflectance(cos_i: f32, eta: f32) -> f32 {
     let (s, p) = fresnel_polarized(cos_i, eta);
     0.5 * (thin_sum(s) + thin_sum(p))
@@ -163,7 +163,7 @@ mod tests {
         assert!((thin_sheet_reflectance(1.0, 1.5) - 0.076_923).abs() < 1e-5);
         let c55 = 55f32.to_radians().cos();
         let averaged_first = thin_sum(fresnel_dielectric(c55, 1.5));
-        assert!(averaged_first - thin_sheet_reflectance(c55, 1.5) > 0.01, "the averaged form overshoots at 55°");
+        assert!(averaged_first - thin_sheet_reflectance(c55, 1.5) > 0.007, "the averaged form overshoots at 55°");
     }
 
     /// Seen head-on, the visible normals are D(m) cos θₘ itself, whose CDF in tan²θₘ is the

@@ -108,6 +108,18 @@ pub enum Target {
     Weights,
 }
 
+impl Target {
+    /// The property in words, for messages.
+    pub fn plain(self) -> &'static str {
+        match self {
+            Target::Translation => "translation",
+            Target::Rotation => "rotation",
+            Target::Scale => "scale",
+            Target::Weights => "morph weights",
+        }
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct Channel {
     pub node: usize,

@@ -14,13 +14,15 @@ use glam::Vec3;
 use serde::Deserialize;
 use serde::de::DeserializeOwned;
 
+use crate::warnings::Collector;
+
 /// The `refrakt` object in an `extras`, parsed as `T`; `None` when there is none.
 fn refrakt_object<T: DeserializeOwned>(
     extras: &gltf::json::Extras,
     file: &str,
     what: &str,
     known: &[&str],
-    warnings: &mut Vec<String>,
+    warnings: &mut Collector,
 ) -> Result<Option<T>> {
     let Some(raw) = extras else { return Ok(None) };
     let Ok(serde_json::Value::Object(all)) = serde_json::from_str::<serde_json::Value>(raw.get()) else { return Ok(None) };
@@ -29,7 +31,7 @@ fn refrakt_object<T: DeserializeOwned>(
         bail!("{file}: {what}.extras.refrakt must be an object, got {ours}");
     };
     for key in fields.keys().filter(|k| !known.contains(&k.as_str())) {
-        warnings.push(format!("{file}: {what}.extras.refrakt.{key} is not a refrakt setting (known: {}); skipped", known.join(", ")));
+        warnings.about(what, format!("extras.refrakt.{key} is not a refrakt setting (known: {}); skipped", known.join(", ")));
     }
     T::deserialize(ours).map(Some).map_err(|e| anyhow!("{file}: {what}.extras.refrakt: {e} (see docs/gltf.md for the schema)"))
 }
@@ -90,7 +92,7 @@ pub struct SceneExtras {
 
 const SCENE_KEYS: &[&str] = &["photons", "samples", "volume", "environment", "fog"];
 
-pub fn scene_extras(scene: &gltf::Scene, file: &str, warnings: &mut Vec<String>) -> Result<Option<SceneExtras>> {
+pub fn scene_extras(scene: &gltf::Scene, file: &str, warnings: &mut Collector) -> Result<Option<SceneExtras>> {
     let what = format!("scenes[{}]", scene.index());
     let Some(s) = refrakt_object::<SceneExtras>(scene.extras(), file, &what, SCENE_KEYS, warnings)? else { return Ok(None) };
     check(s.photons.is_none_or(|p| p <= 1 << 30), file, &what, "photons", "from 0 to 2³⁰")?;
@@ -169,7 +171,7 @@ pub enum FieldType {
 
 const NODE_KEYS: &[&str] = &["role", "field", "radius", "size", "ior", "gradient", "boundary", "light_radius"];
 
-pub fn node_settings(node: &gltf::Node, file: &str, warnings: &mut Vec<String>) -> Result<NodeSettings> {
+pub fn node_settings(node: &gltf::Node, file: &str, warnings: &mut Collector) -> Result<NodeSettings> {
     let what = format!("nodes[{}]", node.index());
     let Some(n) = refrakt_object::<NodeExtras>(node.extras(), file, &what, NODE_KEYS, warnings)? else { return Ok(NodeSettings::default()) };
     let light_radius = n.light_radius;
@@ -223,7 +225,7 @@ pub struct MediumExtras {
 
 const MATERIAL_KEYS: &[&str] = &["absorption", "scattering", "g", "boundary", "thin"];
 
-pub fn medium(material: &gltf::Material, file: &str, what: &str, warnings: &mut Vec<String>) -> Result<Option<MediumExtras>> {
+pub fn medium(material: &gltf::Material, file: &str, what: &str, warnings: &mut Collector) -> Result<Option<MediumExtras>> {
     let Some(m) = refrakt_object::<MediumExtras>(material.extras(), file, what, MATERIAL_KEYS, warnings)? else { return Ok(None) };
     check(non_negative(m.absorption), file, what, "absorption", "three numbers ≥ 0 (per metre)")?;
     check(non_negative(m.scattering), file, what, "scattering", "three numbers ≥ 0 (per metre)")?;

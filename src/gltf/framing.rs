@@ -144,11 +144,15 @@ pub fn view_without_camera(scene: &mut Scene, player: &mut Player, no_environmen
         said.push("the neutral \"studio\" environment lights it".into());
     }
     if !said.is_empty() {
-        tracing::warn!(
-            "{file}: the file has no camera, so {} (add a camera to the file, or pick the view in a Lua scene with \
-             refrakt.gltf; docs/gltf.md#files-without-a-camera)",
-            said.join(", and ")
-        );
+        crate::warnings::say(&crate::warnings::Warning {
+            file: Some(file.to_string()),
+            message: format!(
+                "the file has no camera, so {} (add a camera to the file, or pick the view in a Lua scene with \
+                 refrakt.gltf; docs/gltf.md#files-without-a-camera)",
+                said.join(", and ")
+            ),
+            ..Default::default()
+        });
     }
     Ok(())
 }

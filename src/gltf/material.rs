@@ -19,6 +19,7 @@ use super::extras;
 use crate::scene::image_header;
 use crate::scene::material::srgb_to_linear;
 use crate::scene::{AlphaMode, Diffuse, Glass, Material, Texture2d};
+use crate::warnings::Collector;
 
 /// A glTF material made into refrakt's, with the smooth boundary width its extras set.
 pub struct Converted {
@@ -37,6 +38,12 @@ pub struct UvMap {
 }
 
 impl UvMap {
+    /// "TEXCOORD_1 with a texture transform", for messages.
+    fn plain(&self) -> String {
+        let transformed = if self.transform == Affine2::IDENTITY { "" } else { " with a texture transform" };
+        format!("TEXCOORD_{}{transformed}", self.set)
+    }
+
     fn of(info: &gltf::texture::Info, file: &str, what: &str) -> Result<Self> {
         let Some(t) = info.texture_transform() else { return Ok(Self { set: info.tex_coord(), transform: Affine2::IDENTITY }) };
         let (offset, scale) = (Vec2::from(t.offset()), Vec2::from(t.scale()));
@@ -75,7 +82,7 @@ impl<'a> Materials<'a> {
         Self { doc, buffers, at, textures: HashMap::new() }
     }
 
-    pub fn convert(&mut self, m: &gltf::Material, warnings: &mut Vec<String>) -> Result<Converted> {
+    pub fn convert(&mut self, m: &gltf::Material, warnings: &mut Collector) -> Result<Converted> {
         let index = m.index().unwrap_or(0);
         let what = format!("materials[{index}]{}", super::mesh::quoted(m.name()));
         let medium = extras::medium(m, self.at.file, &what, warnings)?.unwrap_or_default();
@@ -89,7 +96,7 @@ impl<'a> Materials<'a> {
     }
 
     /// An opaque (or cut-out, or see-through) material of the metallic-roughness model.
-    fn receiver(&mut self, m: &gltf::Material, what: &str, warnings: &mut Vec<String>) -> Result<(Diffuse, Option<UvMap>)> {
+    fn receiver(&mut self, m: &gltf::Material, what: &str, warnings: &mut Collector) -> Result<(Diffuse, Option<UvMap>)> {
         let file = self.at.file;
         let pbr = m.pbr_metallic_roughness();
         let [r, g, b, a] = pbr.base_color_factor();
@@ -120,7 +127,7 @@ impl<'a> Materials<'a> {
         };
         // Each texture with where it is sampled; the material keeps the first one's UV map.
         let mut maps: Vec<(&str, UvMap)> = Vec::new();
-        let mut load = |this: &mut Self, info: &gltf::texture::Info, role: &'static str, srgb: bool, warnings: &mut Vec<String>| -> Result<Arc<Texture2d>> {
+        let mut load = |this: &mut Self, info: &gltf::texture::Info, role: &'static str, srgb: bool, warnings: &mut Collector| -> Result<Arc<Texture2d>> {
             maps.push((role, UvMap::of(info, file, what)?));
             this.texture(info, what, role, srgb, warnings)
         };
@@ -149,21 +156,27 @@ impl<'a> Materials<'a> {
         }
         let uv = maps.first().map(|m| m.1);
         for (role, map) in maps.iter().skip(1).filter(|(_, map)| Some(*map) != uv) {
-            warnings.push(format!(
-                "{file}: {what}: its {role} texture is sampled at another TEXCOORD set or transform ({map:?}) than its {} texture; \
-                 refrakt samples all of a material's textures at the first one's",
-                maps[0].0
-            ));
+            warnings.about(
+                what,
+                format!(
+                    "its {role} texture samples {} but its {} texture {}; refrakt samples all of a material's textures as \
+                     the first one",
+                    map.plain(),
+                    maps[0].0,
+                    maps[0].1.plain()
+                ),
+            );
         }
         Ok((d, uv))
     }
 
-    fn glass(&self, m: &gltf::Material, what: &str, transmission: f32, medium: &extras::MediumExtras, warnings: &mut Vec<String>) -> Result<Glass> {
+    fn glass(&self, m: &gltf::Material, what: &str, transmission: f32, medium: &extras::MediumExtras, warnings: &mut Collector) -> Result<Glass> {
         let file = self.at.file;
         if transmission > 0.0 && transmission < 1.0 {
-            warnings.push(format!(
-                "{file}: {what} transmits {transmission} of the light; refrakt renders it as clear glass (transmission 1)"
-            ));
+            warnings.about(
+                format!("{what} (transmissionFactor {transmission})"),
+                "transmits part of the light; refrakt renders it as clear glass (transmission 1)",
+            );
         }
         // KHR_materials_ior: the default 1.5 when absent; a medium without transmission (a
         // volume in Blender with no glass surface) is index-matched to the air around it.
@@ -175,7 +188,7 @@ impl<'a> Materials<'a> {
         let [r, g, b, _] = m.pbr_metallic_roughness().base_color_factor();
         let tint = Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE);
         if m.pbr_metallic_roughness().base_color_texture().is_some() {
-            warnings.push(format!("{file}: {what}: a base colour texture on glass is not used; its factor {tint} tints the glass"));
+            warnings.about(what, "refrakt does not read a base colour texture on glass yet; the baseColorFactor tints all of it");
         }
         let mut glass = Glass { ior, absorption: attenuation(m, file, what)?, tint, ..Glass::default() };
         if let Some(a) = medium.absorption {
@@ -197,14 +210,14 @@ impl<'a> Materials<'a> {
 
     /// A texture, decoded to linear values: colour textures (base color, emissive) are stored
     /// sRGB-encoded (§3.9.2), the others linear.
-    fn texture(&mut self, info: &gltf::texture::Info, what: &str, role: &str, srgb: bool, warnings: &mut Vec<String>) -> Result<Arc<Texture2d>> {
+    fn texture(&mut self, info: &gltf::texture::Info, what: &str, role: &str, srgb: bool, warnings: &mut Collector) -> Result<Arc<Texture2d>> {
         self.image_texture(info.texture(), what, role, srgb, warnings)
     }
 
-    fn image_texture(&mut self, texture: gltf::Texture, what: &str, role: &str, srgb: bool, warnings: &mut Vec<String>) -> Result<Arc<Texture2d>> {
+    fn image_texture(&mut self, texture: gltf::Texture, what: &str, role: &str, srgb: bool, warnings: &mut Collector) -> Result<Arc<Texture2d>> {
         let sampler = texture.sampler();
         if sampler.wrap_s() != gltf::texture::WrappingMode::Repeat || sampler.wrap_t() != gltf::texture::WrappingMode::Repeat {
-            warnings.push(format!("{}: {what}: refrakt repeats textures; the sampler's other wrapping mode is not used", self.at.file));
+            warnings.about(what, "a texture's sampler clamps or mirrors at the edges; refrakt repeats every texture");
         }
         let image = texture.source().index();
         if let Some(t) = self.textures.get(&(image, srgb)) {
@@ -220,14 +233,17 @@ impl<'a> Materials<'a> {
 
 /// KHR_materials_transmission's roughness is the material's metallic-roughness roughness
 /// (GGX, α = roughness²).
-fn transmission_roughness(m: &gltf::Material, file: &str, what: &str, warnings: &mut Vec<String>) -> Result<f32> {
+fn transmission_roughness(m: &gltf::Material, file: &str, what: &str, warnings: &mut Collector) -> Result<f32> {
     let pbr = m.pbr_metallic_roughness();
     let roughness = pbr.roughness_factor();
     if !(0.0..=1.0).contains(&roughness) {
         bail!("{file}: {what}: roughnessFactor is {roughness}; it must be from 0 to 1");
     }
     if pbr.metallic_roughness_texture().is_some() {
-        warnings.push(format!("{file}: {what}: a metallic-roughness texture on glass is not used; its factor {roughness} is"));
+        warnings.about(
+            format!("{what} (roughnessFactor {roughness})"),
+            "refrakt does not read a metallic-roughness texture on glass yet; the roughnessFactor applies to all of the glass",
+        );
     }
     Ok(roughness)
 }

@@ -27,6 +27,7 @@ use glam::Vec3;
 use crate::lua::sandbox::FileAccess;
 use crate::scene::environment::{self, Environment, EnvironmentSource};
 use crate::scene::{Fog, Node, Scene, Shared, VolumeSettings, by_name_or_index, shared};
+use crate::warnings::{Collector, Warning};
 pub use player::Player;
 
 /// What to take from a file with several scenes or animations.
@@ -63,8 +64,8 @@ pub struct Import {
     pub settings: Settings,
     pub player: Player,
     pub catalog: Catalog,
-    /// Things the user should hear about: ignored extensions, approximations.
-    pub warnings: Vec<String>,
+    /// Things the user should hear about: ignored extensions, approximations (each once).
+    pub warnings: Vec<Warning>,
 }
 
 /// Scene-wide settings a glTF scene may carry; each `None` leaves refrakt's default.
@@ -124,10 +125,10 @@ pub fn import(path: &Path, shown: &str, access: &FileAccess, opts: &ImportOption
     let doc = meshopt::decompress(doc, &mut buffers, shown)?;
     let acc = accessor::Accessors { root: doc.as_json(), buffers: &buffers, file: shown };
 
-    let mut warnings: Vec<String> = document::ignored_extensions(&doc)
-        .into_iter()
-        .map(|e| format!("{shown}: the glTF extension {e} is not supported by refrakt; what it adds is ignored"))
-        .collect();
+    let mut warnings = Collector::new(shown);
+    for e in document::ignored_extensions(&doc) {
+        warnings.file_wide(format!("the glTF extension {e} is not supported by refrakt; what it adds is ignored"));
+    }
     let scene = choose_scene(&doc, opts.scene.as_deref(), shown)?;
     let roots: Vec<usize> = match &scene {
         Some(s) => s.nodes().map(|n| n.index()).collect(),
@@ -152,7 +153,7 @@ pub fn import(path: &Path, shown: &str, access: &FileAccess, opts: &ImportOption
         path.file_stem().map_or_else(|| "gltf".to_string(), |s| s.to_string_lossy().to_string())
     });
     let player = Player::new(graph.nodes, clips, graph.weights, graph.deformables);
-    Ok(Import { name, roots: graph.roots, settings, player, catalog, warnings })
+    Ok(Import { name, roots: graph.roots, settings, player, catalog, warnings: warnings.into_warnings() })
 }
 
 /// §3.5.3: the scene `--scene` names (by name, else by index), else the file's `scene`, else
@@ -194,7 +195,7 @@ fn clips(
     graph: &nodes::Graph,
     name: Option<&str>,
     file: &str,
-    warnings: &mut Vec<String>,
+    warnings: &mut Collector,
 ) -> Result<Vec<animation::Clip>> {
     let chosen: Vec<gltf::Animation> = match name {
         Some(name) => {
@@ -207,13 +208,15 @@ fn clips(
         None => doc.animations().collect(),
     };
     let clips = animation::read_clips(chosen, acc, |n| graph.weights[n].len())?;
-    warnings.extend(overlaps(&clips, file));
+    for message in overlaps(&clips) {
+        warnings.file_wide(message);
+    }
     Ok(clips)
 }
 
 /// One warning per pair of animations that drive the same properties (all play at once, and
 /// the later one in the file wins), counting what they share.
-fn overlaps(clips: &[animation::Clip], file: &str) -> Vec<String> {
+fn overlaps(clips: &[animation::Clip]) -> Vec<String> {
     /// Two animations (earlier, later) that drive `shared` properties, the first on `node`.
     struct Overlap {
         clips: (usize, usize),
@@ -239,16 +242,18 @@ fn overlaps(clips: &[animation::Clip], file: &str) -> Vec<String> {
         .map(|Overlap { clips: (a, b), shared: n, node, target }| {
             let more = if n > 1 { format!(" and {} more propert{}", n - 1, if n == 2 { "y" } else { "ies" }) } else { String::new() };
             format!(
-                "{file}: animations \"{}\" and \"{}\" both drive the {target:?} of nodes[{node}]{more}; all animations \
-                 play at once and the later wins (pick one with --animation NAME or INDEX)",
-                clips[a].name, clips[b].name
+                "animations \"{}\" and \"{}\" both drive the {} of nodes[{node}]{more}; all animations play at once \
+                 and the later wins (pick one with --animation NAME or INDEX)",
+                clips[a].name,
+                clips[b].name,
+                target.plain()
             )
         })
         .collect()
 }
 
 /// `scenes[i].extras.refrakt`, with the environment image loaded.
-fn settings(scene: &gltf::Scene, at: &buffers::Location, warnings: &mut Vec<String>) -> Result<Settings> {
+fn settings(scene: &gltf::Scene, at: &buffers::Location, warnings: &mut Collector) -> Result<Settings> {
     let Some(x) = extras::scene_extras(scene, at.file, warnings)? else { return Ok(Settings::default()) };
     let environment = match &x.environment {
         Some(e) => Some(environment_of(e, at)?),

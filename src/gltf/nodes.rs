@@ -15,6 +15,7 @@ use super::material::{self, Converted, Materials, UvMap};
 use super::mesh::{self, Part};
 use super::player::{Deformable, Skin};
 use crate::scene::{Camera, Glass, Light, LightKind, Material, Node, Origin, Shape, Shared, shared};
+use crate::warnings::Collector;
 
 /// Height of the image a glTF camera gets when the file gives only its aspect ratio (the width
 /// follows from it; `--size` overrides both). 576 keeps refrakt's default 1024×576 for 16:9.
@@ -48,10 +49,10 @@ struct Builder<'a, 'b> {
     skinned: Vec<(usize, usize)>,
     /// (mesh, primitive) pairs already checked for enclosing a volume.
     sheets_warned: std::collections::HashSet<(usize, usize)>,
-    warnings: &'a mut Vec<String>,
+    warnings: &'a mut Collector,
 }
 
-pub fn build(doc: &gltf::Document, acc: &Accessors, materials: Materials, roots: &[usize], warnings: &mut Vec<String>) -> Result<Graph> {
+pub fn build(doc: &gltf::Document, acc: &Accessors, materials: Materials, roots: &[usize], warnings: &mut Collector) -> Result<Graph> {
     let n = doc.nodes().count();
     let graph = Graph { roots: Vec::new(), nodes: (0..n).map(|_| Weak::new()).collect(), weights: vec![Vec::new(); n], deformables: Vec::new() };
     let mut b = Builder { acc, materials, converted: HashMap::new(), meshes: HashMap::new(), graph, skinned: Vec::new(), sheets_warned: Default::default(), warnings };
@@ -129,15 +130,14 @@ impl<'a> Builder<'a, '_> {
                 };
                 let fov_y = p.yfov();
                 if !(fov_y > 0.0 && fov_y < std::f32::consts::PI) {
-                    self.warnings.push(format!("{}: {what}: camera yfov {fov_y} is not an angle in (0, π); the camera is skipped", self.file()));
+                    self.warnings.about(format!("{what} (yfov {fov_y})"), "its camera's yfov is not an angle in (0, π); the camera is skipped");
                     return;
                 }
                 node.borrow_mut().camera = Some(shared(Camera { fov_y, size, ..Camera::default() }));
             }
-            gltf::camera::Projection::Orthographic(_) => self.warnings.push(format!(
-                "{}: {what}: orthographic cameras are not supported (refrakt has pinhole cameras only); the camera is skipped",
-                self.file()
-            )),
+            gltf::camera::Projection::Orthographic(_) => {
+                self.warnings.about(what, "orthographic cameras are not supported (refrakt has pinhole cameras only); the camera is skipped")
+            }
         }
     }
 
@@ -148,7 +148,7 @@ impl<'a> Builder<'a, '_> {
         let bulb = g.light().is_some_and(|l| !matches!(l.kind(), gltf::khr_lights_punctual::Kind::Directional));
         if radius.is_some() && !bulb {
             let what = format!("nodes[{}]{}", g.index(), mesh::quoted(g.name()));
-            self.warnings.push(format!("{}: {what}: extras.refrakt.light_radius is for point and spot lights; skipped", self.file()));
+            self.warnings.about(what, "extras.refrakt.light_radius is for point and spot lights; skipped");
         }
         let Some(l) = g.light() else { return Ok(()) };
         let what = format!("KHR_lights_punctual lights[{}]{}", l.index(), mesh::quoted(l.name()));
@@ -202,10 +202,10 @@ impl<'a> Builder<'a, '_> {
         let parts = mesh::read_mesh(m, self.acc, |i| uv_maps.get(&i).copied().flatten())?;
         for p in parts.iter().filter(|p| p.rest.uvs.is_none()) {
             if let Some(uv) = uv_maps.get(&p.material).copied().flatten() {
-                self.warnings.push(format!(
-                    "{}: meshes[{}]{} primitives[{}] has no TEXCOORD_{} for its material's base color texture; the texture is not used",
-                    self.file(), m.index(), mesh::quoted(m.name()), p.primitive, uv.set
-                ));
+                self.warnings.about(
+                    format!("meshes[{}]{} primitives[{}]", m.index(), mesh::quoted(m.name()), p.primitive),
+                    format!("has no TEXCOORD_{} for its material's textures; they are not used", uv.set),
+                );
             }
         }
         self.meshes.insert(m.index(), parts.clone());
@@ -264,8 +264,7 @@ impl<'a> Builder<'a, '_> {
             return;
         }
         let what = format!(
-            "{}: meshes[{}]{} primitives[{}] (on nodes[{}]{})",
-            self.file(),
+            "meshes[{}]{} primitives[{}] (on nodes[{}]{})",
             m.index(),
             mesh::quoted(m.name()),
             part.primitive,
@@ -274,17 +273,21 @@ impl<'a> Builder<'a, '_> {
         );
         let why = mesh::encloses_no_volume(&part.rest);
         if thin == Some(true) && why.is_none() {
-            self.warnings.push(format!(
-                "{what} is a closed solid, but its material is thin-walled (transmission without KHR_materials_volume, as \
-                 glTF defines it), so it renders as a thin shell that bends nothing; for solid glass give the material \
-                 KHR_materials_volume with thicknessFactor > 0, or extras.refrakt.thin = false"
-            ));
+            self.warnings.about(
+                what,
+                "a closed solid whose material is thin-walled (transmission without KHR_materials_volume, as glTF defines \
+                 it), so it renders as a thin shell that bends nothing; for solid glass give the material \
+                 KHR_materials_volume with thicknessFactor > 0, or extras.refrakt.thin = false",
+            );
         } else if let (Some(false), Some(why)) = (thin, why.filter(|w| w.contains("flat"))) {
-            self.warnings.push(format!(
-                "{what}: extras.refrakt.thin is false, but {why}; refrakt renders such glass as the solid a closed mesh \
-                 encloses, so it will not show (leave thin unset for a sheet, or give the sheet a thickness, e.g. \
-                 Blender's Solidify modifier, and re-export)"
-            ));
+            self.warnings.about(
+                what,
+                format!(
+                    "extras.refrakt.thin is false, but {why}; refrakt renders such glass as the solid a closed mesh \
+                     encloses, so it will not show (leave thin unset for a sheet, or give the sheet a thickness, e.g. \
+                     Blender's Solidify modifier, and re-export)"
+                ),
+            );
         }
     }
 
@@ -340,7 +343,7 @@ impl<'a> Builder<'a, '_> {
             }
             let missing = joints.iter().filter(|&&j| self.graph.nodes[j].strong_count() == 0).count();
             if missing > 0 {
-                self.warnings.push(format!("{}: {what}: {missing} joint(s) are not in the imported scene; the mesh keeps its rest shape", self.acc.file));
+                self.warnings.about(format!("{what} ({missing} of its joints)"), "joints are not in the imported scene; the mesh keeps its rest shape");
             }
             let joints = joints.iter().map(|&j| self.graph.nodes[j].clone()).collect();
             deformable.skin = Some(Skin { joints, inverse_bind });

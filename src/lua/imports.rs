@@ -39,8 +39,8 @@ pub fn new_import(lua: &Lua, args: Value) -> mlua::Result<Obj<Node>> {
         crate::gltf::import(&path, &file, &access, &opts).map_err(|e| error_at(lua, format!("{e:#}")))?
     };
     let here = cv::location(lua);
-    for w in &import.warnings {
-        tracing::warn!("{here}: {w}");
+    for w in import.warnings {
+        crate::warnings::say(&w.at(&here));
     }
     let mut root = Node::new(import.name);
     root.origin = Origin(here);

@@ -241,7 +241,10 @@ impl EnvironmentTexture {
         let (texture, view) = if image.width <= max && image.height <= max {
             Self::texture(ctx, image.width, image.height, &image.texels)
         } else {
-            tracing::warn!("environment image {}×{} exceeds the adapter's {max} texels; using it at reduced size", image.width, image.height);
+            crate::warnings::say_plain(&format!(
+            "environment image {}×{} exceeds the adapter's {max} texels; using it at reduced size",
+            image.width, image.height
+        ));
             let reduced = EnvImage::from_fn(max.min(image.width), (max / 2).min(image.height), |d| image.bilinear(crate::scene::environment::dir_to_uv(d)));
             Self::texture(ctx, reduced.width, reduced.height, &reduced.texels)
         };

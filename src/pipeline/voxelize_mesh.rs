@@ -409,12 +409,11 @@ impl MeshVoxelizer {
         let limit = (COORD_LIMIT >> fixed_bits(volume.dims)) as f32 * volume.voxel_size;
         let (lo, hi) = (m.bounds.0 - volume.min, m.bounds.1 - volume.min);
         if (lo.min_element() < -limit || hi.max_element() > limit) && self.warned.insert(m.name.clone()) {
-            tracing::warn!(
+            crate::warnings::say_plain(&format!(
                 "{}: mesh \"{}\" reaches more than {limit:.3} m beyond the volume's corner; its vertices are clamped \
                  there, which bends triangles that also reach into the volume (split the mesh, or enlarge the volume)",
-                m.origin,
-                m.name
-            );
+                m.origin, m.name
+            ));
         }
     }
 

@@ -194,7 +194,6 @@ pub(super) fn render_all(
         .unwrap_or_else(|| scene_path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or("frame".into()));
     let first = opts.frames.map_or(0, |r| r.first);
     let split = &opts.flow.split;
-    let mut warned = std::collections::HashSet::new();
     let mut pool = frame_pool(opts, progress, gpu);
     let mut in_flight: VecDeque<(Ticket, Outgoing)> = VecDeque::new();
     let started = Instant::now();
@@ -234,9 +233,7 @@ pub(super) fn render_all(
                 None => e,
             })?;
             for w in desc.warnings() {
-                if warned.insert(w.clone()) {
-                    tracing::warn!("{w}");
-                }
+                crate::warnings::say_plain(&w);
             }
             let ticket = timed(split, |s| &mut s.submit_s, || renderer.submit(&desc))?;
             let mut png = opts.png;

@@ -129,7 +129,7 @@ impl GltfScene {
         let import = crate::gltf::import(path, &path.display().to_string(), &access, opts)
             .map_err(|e| crate::lua::LoadError { message: format!("{e:#}"), files_read: access.read.borrow().clone() })?;
         for w in &import.warnings {
-            tracing::warn!("{w}");
+            crate::warnings::say(w);
         }
         let mut scene = Scene { roots: import.roots, base_dir: access.base.clone(), ..Scene::default() };
         import.settings.apply(&mut scene);

@@ -235,7 +235,7 @@ impl Session<'_> {
         let frame = Rendered { image, frame: self.frames, input: state.input, revision: state.revision, samples, time: state.time, reused, times };
         self.shared.encoder.update(|inbox| inbox.frame = Some(Arc::new(frame)));
         for w in desc.warnings() {
-            tracing::warn!("{w}");
+            crate::warnings::say_plain(&w);
         }
         self.last = Some(desc);
         Ok(())

@@ -16,7 +16,6 @@
 
 pub mod files;
 
-use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -312,7 +311,6 @@ struct Session<'a> {
     failed_files: Vec<PathBuf>,
     /// The frame last rendered: the next one shares its unchanged meshes and images.
     last: Option<FrameDesc>,
-    warned: HashSet<String>,
     /// When the change being rendered was noticed (or a range's frame began).
     noticed: Instant,
     /// How long the last full frame took, from submission to the preview in place.
@@ -344,7 +342,6 @@ impl<'a> Session<'a> {
             candidate: None,
             failed_files: Vec::new(),
             last: None,
-            warned: HashSet::new(),
             noticed: Instant::now(),
             last_full: None,
         })
@@ -447,9 +444,7 @@ impl<'a> Session<'a> {
     /// Renders `desc` and puts it in the preview's place.
     fn show(&mut self, desc: FrameDesc, shown: Shown, quality: Quality) -> Result<()> {
         for w in desc.warnings() {
-            if self.warned.insert(w.clone()) {
-                tracing::warn!("{w}");
-            }
+            crate::warnings::say_plain(&w);
         }
         let started = Instant::now();
         let ticket = self.renderer.submit(&desc)?;

@@ -163,6 +163,11 @@ struct SceneArgs {
     /// Memory a script may use, MiB.
     #[arg(long, default_value_t = 1024, value_name = "MIB")]
     script_memory: usize,
+    /// Light the scene with this environment instead of its own: a preset (studio, sky,
+    /// checker) or an equirectangular .exr/.hdr file, times INTENSITY (default 1), e.g.
+    /// `studio:0.5` or `sky.hdr:2`.
+    #[arg(long, value_name = "PRESET|FILE[:INTENSITY]")]
+    environment: Option<String>,
 }
 
 /// How frames come out: shared by `render` and `watch`.
@@ -353,10 +358,22 @@ impl SceneArgs {
         self.check()?;
         Ok(SceneOptions {
             fps: self.fps,
-            eval: EvalOptions { size: self.size, resolution: self.volume, camera: self.camera.clone(), samples: self.samples, photons: self.photons },
+            eval: EvalOptions {
+                size: self.size,
+                resolution: self.volume,
+                camera: self.camera.clone(),
+                samples: self.samples,
+                photons: self.photons,
+                environment: self.environment.as_deref().map(refrakt::scene::environment::from_arg).transpose()?,
+            },
             allow_read: self.allow_read.clone(),
             limits: refrakt::lua::Limits { time_budget: Duration::from_secs_f64(self.script_timeout), memory_bytes: self.script_memory << 20 },
-            gltf: ImportOptions { scene: self.gltf_scene.clone(), animation: self.animation.clone(), size: self.size },
+            gltf: ImportOptions {
+                scene: self.gltf_scene.clone(),
+                animation: self.animation.clone(),
+                size: self.size,
+                environment_given: self.environment.is_some(),
+            },
             params: Default::default(),
         })
     }
@@ -484,6 +501,12 @@ fn run(cli: Cli) -> Result<()> {
         Command::Pack(a) => {
             check_time(a.time)?;
             let moments = a.frames.map_or(refrakt::bundle::Moments::Time(a.time), refrakt::bundle::Moments::Frames);
+            if a.scene_args.environment.is_some() {
+                anyhow::bail!(
+                    "--environment is not packed: a bundle renders the scene's own environment (set it in the scene, or \
+                     give --environment when rendering the bundle)"
+                );
+            }
             let packed = refrakt::bundle::pack(&a.scene, &a.scene_args.options()?, moments, &a.out)?;
             eprintln!(
                 "packed {} file(s) from {} into {} ({} KiB); scene: {}",

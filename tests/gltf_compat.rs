@@ -355,8 +355,34 @@ fn a_file_without_a_camera_is_framed_over_its_whole_animation_in_a_studio() {
     with_camera.push("cameras", json!({ "type": "perspective", "perspective": { "yfov": 0.5, "znear": 0.1 } }));
     let c = with_camera.push("nodes", json!({ "camera": 0, "translation": [0.0, 0.0, 9.0] }));
     with_camera.json["scenes"][0]["nodes"].as_array_mut().unwrap().push(json!(c));
-    let s = load(&with_camera.write_glb(&dir.path().join("cam.glb")), &ImportOptions::default()).unwrap();
-    assert!(s.scene.camera.is_none() && matches!(s.scene.environment.borrow().source, EnvironmentSource::Color(_)));
+    let cam = with_camera.write_glb(&dir.path().join("cam.glb"));
+    let s = load(&cam, &ImportOptions::default()).unwrap();
+    assert!(s.scene.camera.is_none(), "the file's own camera, no default view");
+    // Its own camera but no environment: lit by the studio preset too, as viewers do, said once.
+    assert!(matches!(&s.scene.environment.borrow().source, EnvironmentSource::Preset { name, .. } if name == "studio"));
+    let environment = |args: &[&str]| {
+        let (code, out, err) = dump(args);
+        assert_eq!(code, 0, "{err}");
+        let doc: Value = serde_json::from_str(out.lines().next().unwrap()).unwrap();
+        (doc["environment"].clone(), err)
+    };
+    let (env, err) = environment(&[cam.to_str().unwrap()]);
+    assert_eq!((env["kind"].as_str(), env["source"].as_str()), (Some("preset"), Some("studio")));
+    assert_eq!(err.matches("sets no environment").count(), 1, "{err}");
+    // --environment PRESET|FILE[:INTENSITY] replaces it, and the file's own, and a script's.
+    let (env, err) = environment(&[cam.to_str().unwrap(), "--environment", "sky:2"]);
+    assert_eq!((env["source"].as_str(), env["intensity"].as_f64()), (Some("sky"), Some(2.0)));
+    assert!(!err.contains("sets no environment"), "{err}");
+    let (env, _) = environment(&[own_env.to_str().unwrap(), "--environment", "checker"]);
+    assert_eq!((env["source"].as_str(), env["intensity"].as_f64()), (Some("checker"), Some(1.0)));
+    let script = dir.path().join("s.lua");
+    std::fs::write(&script, "local r = require(\"refrakt\")\nreturn r.scene{ environment = r.environment{ color = {1, 0, 0} } }\n").unwrap();
+    let (env, _) = environment(&[script.to_str().unwrap(), "--environment", "studio:0.5"]);
+    assert_eq!((env["source"].as_str(), env["intensity"].as_f64()), (Some("studio"), Some(0.5)));
+    for (bad, says) in [("nope", "neither a preset (studio, sky, checker) nor an .exr or .hdr file"), ("sky:-1", "must be a number ≥ 0")] {
+        let (code, _, err) = dump(&[cam.to_str().unwrap(), "--environment", bad]);
+        assert!(code != 0 && err.contains(says), "--environment {bad}: {err}");
+    }
 }
 
 // -------------------------------------------------------------------------------------------

@@ -101,8 +101,9 @@ fn a_gltf_volume_glass_sphere_renders_like_the_lua_one() {
 }
 
 /// floor.glb: a 2 m × 2 m floor at y = 0 with texture coordinates 0..2 (so the 4×4 texture
-/// repeats twice), textured or plain white.
-fn write_floor(dir: &std::path::Path, name: &str, textured: bool) {
+/// continues past its edge once each way, as its sampler's `wrap` [wrapS, wrapT] says: default
+/// repeat), textured or plain white.
+fn write_floor(dir: &std::path::Path, name: &str, textured: bool, wrap: Option<[u32; 2]>) {
     let mut g = GltfBuilder::new();
     // Lambertian (metallic 0, KHR_materials_specular 0), so textured / white is the texture.
     let mut pbr = json!({ "baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0 });
@@ -114,7 +115,13 @@ fn write_floor(dir: &std::path::Path, name: &str, textured: bool) {
         image::DynamicImage::ImageRgba8(img).write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).unwrap();
         let view = g.view(&png);
         g.push("images", json!({ "bufferView": view, "mimeType": "image/png" }));
-        g.push("textures", json!({ "source": 0 }));
+        match wrap {
+            Some([s, t]) => {
+                g.push("samplers", json!({ "wrapS": s, "wrapT": t }));
+                g.push("textures", json!({ "source": 0, "sampler": 0 }))
+            }
+            None => g.push("textures", json!({ "source": 0 })),
+        };
         pbr["baseColorTexture"] = json!({ "index": 0 });
     }
     g.uses("KHR_materials_specular", false);
@@ -128,11 +135,15 @@ fn write_floor(dir: &std::path::Path, name: &str, textured: bool) {
     g.write_glb(&dir.join(name));
 }
 
+/// The texture seen from above against `Texture2d::sample`, with the default sampler (repeat)
+/// and with CLAMP_TO_EDGE along u and MIRRORED_REPEAT along v (the floor's second tile shows
+/// each mode; a swapped axis or a repeat in their place errs by ~0.3).
 #[test]
 fn a_base_color_texture_is_sampled_on_the_receiver_like_its_cpu_twin() {
     let dir = tempfile::tempdir().unwrap();
-    write_floor(dir.path(), "textured.glb", true);
-    write_floor(dir.path(), "white.glb", false);
+    write_floor(dir.path(), "textured.glb", true, None);
+    write_floor(dir.path(), "clamp_mirror.glb", true, Some([33071, 33648]));
+    write_floor(dir.path(), "white.glb", false, None);
     // Looking straight down at the floor, lit only by a uniform environment: the radiance of a
     // texel is albedo × the environment, so textured / white is the texture's color there.
     let floor = |file: &str| {
@@ -147,34 +158,37 @@ fn a_base_color_texture_is_sampled_on_the_receiver_like_its_cpu_twin() {
             return scene"#
         )
     };
-    let path = dir.path().join("scene.lua");
-    std::fs::write(&path, floor("textured.glb")).unwrap();
-    let host = load(&path);
-    host.update(0.0).unwrap();
-    let desc = refrakt::scene::eval::evaluate(&host.scene().borrow(), 0.0, &Default::default()).unwrap();
-    let texture = desc.receivers[0].diffuse.texture.clone().expect("the floor has its texture");
     let mut r = renderer();
-    let textured = r.frame(&desc).unwrap().layer("beauty").unwrap().data.clone();
     let white = render(&floor("white.glb"), dir.path(), &mut r);
-    let mut errors = Vec::new();
-    for y in 0..48 {
-        for x in 0..48 {
-            // The camera ray through the pixel's centre meets y = 0 at p; the floor maps
-            // x, z ∈ [−1, 1] to u, v ∈ [0, 2].
-            let d = desc.camera.ray(x, y);
-            let p = desc.camera.position + d * (-desc.camera.position.y / d.y);
-            let want = texture.sample(glam::Vec2::new(p.x + 1.0, p.z + 1.0));
-            let i = 4 * (y * 48 + x) as usize;
-            for c in 0..3 {
-                errors.push((textured[i + c] / white[i + c] - want[c]).abs());
+    for file in ["textured.glb", "clamp_mirror.glb"] {
+        let path = dir.path().join("scene.lua");
+        std::fs::write(&path, floor(file)).unwrap();
+        let host = load(&path);
+        host.update(0.0).unwrap();
+        let desc = refrakt::scene::eval::evaluate(&host.scene().borrow(), 0.0, &Default::default()).unwrap();
+        let texture = desc.receivers[0].diffuse.texture.clone().expect("the floor has its texture");
+        let textured = r.frame(&desc).unwrap().layer("beauty").unwrap().data.clone();
+        let mut errors = Vec::new();
+        for y in 0..48 {
+            for x in 0..48 {
+                // The camera ray through the pixel's centre meets y = 0 at p; the floor maps
+                // x, z ∈ [−1, 1] to u, v ∈ [0, 2].
+                let d = desc.camera.ray(x, y);
+                let p = desc.camera.position + d * (-desc.camera.position.y / d.y);
+                let want = texture.sample(glam::Vec2::new(p.x + 1.0, p.z + 1.0));
+                let i = 4 * (y * 48 + x) as usize;
+                for c in 0..3 {
+                    errors.push((textured[i + c] / white[i + c] - want[c]).abs());
+                }
             }
         }
+        eprintln!("{file}: texture on the receiver vs Texture2d::sample ({:?}): mean {:.2e}, max {:.2e}", texture.wrap, mean(&errors), max(&errors));
+        // The texels go to the GPU in their own 8-bit sRGB encoding (exactly the decoded bytes
+        // again), so what is left is float noise in the interpolation: measured 1.3e-6 at most
+        // on lavapipe. A half-texel shift or a nearest lookup errs by ~0.1.
+        assert!(max(&errors) < 1e-4, "{file}: max error {}", max(&errors));
     }
-    eprintln!("texture on the receiver vs Texture2d::sample: mean {:.2e}, max {:.2e}", mean(&errors), max(&errors));
-    // The texels go to the GPU in their own 8-bit sRGB encoding (exactly the decoded bytes
-    // again), so what is left is float noise in the interpolation: measured 1.3e-6 at most on
-    // lavapipe. A half-texel shift or a nearest lookup errs by ~0.1.
-    assert!(max(&errors) < 1e-4, "max error {}", max(&errors));
+    // The CPU twin itself is held to each mode's closed form in src/scene/material.rs.
 }
 
 /// An asymmetric solid (a tetrahedron off the origin) mirrored by its node's scale −1 in x, and

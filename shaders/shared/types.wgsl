@@ -198,6 +198,11 @@ const RECEIVER_PBR: u32 = 1u;
 const RECEIVER_MASK: u32 = 2u;
 const RECEIVER_BLEND: u32 = 4u;
 const TEXEL_SRGB: u32 = 0u;
+// A texture's encoding is the low byte of its fourth word; bits 8–9 and 10–11 its wrap modes
+// along u and v (texel_encoding in src/gpu/types.rs).
+const WRAP_REPEAT: u32 = 0u;
+const WRAP_CLAMP: u32 = 1u;
+const WRAP_MIRROR: u32 = 2u;
 
 struct Chart {
     origin: vec2<f32>,

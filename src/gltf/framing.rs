@@ -115,6 +115,28 @@ pub fn default_camera(lo: Vec3, hi: Vec3, size: (u32, u32)) -> Camera {
     Camera { position: centre + distance * from, target: Some(centre), ..base }
 }
 
+/// Lights `scene` by the neutral "studio" preset, as glTF viewers light a file that sets no
+/// environment of its own.
+pub fn light_by_studio(scene: &mut Scene) -> Result<()> {
+    let image = environment::preset("studio")?;
+    scene.environment = shared(Environment { source: EnvironmentSource::Preset { name: "studio".into(), image }, ..Environment::default() });
+    Ok(())
+}
+
+/// A file with its own camera but no environment: lit by the studio preset, said once.
+pub fn light_without_environment(scene: &mut Scene, file: &str) -> Result<()> {
+    light_by_studio(scene)?;
+    crate::warnings::say(&crate::warnings::Warning {
+        file: Some(file.to_string()),
+        message: "the file sets no environment, so the neutral \"studio\" environment lights it, as glTF viewers do \
+                  (choose another with --environment PRESET|FILE[:INTENSITY], or set extras.refrakt.environment on \
+                  the scene; docs/gltf.md#files-without-a-camera)"
+            .into(),
+        ..Default::default()
+    });
+    Ok(())
+}
+
 /// What glTF viewers show a file without a camera: a camera framing the scene's bounds over all
 /// of its (chosen) animation, and — when the file sets no environment — the neutral "studio"
 /// one; said in the log, since the user did not ask for either.
@@ -136,11 +158,7 @@ pub fn view_without_camera(scene: &mut Scene, player: &mut Player, no_environmen
         scene.camera = Some(shared(camera));
     }
     if no_environment {
-        let image = environment::preset("studio")?;
-        scene.environment = shared(Environment {
-            source: EnvironmentSource::Preset { name: "studio".into(), image },
-            ..Environment::default()
-        });
+        light_by_studio(scene)?;
         said.push("the neutral \"studio\" environment lights it".into());
     }
     if !said.is_empty() {

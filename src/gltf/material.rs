@@ -18,7 +18,7 @@ use super::buffers::{self, Location};
 use super::extras;
 use crate::scene::image_header;
 use crate::scene::material::srgb_to_linear;
-use crate::scene::{AlphaMode, Diffuse, Glass, Material, Texture2d};
+use crate::scene::{AlphaMode, Diffuse, Glass, Material, Texture2d, Wrap};
 use crate::warnings::Collector;
 
 /// A glTF material made into refrakt's, with the smooth boundary width its extras set.
@@ -68,8 +68,8 @@ pub struct Materials<'a> {
     pub doc: &'a gltf::Document,
     pub buffers: &'a [Vec<u8>],
     pub at: &'a Location<'a>,
-    /// Decoded images by (index, sRGB-encoded).
-    textures: HashMap<(usize, bool), Arc<Texture2d>>,
+    /// Decoded images by (index, sRGB-encoded, wrap modes).
+    textures: HashMap<(usize, bool, [Wrap; 2]), Arc<Texture2d>>,
 }
 
 /// The glTF default material (§3.9.6): base color 1, opaque.
@@ -127,18 +127,18 @@ impl<'a> Materials<'a> {
         };
         // Each texture with where it is sampled; the material keeps the first one's UV map.
         let mut maps: Vec<(&str, UvMap)> = Vec::new();
-        let mut load = |this: &mut Self, info: &gltf::texture::Info, role: &'static str, srgb: bool, warnings: &mut Collector| -> Result<Arc<Texture2d>> {
+        let mut load = |this: &mut Self, info: &gltf::texture::Info, role: &'static str, srgb: bool| -> Result<Arc<Texture2d>> {
             maps.push((role, UvMap::of(info, file, what)?));
-            this.texture(info, what, role, srgb, warnings)
+            this.texture(info, what, role, srgb)
         };
         if let Some(info) = pbr.base_color_texture() {
-            d.texture = Some(load(self, &info, "base color", true, warnings)?);
+            d.texture = Some(load(self, &info, "base color", true)?);
         }
         if let Some(info) = pbr.metallic_roughness_texture() {
-            d.metallic_roughness_texture = Some(load(self, &info, "metallic-roughness", false, warnings)?);
+            d.metallic_roughness_texture = Some(load(self, &info, "metallic-roughness", false)?);
         }
         if let Some(info) = m.emissive_texture() {
-            d.emission_texture = Some(load(self, &info, "emissive", true, warnings)?);
+            d.emission_texture = Some(load(self, &info, "emissive", true)?);
         }
         if let Some(n) = m.normal_texture() {
             d.normal_scale = n.scale();
@@ -146,13 +146,13 @@ impl<'a> Materials<'a> {
             // KHR_texture_transform: it is taken to be the other textures'.)
             let transform = maps.first().map_or(Affine2::IDENTITY, |m| m.1.transform);
             maps.push(("normal", UvMap { set: n.tex_coord(), transform }));
-            d.normal_texture = Some(self.image_texture(n.texture(), what, "normal", false, warnings)?);
+            d.normal_texture = Some(self.image_texture(n.texture(), what, "normal", false)?);
         }
         if let Some(o) = m.occlusion_texture() {
             d.occlusion_strength = o.strength().clamp(0.0, 1.0);
             let transform = maps.first().map_or(Affine2::IDENTITY, |m| m.1.transform);
             maps.push(("occlusion", UvMap { set: o.tex_coord(), transform }));
-            d.occlusion_texture = Some(self.image_texture(o.texture(), what, "occlusion", false, warnings)?);
+            d.occlusion_texture = Some(self.image_texture(o.texture(), what, "occlusion", false)?);
         }
         let uv = maps.first().map(|m| m.1);
         for (role, map) in maps.iter().skip(1).filter(|(_, map)| Some(*map) != uv) {
@@ -210,24 +210,38 @@ impl<'a> Materials<'a> {
 
     /// A texture, decoded to linear values: colour textures (base color, emissive) are stored
     /// sRGB-encoded (§3.9.2), the others linear.
-    fn texture(&mut self, info: &gltf::texture::Info, what: &str, role: &str, srgb: bool, warnings: &mut Collector) -> Result<Arc<Texture2d>> {
-        self.image_texture(info.texture(), what, role, srgb, warnings)
+    fn texture(&mut self, info: &gltf::texture::Info, what: &str, role: &str, srgb: bool) -> Result<Arc<Texture2d>> {
+        self.image_texture(info.texture(), what, role, srgb)
     }
 
-    fn image_texture(&mut self, texture: gltf::Texture, what: &str, role: &str, srgb: bool, warnings: &mut Collector) -> Result<Arc<Texture2d>> {
+    fn image_texture(&mut self, texture: gltf::Texture, what: &str, role: &str, srgb: bool) -> Result<Arc<Texture2d>> {
         let sampler = texture.sampler();
-        if sampler.wrap_s() != gltf::texture::WrappingMode::Repeat || sampler.wrap_t() != gltf::texture::WrappingMode::Repeat {
-            warnings.about(what, "a texture's sampler clamps or mirrors at the edges; refrakt repeats every texture");
-        }
+        let wrap = [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())];
         let image = texture.source().index();
-        if let Some(t) = self.textures.get(&(image, srgb)) {
+        if let Some(t) = self.textures.get(&(image, srgb, wrap)) {
             return Ok(t.clone());
         }
-        let bytes = buffers::image_bytes(self.doc, self.buffers, image, self.at)?;
-        let decoded = decode_image(&bytes, srgb).map_err(|e| anyhow!("{}: images[{image}] (the {role} texture of {what}): {e}", self.at.file))?;
+        // The same image under another sampler shares nothing but its decoding.
+        let decoded = match self.textures.iter().find(|((i, s, _), _)| (*i, *s) == (image, srgb)) {
+            Some((_, t)) => Texture2d { width: t.width, height: t.height, texels: t.texels.clone(), wrap },
+            None => {
+                let bytes = buffers::image_bytes(self.doc, self.buffers, image, self.at)?;
+                let d = decode_image(&bytes, srgb).map_err(|e| anyhow!("{}: images[{image}] (the {role} texture of {what}): {e}", self.at.file))?;
+                Texture2d { wrap, ..d }
+            }
+        };
         let decoded = Arc::new(decoded);
-        self.textures.insert((image, srgb), decoded.clone());
+        self.textures.insert((image, srgb, wrap), decoded.clone());
         Ok(decoded)
+    }
+}
+
+/// A sampler's wrapS or wrapT as refrakt's addressing.
+fn wrap(mode: gltf::texture::WrappingMode) -> Wrap {
+    match mode {
+        gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+        gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
+        gltf::texture::WrappingMode::MirroredRepeat => Wrap::Mirror,
     }
 }
 
@@ -301,6 +315,7 @@ pub fn decode_image(bytes: &[u8], srgb: bool) -> Result<Texture2d> {
         width: rgba.width(),
         height: rgba.height(),
         texels: rgba.pixels().map(|p| [linear(p[0]), linear(p[1]), linear(p[2]), p[3] as f32 / 255.0]).collect(),
+        wrap: [Wrap::Repeat; 2],
     })
 }
 

@@ -41,6 +41,9 @@ pub struct ImportOptions {
     pub animation: Option<String>,
     /// `--size WxH`: the image a file without a camera is framed for (its aspect ratio).
     pub size: Option<(u32, u32)>,
+    /// `--environment` is given: a file without an environment is not lit by the studio preset
+    /// (the command line's environment replaces the scene's when it is evaluated).
+    pub environment_given: bool,
 }
 
 /// The scenes and animations a file has, by index, and which were taken — what `refrakt dump`

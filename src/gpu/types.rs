@@ -316,8 +316,8 @@ gpu_struct! {
         pub occlusion_strength: f32,
         pub _pad0: u32,
         pub _pad1: u32,
-        /// Each texture as (first texel, width, height, encoding: `texel_encoding`); width 0:
-        /// none.
+        /// Each texture as (first texel, width, height, encoding and wrap modes:
+        /// `texel_encoding`); width 0: none.
         pub base_texture: [u32; 4],
         pub metallic_roughness_texture: [u32; 4],
         pub normal_texture: [u32; 4],
@@ -553,6 +553,13 @@ pub mod texel_encoding {
     pub const SRGB: u32 = 0;
     /// Every channel linear (metallic-roughness, normal, occlusion).
     pub const LINEAR: u32 = 1;
+    /// The low byte holds the encoding; bits 8–9 the wrap mode along u, 10–11 along v
+    /// (`WRAP_*`).
+    pub const WRAP_U_SHIFT: u32 = 8;
+    pub const WRAP_V_SHIFT: u32 = 10;
+    pub const WRAP_REPEAT: u32 = 0;
+    pub const WRAP_CLAMP: u32 = 1;
+    pub const WRAP_MIRROR: u32 = 2;
 }
 
 pub mod view_flags {

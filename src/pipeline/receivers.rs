@@ -16,7 +16,7 @@ use std::sync::Arc;
 use glam::{Vec2, Vec3};
 
 use crate::bvh::{Bvh, MeshTrees, Placed, Triangle};
-use crate::scene::{AlphaMode, Diffuse, Texture2d};
+use crate::scene::{AlphaMode, Diffuse, Texture2d, Wrap};
 use super::resources::GrowableBuffer;
 use crate::frame::{FrameDesc, Receiver};
 use crate::gpu::GpuContext;
@@ -173,8 +173,19 @@ impl TexelAtlas {
                 start
             }
         };
-        [start, t.width, t.height, encoding]
+        [start, t.width, t.height, encoding | wrap_bits(t.wrap)]
     }
+}
+
+/// A texture's wrap modes in `texel_encoding`'s bits.
+fn wrap_bits(wrap: [Wrap; 2]) -> u32 {
+    use texel_encoding::{WRAP_CLAMP, WRAP_MIRROR, WRAP_REPEAT, WRAP_U_SHIFT, WRAP_V_SHIFT};
+    let mode = |w: Wrap| match w {
+        Wrap::Repeat => WRAP_REPEAT,
+        Wrap::Clamp => WRAP_CLAMP,
+        Wrap::Mirror => WRAP_MIRROR,
+    };
+    mode(wrap[0]) << WRAP_U_SHIFT | mode(wrap[1]) << WRAP_V_SHIFT
 }
 
 /// A receiver's material as the GPU reads it (charts filled in by `layout`).

@@ -135,8 +135,11 @@ impl GltfScene {
         import.settings.apply(&mut scene);
         let mut player = import.player;
         let shown = path.display().to_string();
+        let unlit = import.settings.environment.is_none() && !opts.environment_given;
         if !placed_nodes(&scene).iter().any(|p| p.node.borrow().camera.is_some()) {
-            crate::gltf::framing::view_without_camera(&mut scene, &mut player, import.settings.environment.is_none(), opts.size, &shown)?;
+            crate::gltf::framing::view_without_camera(&mut scene, &mut player, unlit, opts.size, &shown)?;
+        } else if unlit {
+            crate::gltf::framing::light_without_environment(&mut scene, &shown)?;
         }
         Ok(Self { scene, player, catalog: import.catalog, access })
     }

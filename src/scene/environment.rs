@@ -216,6 +216,31 @@ pub fn load_image(path: &Path) -> Result<EnvImage> {
     Ok(image)
 }
 
+/// The environment `--environment PRESET|FILE[:INTENSITY]` names: a built-in preset, else an
+/// equirectangular `.exr` / `.hdr` file (relative to the working folder), times an intensity
+/// (default 1) after the last `:` when that is a number ≥ 0 — so `C:\sky.hdr` and `sky:2` both
+/// read as meant.
+pub fn from_arg(arg: &str) -> Result<Environment> {
+    let (name, intensity) = match arg.rsplit_once(':').map(|(n, i)| (n, i.parse::<f32>())) {
+        Some((name, Ok(i))) if i.is_finite() && i >= 0.0 => (name, i),
+        Some((_, Ok(i))) => bail!("--environment {arg}: the intensity after ':' must be a number ≥ 0, got {i}"),
+        _ => (arg, 1.0),
+    };
+    let source = if PRESETS.contains(&name) {
+        EnvironmentSource::Preset { name: name.to_string(), image: preset(name)? }
+    } else {
+        let path = Path::new(name);
+        if !path.is_file() {
+            bail!(
+                "--environment {arg}: \"{name}\" is neither a preset ({}) nor an .exr or .hdr file that exists",
+                PRESETS.join(", ")
+            );
+        }
+        EnvironmentSource::Image { path: path.to_path_buf(), image: load_image(path)?.into() }
+    };
+    Ok(Environment { source, intensity, ..Environment::default() })
+}
+
 /// Names of the built-in environments.
 pub const PRESETS: &[&str] = &["studio", "sky", "checker"];
 

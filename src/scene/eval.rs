@@ -7,6 +7,7 @@ use anyhow::{Result, anyhow, bail};
 use glam::{Mat4, UVec3, Vec3};
 
 use super::light::LUMENS_PER_WATT;
+use super::environment::Environment;
 use super::{Glass, IndexFn, LightKind, Material, MeshData, Node, Scene, Shape, Shared, index_fn, mesh};
 use crate::frame::{CameraDesc, FieldDesc, FieldKind, FogDesc, FrameDesc, LightDesc, LightShape, MeshInstance, Receiver, VolumeDesc};
 
@@ -24,6 +25,8 @@ pub struct EvalOptions {
     pub samples: Option<u32>,
     /// `--photons N`: the photon budget.
     pub photons: Option<u32>,
+    /// `--environment PRESET|FILE[:INTENSITY]`: the environment in place of the scene's.
+    pub environment: Option<Environment>,
 }
 
 /// A node with its world matrix.
@@ -101,7 +104,7 @@ pub fn evaluate(scene: &Scene, time: f64, opts: &EvalOptions) -> Result<FrameDes
     Ok(FrameDesc {
         time,
         camera,
-        environment: scene.environment.borrow().clone(),
+        environment: opts.environment.clone().unwrap_or_else(|| scene.environment.borrow().clone()),
         volume,
         fields: c.fields,
         meshes: c.meshes,

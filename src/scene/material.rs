@@ -54,12 +54,52 @@ pub fn srgb_to_linear(c: f32) -> f32 {
     if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
 }
 
-/// A linear-light RGBA texture, row 0 at the top (glTF's convention for UV (0, 0)).
+/// A linear-light RGBA texture, row 0 at the top (glTF's convention for UV (0, 0)), and how it
+/// continues beyond [0, 1] along u and v (its glTF sampler's wrapS and wrapT).
 #[derive(Debug, PartialEq)]
 pub struct Texture2d {
     pub width: u32,
     pub height: u32,
     pub texels: Vec<[f32; 4]>,
+    pub wrap: [Wrap; 2],
+}
+
+/// A texture's addressing beyond [0, 1] (glTF 2.0 §5.26, the OpenGL modes it names).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Wrap {
+    /// REPEAT (10497, the default): the image tiles.
+    #[default]
+    Repeat,
+    /// CLAMP_TO_EDGE (33071): the edge texels go on.
+    Clamp,
+    /// MIRRORED_REPEAT (33648): the image tiles, every other tile mirrored.
+    Mirror,
+}
+
+impl Wrap {
+    /// A texture coordinate brought into [0, 1]: repeated, clamped, or mirrored in odd tiles.
+    pub fn coordinate(self, x: f32) -> f32 {
+        let f = x - x.floor();
+        match self {
+            Wrap::Repeat => f,
+            Wrap::Clamp => x.clamp(0.0, 1.0),
+            Wrap::Mirror if (x.floor() as i64).rem_euclid(2) == 1 => 1.0 - f,
+            Wrap::Mirror => f,
+        }
+    }
+
+    /// Texel `i` of a row of `n` (a bilinear footprint reaches one texel past either edge):
+    /// the same texel one period on, the edge texel, or its mirror image past the edge.
+    pub fn texel(self, i: i64, n: i64) -> i64 {
+        match self {
+            Wrap::Repeat => i.rem_euclid(n),
+            Wrap::Clamp => i.clamp(0, n - 1),
+            Wrap::Mirror => {
+                let m = i.rem_euclid(2 * n);
+                if m < n { m } else { 2 * n - 1 - m }
+            }
+        }
+    }
 }
 
 // Equality of the data, and (as `Eq`) equal to itself: `Arc<Texture2d>`'s == then checks the pointer
@@ -68,18 +108,19 @@ pub struct Texture2d {
 impl Eq for Texture2d {}
 
 impl Texture2d {
-    /// Bilinear lookup with repeat addressing (glTF's default sampler) — the CPU twin of
-    /// `albedo_at` in `shaders/view.wgsl`.
+    /// Bilinear lookup with the texture's wrap modes — the CPU twin of `texture_at` in
+    /// `shaders/shared/pbr.wgsl`.
     pub fn sample(&self, uv: Vec2) -> Vec3 {
         let (w, h) = (self.width as i64, self.height as i64);
-        // Repeat first, so large coordinates keep their precision.
-        let uv = uv - uv.floor();
+        // Into [0, 1] first, so large coordinates keep their precision.
+        let [wrap_u, wrap_v] = self.wrap;
+        let uv = Vec2::new(wrap_u.coordinate(uv.x), wrap_v.coordinate(uv.y));
         let fx = uv.x * w as f32 - 0.5;
         let fy = uv.y * h as f32 - 0.5;
         let (x0, y0) = (fx.floor(), fy.floor());
         let (tx, ty) = (fx - x0, fy - y0);
         let texel = |x: i64, y: i64| {
-            let t = self.texels[(y.rem_euclid(h) * w + x.rem_euclid(w)) as usize];
+            let t = self.texels[(wrap_v.texel(y, h) * w + wrap_u.texel(x, w)) as usize];
             Vec3::new(t[0], t[1], t[2])
         };
         let (x0, y0) = (x0 as i64, y0 as i64);
@@ -226,5 +267,39 @@ pub struct Fog {
 impl Default for Fog {
     fn default() -> Self {
         Self { scattering: Vec3::splat(0.05), absorption: Vec3::ZERO, g: 0.0 }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 4-texel row of values 0, 1, 2, 3 sampled between texel centres along u: repeat tiles it,
+    /// clamp holds the edge texel, mirror reflects it in every odd tile (glTF 2.0 §5.26).
+    #[test]
+    fn each_wrap_mode_continues_the_image_as_gl_does() {
+        let row = |wrap: Wrap| Texture2d {
+            width: 4,
+            height: 1,
+            texels: (0..4).map(|i| [i as f32, 0.0, 0.0, 1.0]).collect(),
+            wrap: [wrap, Wrap::Repeat],
+        };
+        let at = |t: &Texture2d, u: f32| t.sample(Vec2::new(u, 0.5)).x;
+        let (repeat, clamp, mirror) = (row(Wrap::Repeat), row(Wrap::Clamp), row(Wrap::Mirror));
+        // Texel centres sit at u = (i + ½)/4; the next tile starts at u = 1.
+        for (u, r, c, m) in [
+            (0.125, 0.0, 0.0, 0.0),
+            (0.875, 3.0, 3.0, 3.0),
+            (1.125, 0.0, 3.0, 3.0), // tile 1: repeat starts again, clamp holds, mirror runs back
+            (1.375, 1.0, 3.0, 2.0),
+            (2.125, 0.0, 3.0, 0.0), // tile 2 is upright again
+            (-0.125, 3.0, 0.0, 0.0),
+            (-0.375, 2.0, 0.0, 1.0),
+            (1.0, 1.5, 3.0, 3.0), // on the seam: repeat blends the edges, mirror meets itself
+        ] {
+            assert!((at(&repeat, u) - r).abs() < 1e-5, "repeat at {u}: {}", at(&repeat, u));
+            assert!((at(&clamp, u) - c).abs() < 1e-5, "clamp at {u}: {}", at(&clamp, u));
+            assert!((at(&mirror, u) - m).abs() < 1e-5, "mirror at {u}: {}", at(&mirror, u));
+        }
     }
 }

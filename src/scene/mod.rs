@@ -28,7 +28,7 @@ use glam::{Mat4, Quat, Vec3};
 pub use environment::{EnvImage, Environment, EnvironmentSource};
 pub use index_fn::{IndexFn, IndexFunction};
 pub use light::{Light, LightKind};
-pub use material::{AlphaMode, Diffuse, Fog, Glass, Material, Texture2d};
+pub use material::{AlphaMode, Diffuse, Fog, Glass, Material, Texture2d, Wrap};
 pub use mesh::MeshData;
 pub use shape::Shape;
 

@@ -37,8 +37,9 @@ DEFAULT_FOV = 35.0
 
 def view_camera(view_matrix, window_matrix, region_size, scale, perspective=True):
     """refrakt's camera (Y up) for a viewport: where it is, what it looks at, which way is up,
-    its vertical field of view and the image size (`scale` percent of the region's pixels).
-    refrakt's cameras are pinholes: an orthographic view is shown in perspective at 35°."""
+    its vertical field of view and the image size (`scale` percent of the region's pixels). An
+    orthographic view is an orthographic camera of the view's height (2 / the projection's
+    [1][1], which is 2 / (top − bottom))."""
     world = view_matrix.inverted()
     position = world.translation
     forward = -world.col[2].xyz.normalized()
@@ -46,13 +47,16 @@ def view_camera(view_matrix, window_matrix, region_size, scale, perspective=True
     fov = math.degrees(2.0 * math.atan(1.0 / window_matrix[1][1])) if perspective else DEFAULT_FOV
     w, h = (max(1, round(n * scale / 100.0)) for n in region_size)
     rounded = lambda v: [round(x, 6) for x in extras.to_yup(v)]  # noqa: E731 (stable text)
-    return {
+    camera = {
         "position": rounded(position),
         "target": rounded(position + forward),
         "up": rounded(up),
         "fov": round(fov, 4),
         "size": [w, h],
     }
+    if not perspective:
+        camera["orthographic"] = round(2.0 / window_matrix[1][1], 6)
+    return camera
 
 
 def view_script_text(paths, settings, camera):

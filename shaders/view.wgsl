@@ -88,13 +88,29 @@ fn r2(k: u32) -> vec2<f32> {
     return fract(vec2<f32>(0.5) + f32(k) * vec2<f32>(0.7548776662, 0.5698402910));
 }
 
+// A point of the image on the image plane at unit distance: y from −1 (bottom) to 1 (top), x
+// scaled by the aspect ratio.
+fn image_plane(pixel: vec2<f32>) -> vec2<f32> {
+    return vec2<f32>((2.0 * pixel.x / f32(params.width) - 1.0) * params.camera.aspect, 1.0 - 2.0 * pixel.y / f32(params.height));
+}
+
+// The camera ray's direction through a point of the image (parallel to the view for an
+// orthographic camera) — CameraDesc::ray_through.
 fn camera_ray(pixel: vec2<f32>) -> vec3<f32> {
     let cam = params.camera;
-    let ndc = vec2<f32>(
-        (2.0 * pixel.x / f32(params.width) - 1.0) * cam.aspect,
-        1.0 - 2.0 * pixel.y / f32(params.height),
-    ) * cam.tan_half_fov;
+    if cam.ortho_half_height > 0.0 {
+        return cam.forward;
+    }
+    let ndc = image_plane(pixel) * cam.tan_half_fov;
     return normalize(cam.forward + ndc.x * cam.right + ndc.y * cam.up);
+}
+
+// Where it starts: the pinhole, or the image plane through the camera's position for an
+// orthographic camera — CameraDesc::origin_through.
+fn camera_origin(pixel: vec2<f32>) -> vec3<f32> {
+    let cam = params.camera;
+    let ndc = image_plane(pixel) * cam.ortho_half_height;
+    return cam.position + ndc.x * cam.right + ndc.y * cam.up;
 }
 
 fn has(flag: u32) -> bool {
@@ -597,12 +613,13 @@ fn spectral_sample(s: ViewSample) -> ViewSample {
     return out;
 }
 
-fn trace_view(dir0: vec3<f32>, k: u32, j: u32) -> ViewSample {
+fn trace_view(pixel: vec2<f32>, k: u32, j: u32) -> ViewSample {
+    let dir0 = camera_ray(pixel);
     sample_wavelength_of(k, j);
     var out = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
     var stack: array<Branch, BRANCH_STACK>;
     var top = 0u;
-    var branch = Branch(params.camera.position, dir0, vec3<f32>(1.0), media_unpacked(vec2<u32>(params.camera_media_lo, params.camera_media_hi)), 0u, 1u);
+    var branch = Branch(camera_origin(pixel), dir0, vec3<f32>(1.0), media_unpacked(vec2<u32>(params.camera_media_lo, params.camera_media_hi)), 0u, 1u);
     // (One call site: the branch tracer is the pass's largest function.)
     loop {
         trace_branch(&out, branch, &stack, &top, k);
@@ -665,7 +682,7 @@ fn shade_pixel(p: vec2<u32>) -> u32 {
     var sum = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
     var coverage = 0.0;
     for (var k = params.sample_first; k < params.sample_first + params.sample_count; k++) {
-        let s = trace_view(camera_ray(vec2<f32>(p) + r2(k)), k, 0u);
+        let s = trace_view(vec2<f32>(p) + r2(k), k, 0u);
         coverage += select(0.0, 1.0, s.covered);
         add_sample(&sum, s, 1.0);
     }
@@ -736,7 +753,7 @@ fn main_companions(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_
     if inside {
         pixel_key = id.x + id.y * params.width;
         tracing_companion = j == 1u;
-        s = trace_view(camera_ray(vec2<f32>(id.xy) + r2(k)), k, j);
+        s = trace_view(vec2<f32>(id.xy) + r2(k), k, j);
         count_steps(s.steps);
     }
     if j == 1u {

@@ -89,6 +89,7 @@ pub fn frame_json(scene: &Scene, desc: &FrameDesc, frame: Option<i64>) -> Result
             "forward": vec3(c.forward()),
             "up": vec3(c.orientation * Vec3::Y),
             "yfov": c.fov_y,
+            "orthographic": c.orthographic,
             "size": [c.width, c.height],
         },
         "cameras": cameras,

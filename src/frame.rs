@@ -19,6 +19,9 @@ pub struct CameraDesc {
     pub fov_y: f32,
     pub width: u32,
     pub height: u32,
+    /// Orthographic: the view's height in metres (its rays parallel to `forward`, starting on
+    /// the plane through `position`); `None`: a pinhole.
+    pub orthographic: Option<f32>,
 }
 
 impl CameraDesc {
@@ -35,6 +38,7 @@ impl CameraDesc {
             right: right.into(),
             aspect: self.width as f32 / self.height as f32,
             up: up.into(),
+            ortho_half_height: self.orthographic.map_or(0.0, |h| 0.5 * h),
             forward: self.forward().into(),
             ..Default::default()
         }
@@ -42,8 +46,28 @@ impl CameraDesc {
 
     /// The angle (radians) one pixel spans at the image's centre: the cone a camera ray
     /// stands for, over which a per-ray environment is filtered.
+    /// (Orthographic rays are parallel: a cone of no width.)
     pub fn pixel_angle(&self) -> f32 {
-        2.0 * (0.5 * self.fov_y).tan() / self.height as f32
+        match self.orthographic {
+            Some(_) => 0.0,
+            None => 2.0 * (0.5 * self.fov_y).tan() / self.height as f32,
+        }
+    }
+
+    /// Where the camera ray through a point of the image starts: the camera's position for a
+    /// pinhole, a point of the image plane through it for an orthographic camera — the CPU
+    /// twin of view.wgsl's `camera_origin`.
+    pub fn origin_through(&self, pixel: glam::Vec2) -> Vec3 {
+        let Some(height) = self.orthographic else { return self.position };
+        let (nx, ny) = self.image_plane(pixel);
+        self.position + 0.5 * height * (nx * (self.orientation * Vec3::X) + ny * (self.orientation * Vec3::Y))
+    }
+
+    /// A point of the image as (x, y) on the image plane at unit distance, y from −1 at the
+    /// bottom to 1 at the top, x scaled by the aspect ratio.
+    fn image_plane(&self, pixel: glam::Vec2) -> (f32, f32) {
+        let aspect = self.width as f32 / self.height as f32;
+        ((2.0 * pixel.x / self.width as f32 - 1.0) * aspect, 1.0 - 2.0 * pixel.y / self.height as f32)
     }
 
     /// The unit direction of the ray through pixel (x, y)'s centre — CPU twin of `camera_ray`.
@@ -55,10 +79,12 @@ impl CameraDesc {
     /// top-left corner (pixel (x, y) spans x..x + 1, y..y + 1): the CPU twin of view.wgsl's
     /// `camera_ray`.
     pub fn ray_through(&self, pixel: glam::Vec2) -> Vec3 {
+        if self.orthographic.is_some() {
+            return self.forward();
+        }
         let t = (0.5 * self.fov_y).tan();
-        let aspect = self.width as f32 / self.height as f32;
-        let nx = (2.0 * pixel.x / self.width as f32 - 1.0) * aspect * t;
-        let ny = (1.0 - 2.0 * pixel.y / self.height as f32) * t;
+        let (nx, ny) = self.image_plane(pixel);
+        let (nx, ny) = (nx * t, ny * t);
         (self.forward() + nx * (self.orientation * Vec3::X) + ny * (self.orientation * Vec3::Y)).normalize()
     }
 }

@@ -75,7 +75,7 @@ fn mae(a: &[f32], b: &[f32]) -> f32 {
 fn a_gltf_volume_glass_sphere_renders_like_the_lua_one() {
     let dir = tempfile::tempdir().unwrap();
     write_ball(dir.path());
-    let mut r = renderer();
+    let mut r = shared_renderer();
     let gltf = render(&scene(r#"r.gltf("ball.glb")"#), dir.path(), &mut r);
     let node = |shape: &str, absorbing: bool| format!("r.node{{ name = \"ball\", shape = {shape}, material = {} }}", glass_lua(absorbing));
     let lua_mesh = render(&scene(&node(&format!("r.icosphere{{ radius = {R}, subdivisions = 4 }}"), true)), dir.path(), &mut r);
@@ -158,7 +158,7 @@ fn a_base_color_texture_is_sampled_on_the_receiver_like_its_cpu_twin() {
             return scene"#
         )
     };
-    let mut r = renderer();
+    let mut r = shared_renderer();
     let white = render(&floor("white.glb"), dir.path(), &mut r);
     for file in ["textured.glb", "clamp_mirror.glb"] {
         let path = dir.path().join("scene.lua");
@@ -216,7 +216,7 @@ fn a_mirrored_gltf_mesh_voxelizes_as_its_mirror_image() {
     let by_hand: Vec<[f32; 3]> = tetra.iter().map(|p| [-p[0], p[1], p[2]]).collect();
     let flipped: Vec<[u32; 3]> = tris.iter().map(|t| [t[0], t[2], t[1]]).collect();
     glb(&by_hand, &flipped, [1.0, 1.0, 1.0]).write_glb(&dir.path().join("by_hand.glb"));
-    let mut r = renderer();
+    let mut r = shared_renderer();
     let mut grid = |file: &str| {
         let source = format!(
             r#"local r = require("refrakt")
@@ -239,4 +239,46 @@ fn a_mirrored_gltf_mesh_voxelizes_as_its_mirror_image() {
     assert!(inside > 50, "the solid covers voxels ({inside})");
     let worst = mirrored.iter().zip(&by_hand).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
     assert!(worst < 1e-6, "mirrored by the node vs by hand: n differs by up to {worst}");
+}
+
+/// A glTF orthographic camera (xmag 1, ymag 0.5: a 2 m × 1 m view) looking straight down at a
+/// glowing 0.5 m square, from 1 m and from 4 m: the square fills the same 8 × 8 of the 32 × 16
+/// pixels from both heights (parallel rays: no perspective), and each pixel is lit exactly
+/// where the CPU twin's ray (`origin_through`, `ray_through`) meets the square.
+#[test]
+fn an_orthographic_camera_sees_without_perspective() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut r = shared_renderer();
+    for height in [1.0f32, 4.0] {
+        let mut g = GltfBuilder::new();
+        let m = g.push("materials", json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.0, 0.0, 0.0, 1.0] }, "emissiveFactor": [1.0, 1.0, 1.0] }));
+        let h = 0.25;
+        let mesh = g.mesh(&[[-h, 0.0, -h], [h, 0.0, -h], [h, 0.0, h], [-h, 0.0, h]], &[[0, 2, 1], [0, 3, 2]], Some(m));
+        let square = g.push("nodes", json!({ "name": "square", "mesh": mesh }));
+        g.push("cameras", json!({ "type": "orthographic", "orthographic": { "xmag": 1.0, "ymag": 0.5, "znear": 0.01, "zfar": 100.0 } }));
+        let s = std::f32::consts::FRAC_1_SQRT_2;
+        let camera = g.push("nodes", json!({ "name": "top", "camera": 0, "translation": [0.0, height, 0.0], "rotation": [-s, 0.0, 0.0, s] }));
+        let scene = g.scene("S", &[square, camera]);
+        g.json["scenes"][scene]["extras"] = json!({ "refrakt": { "environment": { "color": [0, 0, 0] }, "photons": 0, "samples": 1 } });
+        let path = g.write_glb(&dir.path().join("ortho.glb"));
+        let loaded = refrakt::render::GltfScene::load(&path, &[], &Default::default()).unwrap();
+        let opts = refrakt::scene::eval::EvalOptions { size: Some((32, 16)), ..Default::default() };
+        let desc = refrakt::scene::eval::evaluate(&loaded.scene, 0.0, &opts).unwrap();
+        assert_eq!(desc.camera.orthographic, Some(1.0), "ymag is half the view's height");
+        let beauty = r.frame(&desc).unwrap().layer("beauty").unwrap().data.clone();
+        let (mut lit, mut disagree) = (0, 0);
+        for y in 0..16u32 {
+            for x in 0..32u32 {
+                let pixel = glam::Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+                let (o, d) = (desc.camera.origin_through(pixel), desc.camera.ray_through(pixel));
+                let p = o + d * (-o.y / d.y);
+                let cpu = p.x.abs() < h && p.z.abs() < h;
+                let gpu = beauty[4 * (y * 32 + x) as usize] > 0.5;
+                lit += usize::from(gpu);
+                disagree += usize::from(cpu != gpu);
+            }
+        }
+        eprintln!("orthographic camera {height} m above the square: {lit} pixels lit, {disagree} disagree with the CPU twin");
+        assert_eq!((lit, disagree), (64, 0), "{height} m");
+    }
 }

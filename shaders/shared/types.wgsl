@@ -16,7 +16,8 @@ struct Camera {
     right: vec3<f32>,
     aspect: f32,
     up: vec3<f32>,
-    _pad0: f32,
+    // Half the view's height of an orthographic camera (metres); 0: a pinhole.
+    ortho_half_height: f32,
     forward: vec3<f32>,
     _pad1: f32,
 }

@@ -135,8 +135,16 @@ impl<'a> Builder<'a, '_> {
                 }
                 node.borrow_mut().camera = Some(shared(Camera { fov_y, size, ..Camera::default() }));
             }
-            gltf::camera::Projection::Orthographic(_) => {
-                self.warnings.about(what, "orthographic cameras are not supported (refrakt has pinhole cameras only); the camera is skipped")
+            // §3.10.3: xmag and ymag are half the view's width and height.
+            gltf::camera::Projection::Orthographic(o) => {
+                let (xmag, ymag) = (o.xmag(), o.ymag());
+                if !(xmag.is_finite() && ymag.is_finite() && xmag != 0.0 && ymag != 0.0) {
+                    self.warnings.about(format!("{what} (xmag {xmag}, ymag {ymag})"), "its orthographic camera's xmag and ymag must be finite and non-zero; the camera is skipped");
+                    return;
+                }
+                let aspect = (xmag / ymag).abs();
+                let size = (((DEFAULT_HEIGHT as f32 * aspect).round() as u32).clamp(1, 16384), DEFAULT_HEIGHT);
+                node.borrow_mut().camera = Some(shared(Camera { size, orthographic: Some(2.0 * ymag.abs()), ..Camera::default() }));
             }
         }
     }

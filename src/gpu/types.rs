@@ -48,7 +48,8 @@ gpu_struct! {
         pub right: [f32; 3],
         pub aspect: f32,
         pub up: [f32; 3],
-        pub _pad0: f32,
+        /// Half the view's height (metres) of an orthographic camera; 0: a pinhole.
+        pub ortho_half_height: f32,
         pub forward: [f32; 3],
         pub _pad1: f32,
     }

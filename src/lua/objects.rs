@@ -629,7 +629,7 @@ impl LuaObject for Fog {
 // ---------------------------------------------------------------------------------------------
 // Camera.
 
-const CAMERA_FIELDS: &[&str] = &["position", "target", "rotation", "up", "fov", "size"];
+const CAMERA_FIELDS: &[&str] = &["position", "target", "rotation", "up", "fov", "size", "orthographic"];
 
 impl LuaObject for Camera {
     fn kind(&self) -> &'static str {
@@ -646,6 +646,7 @@ impl LuaObject for Camera {
             "up" => vec_value(lua, self.up),
             "fov" => Ok(number_value(self.fov_y.to_degrees())),
             "size" => lua.create_sequence_from([self.size.0, self.size.1])?.into_lua(lua),
+            "orthographic" => Ok(self.orthographic.map_or(Value::Nil, number_value)),
             _ => Err(unknown_field(lua, "camera", key, CAMERA_FIELDS)),
         }
     }
@@ -674,6 +675,12 @@ impl LuaObject for Camera {
                     .to_radians()
             }
             "size" => self.size = cv::image_size(lua, name, &value)?,
+            "orthographic" => {
+                self.orthographic = match value {
+                    Value::Nil => None,
+                    v => Some(cv::number_in(lua, name, &v, Some(1e-6), Some(1e6), "the view's height in metres, > 0 (nil: a pinhole)")? as f32),
+                }
+            }
             _ => return Err(unknown_field(lua, "camera", key, CAMERA_FIELDS)),
         }
         Ok(())

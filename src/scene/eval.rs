@@ -379,7 +379,7 @@ fn camera_of(scene: &Scene, placed: &[Placed], opts: &EvalOptions) -> Result<Cam
         let node = p.node.borrow();
         let cam = node.camera.as_ref()?.borrow().clone();
         let (_, rotation, translation) = p.world.to_scale_rotation_translation();
-        Some(CameraDesc { position: translation, orientation: rotation, fov_y: cam.fov_y, width: cam.size.0, height: cam.size.1 })
+        Some(CameraDesc { position: translation, orientation: rotation, fov_y: cam.fov_y, width: cam.size.0, height: cam.size.1, orthographic: cam.orthographic })
     };
     let mut desc = if let Some(chosen) = &opts.camera {
         let cameras = camera_nodes(placed);
@@ -400,12 +400,13 @@ fn camera_of(scene: &Scene, placed: &[Placed], opts: &EvalOptions) -> Result<Cam
             fov_y: cam.fov_y,
             width: cam.size.0,
             height: cam.size.1,
+            orthographic: cam.orthographic,
         }
     } else if let Some(d) = placed.iter().find_map(node_camera) {
         d
     } else {
         let d = super::Camera::default();
-        CameraDesc { position: d.position, orientation: d.orientation(), fov_y: d.fov_y, width: d.size.0, height: d.size.1 }
+        CameraDesc { position: d.position, orientation: d.orientation(), fov_y: d.fov_y, width: d.size.0, height: d.size.1, orthographic: None }
     };
     if let Some((w, h)) = opts.size {
         desc.width = w;

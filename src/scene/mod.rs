@@ -79,6 +79,8 @@ pub struct Camera {
     /// Vertical field of view, radians.
     pub fov_y: f32,
     pub size: (u32, u32),
+    /// An orthographic camera: the height of the view, metres (parallel rays; `fov_y` unused).
+    pub orthographic: Option<f32>,
 }
 
 impl Default for Camera {
@@ -90,6 +92,7 @@ impl Default for Camera {
             up: Vec3::Y,
             fov_y: 35f32.to_radians(),
             size: (1024, 576),
+            orthographic: None,
         }
     }
 }

@@ -54,6 +54,16 @@ def test_view_camera_in_refrakts_frame(addon):
     assert cam["fov"] == pytest.approx(40.0, abs=1e-3) and cam["size"] == [100, 50]
 
 
+def test_an_orthographic_view_is_an_orthographic_camera(addon):
+    """Blender's orthographic viewport (projection [1][1] = 2 / the view's height) becomes
+    refrakt's orthographic camera of that height; a perspective view stays a pinhole."""
+    view = Matrix.Translation((0, -5, 0)) @ Matrix.Rotation(math.radians(90), 4, "X")
+    ortho = Matrix.Diagonal((2.0 / 6.0, 2.0 / 3.0, -2.0 / 99.9, 1.0))
+    cam = submodule("viewport").view_camera(view.inverted(), ortho, (200, 100), 50, False)
+    assert cam["orthographic"] == pytest.approx(3.0, abs=1e-6)
+    assert "orthographic" not in submodule("viewport").view_camera(view.inverted(), window_matrix(40.0, 2.0), (200, 100), 50)
+
+
 class Recorder:
     """A depsgraph handler that forwards Blender's updates to the session, as view_update."""
 

@@ -20,6 +20,13 @@ pub fn renderer() -> Renderer {
     Renderer::new(ctx).expect("pipelines compile")
 }
 
+/// One renderer for every test of a test binary that asks for it, so its pipelines compile once
+/// (on lavapipe that is most of a small test's time); the tests take turns with it.
+pub fn shared_renderer() -> std::sync::MutexGuard<'static, Renderer> {
+    static SHARED: std::sync::OnceLock<std::sync::Mutex<Renderer>> = std::sync::OnceLock::new();
+    SHARED.get_or_init(|| std::sync::Mutex::new(renderer())).lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// Writes `source` as `name` into a fresh temporary folder and returns (folder, script path).
 pub fn write_script(name: &str, source: &str) -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();

@@ -163,6 +163,7 @@ fn catalog_json(c: &Catalog) -> Value {
     json!({
         "scenes": list(&c.scenes, &|i| c.scene == Some(i)),
         "animations": list(&c.animations, &|i| c.animation.is_none_or(|a| a == i)),
+        "variants": list(&c.variants, &|i| c.variant == Some(i)),
     })
 }
 

@@ -154,6 +154,9 @@ struct SceneArgs {
     /// glTF: play only the animation of this name or index (default: all of the file's animations at once).
     #[arg(long, value_name = "NAME|INDEX")]
     animation: Option<String>,
+    /// glTF: give meshes the materials of this KHR_materials_variants variant (by name, else index).
+    #[arg(long, value_name = "NAME|INDEX")]
+    variant: Option<String>,
     /// Let the scene read files below this folder too (repeatable).
     #[arg(long, value_name = "DIR")]
     allow_read: Vec<PathBuf>,
@@ -371,6 +374,7 @@ impl SceneArgs {
             gltf: ImportOptions {
                 scene: self.gltf_scene.clone(),
                 animation: self.animation.clone(),
+                variant: self.variant.clone(),
                 size: self.size,
                 environment_given: self.environment.is_some(),
             },

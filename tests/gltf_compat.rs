@@ -521,3 +521,58 @@ fn a_remark_about_many_materials_is_said_once_and_json_or_quiet_on_request() {
     assert_eq!(shine["subjects"][4], "materials[4] \"Paint4\"");
     assert_eq!(run(&["--quiet"]), "", "--quiet says nothing");
 }
+
+// -------------------------------------------------------------------------------------------
+// 7. KHR_materials_variants.
+
+/// A tetrahedron whose own material is grey, in variant "red" red, in variant "glass" glass, and
+/// in variant "same" (which it does not map) its own grey.
+fn variant_tetra() -> GltfBuilder {
+    let mut g = GltfBuilder::new();
+    g.uses("KHR_materials_variants", false);
+    g.uses("KHR_materials_transmission", false);
+    let grey = g.push("materials", json!({ "name": "grey", "pbrMetallicRoughness": { "baseColorFactor": [0.5, 0.5, 0.5, 1.0], "metallicFactor": 0.0 } }));
+    let red = g.push("materials", json!({ "name": "red", "pbrMetallicRoughness": { "baseColorFactor": [0.8, 0.1, 0.1, 1.0], "metallicFactor": 0.0 } }));
+    let glass = g.push("materials", json!({ "name": "glass", "pbrMetallicRoughness": { "roughnessFactor": 0.0, "metallicFactor": 0.0 },
+                                            "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } } }));
+    let mesh = g.mesh(&TETRA, &TETRA_TRIS, Some(grey));
+    g.json["meshes"][mesh]["primitives"][0]["extensions"] = json!({ "KHR_materials_variants": {
+        "mappings": [{ "material": red, "variants": [0] }, { "material": glass, "variants": [1] }] } });
+    g.json["extensions"] = json!({ "KHR_materials_variants": { "variants": [{ "name": "red" }, { "name": "glass" }, { "name": "same" }] } });
+    let node = g.push("nodes", json!({ "name": "tetra", "mesh": mesh }));
+    g.scene("s", &[node]);
+    g
+}
+
+#[test]
+fn a_material_variant_gives_each_primitive_the_material_it_maps() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = variant_tetra().write_glb(&dir.path().join("variants.glb"));
+    let p = path.to_str().unwrap();
+    let material = |args: &[&str]| -> Value {
+        let (code, out, err) = dump(&[&[p], args].concat());
+        assert_eq!(code, 0, "{err}");
+        let doc: Value = serde_json::from_str(out.trim()).unwrap();
+        let tetra = doc["nodes"].as_array().unwrap().iter().find(|n| n["name"] == "tetra").unwrap().clone();
+        doc["materials"][tetra["material"].as_u64().unwrap() as usize].clone()
+    };
+    assert_eq!(material(&[])["color"], json!([0.5, 0.5, 0.5]), "no variant: the primitive's own material");
+    assert_eq!(material(&["--variant", "red"])["color"], json!([0.8, 0.1, 0.1]));
+    assert_eq!(material(&["--variant", "1"])["kind"], json!("glass"), "by index, and a variant may turn a receiver into glass");
+    assert_eq!(material(&["--variant", "same"])["color"], json!([0.5, 0.5, 0.5]), "an unmapped variant keeps the own material");
+    let (_, out, _) = dump(&[p, "--variant", "red"]);
+    let doc: Value = serde_json::from_str(out.trim()).unwrap();
+    assert_eq!(doc["gltf"]["variants"][0], json!({ "index": 0, "name": "red", "chosen": true }));
+    assert_eq!(doc["gltf"]["variants"][2]["chosen"], json!(false));
+    let (code, _, err) = dump(&[p, "--variant", "blue"]);
+    assert_ne!(code, 0);
+    assert!(err.contains("no material variant called \"blue\"") && err.contains("(variants: 0 \"red\", 1 \"glass\", 2 \"same\")"), "{err}");
+    // From Lua.
+    let script = "local r = require(\"refrakt\")\nlocal scene = r.scene{}\nscene:add(r.gltf{ file = \"variants.glb\", variant = \"red\" })\nreturn scene\n";
+    std::fs::write(dir.path().join("scene.lua"), script).unwrap();
+    let host = common::load(&dir.path().join("scene.lua"));
+    host.update(0.0).unwrap();
+    let node = host.scene().borrow().find("tetra").expect("imported");
+    let m = node.borrow().material.clone().expect("a material");
+    assert!(matches!(&*m.borrow(), refrakt::scene::Material::Diffuse(d) if d.color == Vec3::new(0.8, 0.1, 0.1)));
+}

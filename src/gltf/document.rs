@@ -17,6 +17,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_ior",
     "KHR_materials_specular",
     "KHR_materials_transmission",
+    "KHR_materials_variants",
     "KHR_materials_volume",
     // Quantized attributes are plain integer accessors, which the accessor reader converts.
     "KHR_mesh_quantization",

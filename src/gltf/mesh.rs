@@ -35,13 +35,25 @@ pub struct Part {
 
 /// The mesh's primitives; `uv_map(material)` says which TEXCOORD_n a material samples and how
 /// it transforms them.
-pub fn read_mesh(mesh: &gltf::Mesh, acc: &Accessors, uv_map: impl Fn(Option<usize>) -> Option<UvMap>) -> Result<Vec<Part>> {
+pub fn read_mesh(mesh: &gltf::Mesh, acc: &Accessors, variant: Option<usize>, uv_map: impl Fn(Option<usize>) -> Option<UvMap>) -> Result<Vec<Part>> {
     mesh.primitives()
         .map(|p| {
             let what = format!("meshes[{}]{} primitives[{}]", mesh.index(), quoted(mesh.name()), p.index());
-            read_primitive(&p, acc, &what, uv_map(p.material().index()))
+            let material = material_of(&p, variant);
+            Ok(Part { material, ..read_primitive(&p, acc, &what, uv_map(material))? })
         })
         .collect()
+}
+
+/// KHR_materials_variants: the material a primitive takes in `variant` (an index into the
+/// file's variants) — the mapping that lists it, else the primitive's own material, as the
+/// extension says for variants a primitive does not map.
+pub fn material_of(p: &gltf::Primitive, variant: Option<usize>) -> Option<usize> {
+    let mapped = variant.and_then(|v| p.mappings().find(|m| m.variants().contains(&(v as u32))));
+    match mapped {
+        Some(m) => Some(m.material().index().unwrap_or(0)),
+        None => p.material().index(),
+    }
 }
 
 pub fn quoted(name: Option<&str>) -> String {

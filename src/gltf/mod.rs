@@ -39,6 +39,9 @@ pub struct ImportOptions {
     /// `--animation NAME|INDEX`: only the animation of that name, else of that index (default:
     /// all of them at once).
     pub animation: Option<String>,
+    /// `--variant NAME|INDEX`: the KHR_materials_variants variant whose materials the meshes
+    /// take (default: the primitives' own materials).
+    pub variant: Option<String>,
     /// `--size WxH`: the image a file without a camera is framed for (its aspect ratio).
     pub size: Option<(u32, u32)>,
     /// `--environment` is given: a file without an environment is not lit by the studio preset
@@ -56,6 +59,9 @@ pub struct Catalog {
     pub animations: Vec<Option<String>>,
     /// The animation that plays (`None`: all of them).
     pub animation: Option<usize>,
+    /// KHR_materials_variants' variants, and the one taken.
+    pub variants: Vec<Option<String>>,
+    pub variant: Option<usize>,
 }
 
 /// A glTF scene made into refrakt nodes.
@@ -142,8 +148,15 @@ pub fn import(path: &Path, shown: &str, access: &FileAccess, opts: &ImportOption
         Some(s) => settings(s, &at, &mut warnings)?,
         None => Settings::default(),
     };
+    let variants: Vec<Option<&str>> = doc.variants().into_iter().flatten().map(|v| Some(v.name())).collect();
+    let variant = match &opts.variant {
+        Some(chosen) => Some(by_name_or_index(&variants, chosen).ok_or_else(|| {
+            anyhow!("{shown}: there is no material variant called \"{chosen}\" and none of that index (variants: {})", catalog(&variants))
+        })?),
+        None => None,
+    };
     let materials = material::Materials::new(&doc, &buffers, &at);
-    let graph = nodes::build(&doc, &acc, materials, &roots, &mut warnings)?;
+    let graph = nodes::build(&doc, &acc, materials, &roots, variant, &mut warnings)?;
     let clips = clips(&doc, &acc, &graph, opts.animation.as_deref(), shown, &mut warnings)?;
     let animations: Vec<Option<&str>> = doc.animations().map(|a| a.name()).collect();
     let catalog = Catalog {
@@ -151,6 +164,8 @@ pub fn import(path: &Path, shown: &str, access: &FileAccess, opts: &ImportOption
         scene: scene.as_ref().map(|s| s.index()),
         animation: opts.animation.as_deref().and_then(|a| by_name_or_index(&animations, a)),
         animations: animations.iter().map(|a| a.map(str::to_string)).collect(),
+        variants: variants.iter().map(|v| v.map(str::to_string)).collect(),
+        variant,
     };
     let name = scene.and_then(|s| s.name().map(str::to_string)).unwrap_or_else(|| {
         path.file_stem().map_or_else(|| "gltf".to_string(), |s| s.to_string_lossy().to_string())

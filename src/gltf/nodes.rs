@@ -49,13 +49,15 @@ struct Builder<'a, 'b> {
     skinned: Vec<(usize, usize)>,
     /// (mesh, primitive) pairs already checked for enclosing a volume.
     sheets_warned: std::collections::HashSet<(usize, usize)>,
+    /// The KHR_materials_variants variant chosen (its index), if any.
+    variant: Option<usize>,
     warnings: &'a mut Collector,
 }
 
-pub fn build(doc: &gltf::Document, acc: &Accessors, materials: Materials, roots: &[usize], warnings: &mut Collector) -> Result<Graph> {
+pub fn build(doc: &gltf::Document, acc: &Accessors, materials: Materials, roots: &[usize], variant: Option<usize>, warnings: &mut Collector) -> Result<Graph> {
     let n = doc.nodes().count();
     let graph = Graph { roots: Vec::new(), nodes: (0..n).map(|_| Weak::new()).collect(), weights: vec![Vec::new(); n], deformables: Vec::new() };
-    let mut b = Builder { acc, materials, converted: HashMap::new(), meshes: HashMap::new(), graph, skinned: Vec::new(), sheets_warned: Default::default(), warnings };
+    let mut b = Builder { acc, materials, converted: HashMap::new(), meshes: HashMap::new(), graph, skinned: Vec::new(), sheets_warned: Default::default(), variant, warnings };
     for &r in roots {
         let node = doc.nodes().nth(r).ok_or_else(|| anyhow!("{}: nodes[{r}] does not exist", acc.file))?;
         let built = b.node(&node)?;
@@ -204,10 +206,10 @@ impl<'a> Builder<'a, '_> {
         }
         let mut uv_maps = HashMap::new();
         for p in m.primitives() {
-            let i = p.material().index();
+            let i = mesh::material_of(&p, self.variant);
             uv_maps.insert(i, self.material(i)?.2);
         }
-        let parts = mesh::read_mesh(m, self.acc, |i| uv_maps.get(&i).copied().flatten())?;
+        let parts = mesh::read_mesh(m, self.acc, self.variant, |i| uv_maps.get(&i).copied().flatten())?;
         for p in parts.iter().filter(|p| p.rest.uvs.is_none()) {
             if let Some(uv) = uv_maps.get(&p.material).copied().flatten() {
                 self.warnings.about(
@@ -304,7 +306,7 @@ impl<'a> Builder<'a, '_> {
     /// extras give.
     fn field(&mut self, g: &gltf::Node, node: &Shared<Node>, f: &FieldExtras) -> Result<()> {
         let first = match g.mesh() {
-            Some(m) => m.primitives().next().map(|p| p.material().index()),
+            Some(m) => m.primitives().next().map(|p| mesh::material_of(&p, self.variant)),
             None => None,
         };
         let mut glass = match first {

@@ -18,7 +18,7 @@ use crate::scene::{Node, Origin, Scene, shared};
 #[derive(Default)]
 pub struct Imports(RefCell<Vec<Player>>);
 
-const GLTF_FIELDS: &[&str] = &["file", "scene", "animation"];
+const GLTF_FIELDS: &[&str] = &["file", "scene", "animation", "variant"];
 
 /// `refrakt.gltf(…)`.
 pub fn new_import(lua: &Lua, args: Value) -> mlua::Result<Obj<Node>> {
@@ -71,6 +71,7 @@ fn table_args(lua: &Lua, t: &Table) -> mlua::Result<(String, ImportOptions)> {
             "file" => file = Some(cv::string(lua, name, &v)?),
             "scene" => opts.scene = Some(name_or_index(lua, name, &v)?),
             "animation" => opts.animation = Some(name_or_index(lua, name, &v)?),
+            "variant" => opts.variant = Some(name_or_index(lua, name, &v)?),
             _ => return Err(unknown_field(lua, "gltf", &key, GLTF_FIELDS)),
         }
     }

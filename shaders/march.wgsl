@@ -35,6 +35,7 @@
 #import shared/hash.wgsl
 #import shared/dda.wgsl
 #import shared/receivers.wgsl
+#import shared/glass_surface.wgsl
 
 @group(0) @binding(0) var<uniform> params: MarchParams;
 @group(0) @binding(1) var<storage, read> photons: array<Photon>;
@@ -61,6 +62,10 @@
 @group(0) @binding(17) var<storage, read> triangle_normals: array<vec4<f32>>;
 @group(0) @binding(18) var<storage, read_write> radiance_direction: array<atomic<u32>>;
 @group(0) @binding(19) var<storage, read> octree_leaves: array<vec4<f32>>;
+// Texture coordinates of the BVH triangles and the texels of glass meshes' textures
+// (shared/glass_surface.wgsl: a photon meets a textured glass where it is clear or frosted).
+@group(0) @binding(20) var<storage, read> triangle_uvs: array<vec4<f32>>;
+@group(0) @binding(21) var<storage, read> albedo_texels: array<u32>;
 
 // Statistics, each an rgb triple of 64-bit fixed-point flux sums (flux_scale units).
 const STAT_EMITTED: u32 = 0u;
@@ -327,7 +332,7 @@ fn march_photon(photon: Photon, index: u32) -> u32 {
             flux = after;
             events++;
             let facet = vec2<f32>(random01(params.seed, index, 96u + 2u * events), random01(params.seed, index, 97u + 2u * events));
-            let c = cross_interface(d, hit, media, facet);
+            let c = cross_interface(d, hit, glass_surface_at(hit), media, facet);
             if random01(params.seed, index, 16u + events) < c.reflectance {
                 d = c.reflected;
                 flux *= c.reflected_share;

@@ -47,7 +47,7 @@ fn cross_surface(s: ptr<function, RayState>, media: ptr<function, Media>, hit: S
     let d = normalize((*s).v);
     let p = (*s).x + d * hit.t;
     // (On a rough surface the probe follows the microfacet its first pair of numbers picks.)
-    let c = cross_interface(d, hit, *media, vec2<f32>(0.0));
+    let c = cross_interface(d, hit, plain_surface(hit.interface_id), *media, vec2<f32>(0.0));
     var w = c.reflected;
     if c.reflectance < 1.0 {
         w = c.transmitted;

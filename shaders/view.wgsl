@@ -34,6 +34,7 @@
 #import shared/environment.wgsl
 #import shared/hash.wgsl
 #import shared/pbr.wgsl
+#import shared/glass_surface.wgsl
 
 @group(0) @binding(0) var<uniform> params: ViewParams;
 @group(0) @binding(1) var ior_grid: texture_3d<f32>;
@@ -508,7 +509,7 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                     continue;
                 }
                 first_depth(out, s.x);
-                let c = cross_interface(b.d, hit, b.media, facet_numbers(k, b.path));
+                let c = cross_interface(b.d, hit, glass_surface_at(hit), b.media, facet_numbers(k, b.path));
                 b.events++;
                 var next = b.d;
                 if c.reflectance < 1.0 {

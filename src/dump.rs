@@ -113,11 +113,12 @@ pub fn frame_json(scene: &Scene, desc: &FrameDesc, frame: Option<i64>) -> Result
 }
 
 fn material_json(m: &Material) -> Value {
+    let size = |t: &Option<std::sync::Arc<crate::scene::Texture2d>>| t.as_ref().map(|t| [t.width, t.height]);
     match m {
         Material::Glass(g) => json!({ "kind": "glass", "ior": g.ior, "absorption": vec3(g.absorption),
-                                      "scattering": vec3(g.scattering), "g": g.g }),
+                                      "scattering": vec3(g.scattering), "g": g.g, "tint": vec3(g.tint), "roughness": g.roughness,
+                                      "roughness_texture": size(&g.roughness_texture), "tint_texture": size(&g.tint_texture) }),
         Material::Diffuse(d) => {
-            let size = |t: &Option<std::sync::Arc<crate::scene::Texture2d>>| t.as_ref().map(|t| [t.width, t.height]);
             json!({ "kind": "diffuse", "color": vec3(d.color), "texture": size(&d.texture),
                     "metallic": d.metallic, "roughness": d.roughness, "specular": d.specular,
                     "alpha": d.alpha, "alpha_mode": d.alpha_mode.name(), "alpha_cutoff": d.alpha_cutoff,

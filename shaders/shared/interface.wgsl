@@ -283,6 +283,20 @@ fn ggx_visible_normal(w: vec3<f32>, alpha: f32, u: vec2<f32>) -> vec3<f32> {
     return normalize(vec3<f32>(alpha * nh.x, alpha * nh.y, max(1e-6, nh.z)));
 }
 
+// What a crossing sees of an interface's surface where it is met: the tint of the light passed
+// and the GGX roughness — the record's factors, times its textures on a textured glass mesh
+// (shared/glass_surface.wgsl).
+struct GlassSurface {
+    tint: vec3<f32>,
+    roughness: f32,
+}
+
+// The surface of interface `id` by its factors alone (analytic shapes, untextured meshes).
+fn plain_surface(id: u32) -> GlassSurface {
+    let f = interfaces[id];
+    return GlassSurface(f.tint, f.roughness);
+}
+
 // Smith's masking for GGX of a direction at cos θ = c from the normal (c > 0):
 // G₁ = 2 / (1 + √(1 + α² tan²θ)).
 fn smith_g1(c: f32, alpha: f32) -> f32 {
@@ -290,13 +304,14 @@ fn smith_g1(c: f32, alpha: f32) -> f32 {
     return 2.0 / (1.0 + sqrt(1.0 + alpha * alpha * (1.0 - c2) / c2));
 }
 
-// The crossing of interface `hit` by direction d from `media`, with two uniform numbers u that
-// pick a microfacet on a rough surface (unused on a polished one). A solid's surface refracts
+// The crossing of interface `hit`, whose surface there is `surface`, by direction d from
+// `media`, with two uniform numbers u that pick a microfacet on a rough surface (unused on a
+// polished one). A solid's surface refracts
 // into the medium beyond; a thin sheet reflects the Fresnel of a thin slab summed over its
 // inner reflections (2R / (1 + R) per polarization, averaged), and passes the rest straight through — the light
 // refracted in and back out leaves parallel to how it came (on a rough sheet: the reflection
 // mirrored through the sheet, as glTF's thin-walled transmission has it).
-fn cross_interface(d: vec3<f32>, hit: SurfaceHit, media: Media, u: vec2<f32>) -> Crossing {
+fn cross_interface(d: vec3<f32>, hit: SurfaceHit, surface: GlassSurface, media: Media, u: vec2<f32>) -> Crossing {
     let f = interfaces[hit.interface_id];
     let thin = (f.kind & INTERFACE_THIN) != 0u;
     // A sheet's far side is the medium it stands in; its own glass sets the reflectance.
@@ -315,7 +330,7 @@ fn cross_interface(d: vec3<f32>, hit: SurfaceHit, media: Media, u: vec2<f32>) ->
         geometric = bvh_triangle_normal(hit.triangle);
     }
     geometric = select(geometric, -geometric, dot(geometric, d) > 0.0);
-    let alpha = f.roughness * f.roughness;
+    let alpha = surface.roughness * surface.roughness;
     var m = n;
     if alpha > 0.0 {
         let frame = basis_around(n);
@@ -340,7 +355,7 @@ fn cross_interface(d: vec3<f32>, hit: SurfaceHit, media: Media, u: vec2<f32>) ->
         reflected_share = smith_g1(max(cr, 0.0), alpha) * step(0.0, cr);
         transmitted_share = smith_g1(max(ct, 0.0), alpha) * step(0.0, ct);
     }
-    return Crossing(reflected, transmitted, reflectance, f.tint, beyond, geometric, reflected_share, transmitted_share);
+    return Crossing(reflected, transmitted, reflectance, surface.tint, beyond, geometric, reflected_share, transmitted_share);
 }
 
 // The media of a branch that leaves crossing c along w: the media beyond only if w passes

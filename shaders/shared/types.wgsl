@@ -170,6 +170,8 @@ struct Interface {
     _pad0: u32,
     _pad1: u32,
     _pad2: u32,
+    roughness_texture: vec4<u32>,
+    tint_texture: vec4<u32>,
 }
 
 struct ReceiverGpu {

@@ -88,8 +88,8 @@ impl<'a> Materials<'a> {
         let medium = extras::medium(m, self.at.file, &what, warnings)?.unwrap_or_default();
         let transmission = m.transmission().map_or(0.0, |t| t.transmission_factor());
         if transmission > 0.0 || medium.is_medium() {
-            let glass = self.glass(m, &what, transmission, &medium, warnings)?;
-            return Ok(Converted { material: Material::Glass(glass), boundary: medium.boundary, uv: None });
+            let (glass, uv) = self.glass(m, &what, transmission, &medium, warnings)?;
+            return Ok(Converted { material: Material::Glass(glass), boundary: medium.boundary, uv });
         }
         let (diffuse, uv) = self.receiver(m, &what, warnings)?;
         Ok(Converted { material: Material::Diffuse(diffuse), boundary: medium.boundary, uv })
@@ -170,7 +170,14 @@ impl<'a> Materials<'a> {
         Ok((d, uv))
     }
 
-    fn glass(&self, m: &gltf::Material, what: &str, transmission: f32, medium: &extras::MediumExtras, warnings: &mut Collector) -> Result<Glass> {
+    fn glass(
+        &mut self,
+        m: &gltf::Material,
+        what: &str,
+        transmission: f32,
+        medium: &extras::MediumExtras,
+        warnings: &mut Collector,
+    ) -> Result<(Glass, Option<UvMap>)> {
         let file = self.at.file;
         if transmission > 0.0 && transmission < 1.0 {
             warnings.about(
@@ -187,9 +194,6 @@ impl<'a> Materials<'a> {
         // KHR_materials_transmission: the base colour tints what passes each surface.
         let [r, g, b, _] = m.pbr_metallic_roughness().base_color_factor();
         let tint = Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE);
-        if m.pbr_metallic_roughness().base_color_texture().is_some() {
-            warnings.about(what, "refrakt does not read a base colour texture on glass yet; the baseColorFactor tints all of it");
-        }
         let mut glass = Glass { ior, absorption: attenuation(m, file, what)?, tint, ..Glass::default() };
         if let Some(a) = medium.absorption {
             glass.absorption = Vec3::from(a);
@@ -201,11 +205,49 @@ impl<'a> Materials<'a> {
             glass.g = g;
         }
         glass.dispersion = dispersion(m, file, what)?;
+        let mut uv = None;
         if transmission > 0.0 {
             glass.roughness = transmission_roughness(m, file, what, warnings)?;
             glass.thin = medium.thin.or(thin_walled(m));
+            uv = self.glass_textures(m, what, &mut glass, warnings)?;
         }
-        Ok(glass)
+        Ok((glass, uv))
+    }
+
+    /// The textures of a transmissive material that vary its surface: the base colour texture
+    /// tints (KHR_materials_transmission: the base colour is the transmitted colour) and the
+    /// metallic-roughness texture's green channel scales the roughness, where each ray or
+    /// photon meets the surface. The medium inside (index, absorption) stays one per material.
+    fn glass_textures(&mut self, m: &gltf::Material, what: &str, glass: &mut Glass, warnings: &mut Collector) -> Result<Option<UvMap>> {
+        let pbr = m.pbr_metallic_roughness();
+        let file = self.at.file;
+        let mut maps = Vec::new();
+        if let Some(info) = pbr.base_color_texture() {
+            maps.push(("base color", UvMap::of(&info, file, what)?));
+            glass.tint_texture = Some(self.texture(&info, what, "base color", true)?);
+        }
+        if let Some(info) = pbr.metallic_roughness_texture() {
+            maps.push(("metallic-roughness", UvMap::of(&info, file, what)?));
+            glass.roughness_texture = Some(self.texture(&info, what, "metallic-roughness", false)?);
+        }
+        if let [(first, a), (second, b)] = maps[..]
+            && a != b
+        {
+            warnings.about(
+                what,
+                format!("its {second} texture samples {} but its {first} texture {}; refrakt samples both as the first", b.plain(), a.plain()),
+            );
+        }
+        if m.transmission().and_then(|t| t.transmission_texture()).is_some() {
+            warnings.about(what, "refrakt does not read a transmissionTexture: all of the glass transmits");
+        }
+        if m.normal_texture().is_some() {
+            warnings.about(what, "refrakt does not read a normal map on glass yet: the glass takes its mesh's interpolated normals");
+        }
+        if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
+            warnings.about(what, "refrakt does not cut glass by alpha (MASK or BLEND) yet: all of the glass is there");
+        }
+        Ok(maps.first().map(|m| m.1))
     }
 
     /// A texture, decoded to linear values: colour textures (base color, emissive) are stored
@@ -253,10 +295,10 @@ fn transmission_roughness(m: &gltf::Material, file: &str, what: &str, warnings: 
     if !(0.0..=1.0).contains(&roughness) {
         bail!("{file}: {what}: roughnessFactor is {roughness}; it must be from 0 to 1");
     }
-    if pbr.metallic_roughness_texture().is_some() {
+    if pbr.metallic_factor() > 0.0 {
         warnings.about(
-            format!("{what} (roughnessFactor {roughness})"),
-            "refrakt does not read a metallic-roughness texture on glass yet; the roughnessFactor applies to all of the glass",
+            format!("{what} (metallicFactor {})", pbr.metallic_factor()),
+            "is metallic and transmissive; refrakt renders the glass without the metal",
         );
     }
     Ok(roughness)

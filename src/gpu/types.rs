@@ -290,6 +290,11 @@ gpu_struct! {
         pub _pad0: u32,
         pub _pad1: u32,
         pub _pad2: u32,
+        /// A glass mesh's roughness texture (green channel × `roughness`), as a receiver's
+        /// textures are given: (first texel, width, height, encoding | wrap); zeros for none.
+        pub roughness_texture: [u32; 4],
+        /// Its tint texture (rgb × `tint`), likewise.
+        pub tint_texture: [u32; 4],
     }
 }
 

@@ -6,12 +6,16 @@
 //! Glass spheres and boxes are analytic: each is one [`Interface`] record the shaders intersect
 //! in its local frame. Closed glass meshes are triangles in the receivers' BVH, marked with
 //! `interface_kind::BIT | index`, with shading normals per corner; their record carries the
-//! medium (index, tint, absorption). Which objects are sharp is decided in `scene::eval`.
+//! medium (index, tint, absorption), and a textured glass's texture coordinates go with its
+//! triangles, its textures in the receivers' texel atlas. Which objects are sharp is decided in
+//! `scene::eval`.
 
-use glam::{Mat3, Vec3};
+use std::sync::Arc;
+
+use glam::{Mat3, Vec2, Vec3};
 
 use crate::bvh::{Placed, Triangle};
-use crate::scene::MeshData;
+use crate::scene::{MeshData, Texture2d};
 use crate::frame::{FieldDesc, FieldKind, FrameDesc, MeshInstance};
 use crate::gpu::types::{Interface, interface_kind};
 
@@ -24,9 +28,11 @@ pub const MARK_WIDTH_VOXELS: f32 = 1.75;
 
 /// The sharp objects of a frame as interface records: the analytic ones first, then the
 /// meshes, then one `NONE` record that ends the analytic list even when there is no mesh.
-pub fn table(desc: &FrameDesc) -> Vec<Interface> {
+/// `textures`: each sharp mesh's (roughness, tint) texture in the texel atlas
+/// (`receivers::layout`; zeros for none).
+pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; 2]]) -> Vec<Interface> {
     let analytic = desc.fields.iter().filter(|f| f.sharp).map(analytic_record);
-    let meshes = sharp_meshes(desc).map(|m| Interface {
+    let meshes = sharp_meshes(desc).enumerate().map(|(j, m)| Interface {
         world_to_local: m.world.inverse().to_cols_array_2d(),
         kind: interface_kind::MESH | thin_bit(m.thin),
         tint: m.glass.tint.into(),
@@ -34,6 +40,8 @@ pub fn table(desc: &FrameDesc) -> Vec<Interface> {
         absorption: m.glass.absorption.into(),
         roughness: m.glass.roughness,
         dispersion: m.glass.dispersion,
+        roughness_texture: textures.get(j).map_or([0; 4], |t| t[0]),
+        tint_texture: textures.get(j).map_or([0; 4], |t| t[1]),
         ..Default::default()
     });
     analytic.chain(meshes).chain(std::iter::once(Interface::default())).collect()
@@ -66,12 +74,23 @@ fn sharp_meshes(desc: &FrameDesc) -> impl Iterator<Item = &MeshInstance> {
     desc.meshes.iter().filter(|m| m.sharp)
 }
 
-/// World-space triangles of the sharp meshes for the BVH, a list per mesh (`receiver` = BIT |
-/// interface index, `index` = where their corner normals are in the second vector).
-pub fn triangles(desc: &FrameDesc) -> (Vec<Placed>, Vec<[Vec3; 3]>) {
+/// The sharp meshes' part of the BVH and what its triangles carry.
+#[derive(Default)]
+pub struct SharpTriangles {
+    /// World-space triangles, a list per mesh (`receiver` = BIT | interface index, `index` =
+    /// where their corners are in `normals` and `uvs`).
+    pub meshes: Vec<Placed>,
+    /// Corner shading normals, world space.
+    pub normals: Vec<[Vec3; 3]>,
+    /// Corner texture coordinates (zeros on a mesh without them).
+    pub uvs: Vec<[Vec2; 3]>,
+    /// Each sharp mesh's (roughness, tint) textures, where it has texture coordinates.
+    pub textures: Vec<[Option<Arc<Texture2d>>; 2]>,
+}
+
+pub fn triangles(desc: &FrameDesc) -> SharpTriangles {
     let first = desc.fields.iter().filter(|f| f.sharp).count() as u32;
-    let mut meshes = Vec::new();
-    let mut normals = Vec::new();
+    let mut out = SharpTriangles::default();
     for (j, m) in sharp_meshes(desc).enumerate() {
         let mut triangles = Vec::with_capacity(m.mesh.triangles.len());
         let normal_to_world = Mat3::from_mat4(m.world).inverse().transpose();
@@ -81,13 +100,17 @@ pub fn triangles(desc: &FrameDesc) -> (Vec<Placed>, Vec<[Vec3; 3]>) {
             triangles.push(Triangle {
                 v: t.map(|i| positions[i as usize]),
                 receiver: interface_kind::BIT | (first + j as u32),
-                index: normals.len() as u32,
+                index: out.normals.len() as u32,
             });
-            normals.push(n.map(|v| (normal_to_world * v).normalize_or_zero()));
+            out.normals.push(n.map(|v| (normal_to_world * v).normalize_or_zero()));
+            out.uvs.push(m.mesh.uvs.as_ref().map_or([Vec2::ZERO; 3], |uv| t.map(|i| uv[i as usize])));
         }
-        meshes.push(Placed { mesh: std::sync::Arc::as_ptr(&m.mesh) as usize, triangles });
+        let textured = m.mesh.uvs.is_some();
+        let texture = |t: &Option<Arc<Texture2d>>| t.clone().filter(|_| textured);
+        out.textures.push([texture(&m.glass.roughness_texture), texture(&m.glass.tint_texture)]);
+        out.meshes.push(Placed { mesh: Arc::as_ptr(&m.mesh) as usize, triangles });
     }
-    (meshes, normals)
+    out
 }
 
 /// The sharp interfaces whose solid contains `p` (thin sheets contain nothing), outermost first (by the size of their boxes),
@@ -121,9 +144,16 @@ fn field_contains(f: &FieldDesc, p: Vec3) -> bool {
 }
 
 
-/// What identifies the sharp meshes' triangles (so the BVH is rebuilt when one moves).
-pub fn mesh_key(desc: &FrameDesc) -> Vec<(usize, glam::Mat4)> {
-    sharp_meshes(desc).map(|m| (std::sync::Arc::as_ptr(&m.mesh) as usize, m.world)).collect()
+/// A sharp mesh by pointer, its placement, and its textures by pointer.
+pub type MeshKey = (usize, glam::Mat4, [usize; 2]);
+
+/// What identifies the sharp meshes' triangles and textures (so the BVH and the texel atlas
+/// are rebuilt when one moves or another texture takes its place).
+pub fn mesh_key(desc: &FrameDesc) -> Vec<MeshKey> {
+    let ptr = |t: &Option<Arc<Texture2d>>| t.as_ref().map_or(0, |t| Arc::as_ptr(t) as usize);
+    sharp_meshes(desc)
+        .map(|m| (Arc::as_ptr(&m.mesh) as usize, m.world, [ptr(&m.glass.roughness_texture), ptr(&m.glass.tint_texture)]))
+        .collect()
 }
 
 #[cfg(test)]

@@ -99,6 +99,8 @@ impl March {
             layout::storage(17, true),
             layout::storage(18, false),
             layout::storage(19, true),
+            layout::storage(20, true),
+            layout::storage(21, true),
         ];
         let (main, bgl) = layout::pipeline_entry(device, shaders, "march", "main", &entries)?;
         let (resolve, _) = layout::pipeline_entry(device, shaders, "march", "resolve", &entries)?;
@@ -182,6 +184,8 @@ impl March {
                     layout::bind(17, &receivers.triangle_normals.buffer),
                     layout::bind(18, &radiance.direction_deposits),
                     layout::bind(19, &grids.octree_leaves),
+                    layout::bind(20, &receivers.triangle_uvs.buffer),
+                    layout::bind(21, &receivers.albedo_texels.buffer),
                 ],
             });
             self.bound = Some((generations, bg));

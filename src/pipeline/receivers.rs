@@ -20,7 +20,7 @@ use crate::scene::{AlphaMode, Diffuse, Texture2d, Wrap};
 use super::resources::GrowableBuffer;
 use crate::frame::{FrameDesc, Receiver};
 use crate::gpu::GpuContext;
-use super::interfaces;
+use super::interfaces::{self, SharpTriangles};
 use crate::gpu::types::{BvhNode, BvhTriangle, Chart, ReceiverGpu, interface_kind, receiver_flags, texel_encoding};
 
 /// Texels along the longest side of one chart, at most.
@@ -100,12 +100,16 @@ pub const UV_VEC4S: usize = 3;
 
 /// Per BVH triangle (in leaf order), its corners' texture coordinates and its tangent as three
 /// vec4s: (uv₀, uv₁), (uv₂, 0, 0), (tangent, sign) (`triangle_tangent`); zeros for
-/// untextured receivers and interfaces.
-fn triangle_uvs(bvh: &Bvh, receivers: &[Receiver]) -> Vec<[f32; 4]> {
+/// untextured receivers and glass meshes without texture coordinates.
+fn triangle_uvs(bvh: &Bvh, receivers: &[Receiver], interface_uvs: &[[Vec2; 3]]) -> Vec<[f32; 4]> {
     let mut out = Vec::with_capacity(UV_VEC4S * bvh.triangles.len());
     for t in &bvh.triangles {
-        let receiver = (!is_interface(t)).then(|| &receivers[t.receiver as usize]);
-        let corners = receiver.and_then(|r| textured(r).map(|uv| r.mesh.triangles[t.index as usize].map(|i| uv[i as usize])));
+        let corners = if is_interface(t) {
+            Some(interface_uvs[t.index as usize])
+        } else {
+            let r = &receivers[t.receiver as usize];
+            textured(r).map(|uv| r.mesh.triangles[t.index as usize].map(|i| uv[i as usize]))
+        };
         let corners = corners.unwrap_or([Vec2::ZERO; 3]);
         out.push([corners[0].x, corners[0].y, corners[1].x, corners[1].y]);
         out.push([corners[2].x, corners[2].y, 0.0, 0.0]);
@@ -237,14 +241,18 @@ pub struct ReceiverLayout {
     pub triangle_normals: Vec<[f32; 4]>,
     /// Every texture's texels, 8-bit packed (`pack_texel`), one after another.
     pub albedo_texels: Vec<u32>,
+    /// Each sharp glass mesh's (roughness, tint) textures in `albedo_texels` (for
+    /// `interfaces::table`).
+    pub interface_textures: Vec<[[u32; 4]; 2]>,
 }
 
 /// Lays out BVH and charts; `texel` is the wanted texel size (metres), grown where a chart or
-/// the whole atlas would be too large. `interfaces` are the sharp meshes' triangles and corner
-/// normals (`interfaces::triangles`): they join the BVH but get no charts. Each mesh's tree is
-/// taken from `trees` when it only moved (and left there for the next layout).
-pub fn layout(receivers: &[Receiver], interfaces: (Vec<Placed>, Vec<[Vec3; 3]>), texel: f32, trees: &mut MeshTrees) -> ReceiverLayout {
-    let mut meshes = Vec::with_capacity(receivers.len() + interfaces.0.len());
+/// the whole atlas would be too large. `interfaces` are the sharp meshes' triangles, corner
+/// normals, texture coordinates and textures (`interfaces::triangles`): they join the BVH and
+/// the texel atlas but get no charts. Each mesh's tree is taken from `trees` when it only moved
+/// (and left there for the next layout).
+pub fn layout(receivers: &[Receiver], interfaces: SharpTriangles, texel: f32, trees: &mut MeshTrees) -> ReceiverLayout {
+    let mut meshes = Vec::with_capacity(receivers.len() + interfaces.meshes.len());
     // (receiver, slot) → bounds in the chart's two axes.
     let mut extents: Vec<[Option<(Vec2, Vec2)>; 12]> = vec![[None; 12]; receivers.len()];
     for (i, r) in receivers.iter().enumerate() {
@@ -266,7 +274,7 @@ pub fn layout(receivers: &[Receiver], interfaces: (Vec<Placed>, Vec<[Vec3; 3]>),
         }
         meshes.push(Placed { mesh: Arc::as_ptr(&r.mesh) as usize, triangles });
     }
-    let (interface_meshes, interface_normals) = interfaces;
+    let SharpTriangles { meshes: interface_meshes, normals: interface_normals, uvs: interface_uvs, textures: glass_textures } = interfaces;
     meshes.extend(interface_meshes);
     let bvh = Bvh::build_placed(meshes, trees);
     // Grow the texel where one chart would be too long, then every chart's by one factor if the
@@ -311,9 +319,24 @@ pub fn layout(receivers: &[Receiver], interfaces: (Vec<Placed>, Vec<[Vec3; 3]>),
             ..receiver_gpu(r, &mut atlas)
         });
     }
-    let triangle_uvs = triangle_uvs(&bvh, receivers);
+    // A glass's roughness is the metallic-roughness texture's green channel, stored linear; its
+    // tint the base colour texture, stored sRGB-encoded as a receiver's is.
+    let interface_textures = glass_textures
+        .iter()
+        .map(|[roughness, tint]| [atlas.place(roughness.as_ref(), texel_encoding::LINEAR), atlas.place(tint.as_ref(), texel_encoding::SRGB)])
+        .collect();
+    let triangle_uvs = triangle_uvs(&bvh, receivers, &interface_uvs);
     let triangle_normals = triangle_normals(&bvh, receivers, &interface_normals);
-    ReceiverLayout { bvh, receivers: table, charts, texels: offset, triangle_uvs, triangle_normals, albedo_texels: atlas.texels }
+    ReceiverLayout {
+        bvh,
+        receivers: table,
+        charts,
+        texels: offset,
+        triangle_uvs,
+        triangle_normals,
+        albedo_texels: atlas.texels,
+        interface_textures,
+    }
 }
 
 /// The receivers' GPU buffers and the caustic maps sized by their charts. Buffers only grow:
@@ -323,12 +346,13 @@ pub struct Receivers {
     pub bvh_triangles: GrowableBuffer,
     pub receivers: GrowableBuffer,
     pub charts: GrowableBuffer,
-    /// Texture coordinates of the BVH triangles and the base color texels (view stage).
+    /// Texture coordinates of the BVH triangles (view and march stages).
     pub triangle_uvs: GrowableBuffer,
     /// Corner normals of the BVH triangles (interfaces' shading normals).
     pub triangle_normals: GrowableBuffer,
     /// The sharp interfaces' records (`pipeline::interfaces::table`), written every frame.
     pub interfaces: GrowableBuffer,
+    /// Every receiver's and glass mesh's texture, 8-bit packed (view and march stages).
     pub albedo_texels: GrowableBuffer,
     /// 4 u32 per texel: photon count, flux r, g, b (fixed point), written by the march stage.
     pub caustic_atlas: GrowableBuffer,
@@ -348,7 +372,7 @@ pub struct Receivers {
     trees: MeshTrees,
     /// Changes when a buffer was reallocated (consumers rebind).
     pub generation: u64,
-    key: Option<(Vec<ReceiverKey>, Vec<(usize, glam::Mat4)>)>,
+    key: Option<(Vec<ReceiverKey>, Vec<interfaces::MeshKey>)>,
 }
 
 /// What identifies a receiver: its mesh by pointer, placement, material (textures compare by
@@ -398,16 +422,20 @@ impl Receivers {
 
     /// Uploads this frame's receivers if they changed; true if they did.
     pub fn update(&mut self, ctx: &GpuContext, desc: &FrameDesc) -> bool {
-        let table = interfaces::table(desc);
+        let texel = Self::texel_for(desc);
+        let key = (key_of(desc, texel), interfaces::mesh_key(desc));
+        let changed = self.key.as_ref() != Some(&key);
+        if changed {
+            self.layout = layout(&desc.receivers, interfaces::triangles(desc), texel, &mut self.trees);
+        }
+        // (Written every frame: a glass's index or tint animates without a new layout.)
+        let table = interfaces::table(desc, &self.layout.interface_textures);
         if self.interfaces.write(ctx, bytemuck::cast_slice(&table)) {
             self.generation = super::resources::next_generation();
         }
-        let texel = Self::texel_for(desc);
-        let key = (key_of(desc, texel), interfaces::mesh_key(desc));
-        if self.key.as_ref() == Some(&key) {
+        if !changed {
             return false;
         }
-        self.layout = layout(&desc.receivers, interfaces::triangles(desc), texel, &mut self.trees);
         let mut nodes = self.layout.bvh.nodes.clone();
         if self.layout.bvh.triangles.is_empty() {
             nodes = vec![BvhNode::default()]; // first = 0, count = 0: the empty tree

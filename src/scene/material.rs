@@ -32,6 +32,12 @@ pub struct Glass {
     /// (523655/λ² − 1.5168), 1) (`cpu::spectrum::ior_at`); gradient-index media disperse the
     /// same way around their local n. Any dispersion in a frame makes its light spectral.
     pub dispersion: f32,
+    /// A metallic-roughness texture (glTF): its green channel multiplies `roughness` where a
+    /// ray meets the surface — a sharp mesh with texture coordinates only.
+    pub roughness_texture: Option<Arc<Texture2d>>,
+    /// A base colour texture (glTF, sRGB): its rgb multiplies `tint` where a ray crosses the
+    /// surface — a sharp mesh with texture coordinates only.
+    pub tint_texture: Option<Arc<Texture2d>>,
 }
 
 impl Glass {
@@ -45,7 +51,8 @@ impl Glass {
 
 impl Default for Glass {
     fn default() -> Self {
-        Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0, tint: Vec3::ONE, roughness: 0.0, thin: None, dispersion: 0.0 }
+        Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0, tint: Vec3::ONE, roughness: 0.0, thin: None, dispersion: 0.0,
+               roughness_texture: None, tint_texture: None }
     }
 }
 

@@ -11,6 +11,7 @@
 //! The BVH also holds the triangles of sharp glass meshes (`pipeline::interfaces`), so one
 //! closest-hit query finds the next surface of either kind and a shadow ray is stopped by both.
 
+use std::collections::HashMap;
 use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
@@ -155,12 +156,47 @@ fn pack_texel(c: [f32; 4], encoding: u32) -> u32 {
     e(c[0]) | e(c[1]) << 8 | e(c[2]) << 16 | byte(c[3]) << 24
 }
 
-/// The receivers' textures in one texel array; a texture shared by receivers (with the same
-/// encoding) is stored once.
+/// The receivers' and glass meshes' textures in one texel array; a texture shared by surfaces
+/// (with the same encoding) is stored once. `reduced` holds the textures stored at a lower
+/// resolution than their own (`fit_textures`).
 #[derive(Default)]
 struct TexelAtlas {
     texels: Vec<u32>,
     placed: Vec<(*const Texture2d, u32, u32)>,
+    reduced: HashMap<*const Texture2d, Arc<Texture2d>>,
+}
+
+/// What `fit_textures` did: how many textures it reduced, and the texels before and after.
+#[derive(Debug, Default, PartialEq)]
+struct Fitted {
+    reduced: usize,
+    texels: u64,
+    kept: u64,
+}
+
+/// Lower resolutions for the largest of `textures` (each with the number of encodings it is
+/// stored in) until all their texels fit `max_texels`, one storage binding of the GPU: the
+/// largest is halved (`Texture2d::halved`) until it is no longer the largest, and so on — so
+/// the detail lost is the least, and small textures stay whole.
+fn fit_textures(textures: &[(&Arc<Texture2d>, u64)], max_texels: u64) -> (HashMap<*const Texture2d, Arc<Texture2d>>, Fitted) {
+    let size = |t: &Texture2d| t.width as u64 * t.height as u64;
+    let mut current: Vec<(Arc<Texture2d>, u64)> = textures.iter().map(|(t, copies)| (Arc::clone(t), *copies)).collect();
+    let texels: u64 = current.iter().map(|(t, c)| size(t) * c).sum();
+    let mut total = texels;
+    let mut reduced = HashMap::new();
+    while total > max_texels {
+        let Some(i) = (0..current.len()).max_by_key(|&i| size(&current[i].0)) else { break };
+        let (t, copies) = &current[i];
+        if size(t) <= 1 {
+            break;
+        }
+        let half = Arc::new(t.halved());
+        total -= (size(t) - size(&half)) * copies;
+        reduced.insert(Arc::as_ptr(textures[i].0), half.clone());
+        current[i].0 = half;
+    }
+    let fitted = Fitted { reduced: reduced.len(), texels, kept: total };
+    (reduced, fitted)
 }
 
 impl TexelAtlas {
@@ -168,6 +204,7 @@ impl TexelAtlas {
     fn place(&mut self, texture: Option<&Arc<Texture2d>>, encoding: u32) -> [u32; 4] {
         let Some(t) = texture.filter(|t| t.width > 0 && t.height > 0) else { return [0; 4] };
         let key = Arc::as_ptr(t);
+        let t = self.reduced.get(&key).unwrap_or(t);
         let start = match self.placed.iter().find(|(p, e, _)| std::ptr::eq(*p, key) && *e == encoding) {
             Some(&(_, _, start)) => start,
             None => {
@@ -229,6 +266,39 @@ fn receiver_gpu(r: &Receiver, atlas: &mut TexelAtlas) -> ReceiverGpu {
 }
 
 
+/// Every texture the atlas will hold, fitted to `max_texels` (`fit_textures`), warning when
+/// any had to be reduced.
+fn fitted_atlas(receivers: &[Receiver], glass_textures: &[[Option<Arc<Texture2d>>; 2]], max_texels: u64) -> HashMap<*const Texture2d, Arc<Texture2d>> {
+    use texel_encoding::{LINEAR, SRGB};
+    let mut stored: Vec<(&Arc<Texture2d>, u32)> = Vec::new();
+    let used = receivers.iter().filter(|r| textured(r).is_some()).flat_map(|r| textures(&r.diffuse));
+    let glass = glass_textures.iter().flat_map(|[roughness, tint]| [(roughness.as_ref(), LINEAR), (tint.as_ref(), SRGB)]);
+    for (t, encoding) in used.chain(glass) {
+        if let Some(t) = t.filter(|t| !stored.iter().any(|(s, e)| Arc::ptr_eq(s, t) && *e == encoding)) {
+            stored.push((t, encoding));
+        }
+    }
+    let mut copies: Vec<(&Arc<Texture2d>, u64)> = Vec::new();
+    for (t, _) in stored {
+        match copies.iter_mut().find(|(s, _)| Arc::ptr_eq(s, t)) {
+            Some((_, n)) => *n += 1,
+            None => copies.push((t, 1)),
+        }
+    }
+    let (reduced, fitted) = fit_textures(&copies, max_texels);
+    if fitted.reduced > 0 {
+        crate::warnings::say_plain(&format!(
+            "the scene's textures hold {} Mi texels and one buffer of this GPU {} Mi; refrakt stores the {} largest at a lower \
+             resolution ({} Mi texels in all)",
+            fitted.texels >> 20,
+            max_texels >> 20,
+            fitted.reduced,
+            fitted.kept >> 20
+        ));
+    }
+    reduced
+}
+
 /// CPU-side layout of the receivers: what goes into the GPU buffers.
 pub struct ReceiverLayout {
     pub bvh: Bvh,
@@ -251,7 +321,9 @@ pub struct ReceiverLayout {
 /// normals, texture coordinates and textures (`interfaces::triangles`): they join the BVH and
 /// the texel atlas but get no charts. Each mesh's tree is taken from `trees` when it only moved
 /// (and left there for the next layout).
-pub fn layout(receivers: &[Receiver], interfaces: SharpTriangles, texel: f32, trees: &mut MeshTrees) -> ReceiverLayout {
+/// `max_texels` is what one storage binding holds: textures beyond it are stored at a lower
+/// resolution, with a warning (`fit_textures`).
+pub fn layout(receivers: &[Receiver], interfaces: SharpTriangles, texel: f32, max_texels: u64, trees: &mut MeshTrees) -> ReceiverLayout {
     let mut meshes = Vec::with_capacity(receivers.len() + interfaces.meshes.len());
     // (receiver, slot) → bounds in the chart's two axes.
     let mut extents: Vec<[Option<(Vec2, Vec2)>; 12]> = vec![[None; 12]; receivers.len()];
@@ -293,6 +365,7 @@ pub fn layout(receivers: &[Receiver], interfaces: SharpTriangles, texel: f32, tr
     let mut table = Vec::with_capacity(receivers.len());
     let mut offset = 0u32;
     let mut atlas = TexelAtlas::default();
+    atlas.reduced = fitted_atlas(receivers, &glass_textures, max_texels);
     for (i, r) in receivers.iter().enumerate() {
         let mut slots = [-1i32; 12];
         for (slot, e) in extents[i].iter().enumerate() {
@@ -413,7 +486,7 @@ impl Receivers {
             caustic_footprint: buffer("caustic footprint"),
             caustic_irradiance: buffer("caustic irradiance"),
             chart_photons: buffer("chart photons"),
-            layout: layout(&[], Default::default(), 1.0, &mut MeshTrees::default()),
+            layout: layout(&[], Default::default(), 1.0, u64::MAX, &mut MeshTrees::default()),
             trees: MeshTrees::default(),
             generation: super::resources::next_generation(),
             key: None,
@@ -426,7 +499,9 @@ impl Receivers {
         let key = (key_of(desc, texel), interfaces::mesh_key(desc));
         let changed = self.key.as_ref() != Some(&key);
         if changed {
-            self.layout = layout(&desc.receivers, interfaces::triangles(desc), texel, &mut self.trees);
+            // Texels are 4 bytes; one binding must hold them all.
+            let max_texels = ctx.limits.max_storage_buffer_binding_size.min(ctx.limits.max_buffer_size) / 4;
+            self.layout = layout(&desc.receivers, interfaces::triangles(desc), texel, max_texels, &mut self.trees);
         }
         // (Written every frame: a glass's index or tint animates without a new layout.)
         let table = interfaces::table(desc, &self.layout.interface_textures);
@@ -480,7 +555,7 @@ mod tests {
     #[test]
     fn a_floor_gets_one_chart_per_side_a_box_twelve() {
         let floor = receiver(mesh::plane(Vec2::new(4.0, 2.0)), glam::Mat4::IDENTITY);
-        let l = layout(&[floor], Default::default(), 0.01, &mut MeshTrees::default());
+        let l = layout(&[floor], Default::default(), 0.01, u64::MAX, &mut MeshTrees::default());
         // Top (+Y front) and bottom (the back of the same triangles, facing −Y).
         assert_eq!(l.charts.len(), 2);
         let top = &l.charts[l.receivers[0].charts_a[2] as usize];
@@ -488,7 +563,7 @@ mod tests {
         // A +Y chart spans (z, x): 2 m and 4 m at 1 cm, plus a texel of margin on each side.
         assert_eq!((top.width, top.height), (202, 402));
         let cube = receiver(mesh::cuboid(Vec3::ONE), glam::Mat4::IDENTITY);
-        assert_eq!(layout(&[cube], Default::default(), 0.01, &mut MeshTrees::default()).charts.len(), 12);
+        assert_eq!(layout(&[cube], Default::default(), 0.01, u64::MAX, &mut MeshTrees::default()).charts.len(), 12);
     }
 
     #[test]
@@ -498,10 +573,36 @@ mod tests {
         assert_eq!(direction_slot(Vec3::new(-0.7, 0.1, 0.7)), 1, "ties go to x");
     }
 
+    /// Textures beyond one binding: the largest is halved until the rest fit, small ones stay
+    /// whole, and the layout stores (and names) the reduced one.
+    #[test]
+    fn textures_beyond_a_binding_are_stored_at_a_lower_resolution() {
+        let texture = |side: u32| {
+            Arc::new(Texture2d { width: side, height: side, texels: vec![[0.5, 0.5, 0.5, 1.0]; (side * side) as usize], wrap: Default::default() })
+        };
+        let (big, small) = (texture(64), texture(16));
+        let (reduced, fitted) = fit_textures(&[(&big, 1), (&small, 1)], 1500);
+        assert_eq!(fitted, Fitted { reduced: 1, texels: 64 * 64 + 16 * 16, kept: 32 * 32 + 16 * 16 });
+        assert_eq!(reduced[&Arc::as_ptr(&big)].width, 32);
+        assert!(!reduced.contains_key(&Arc::as_ptr(&small)));
+        let (none, _) = fit_textures(&[(&big, 2)], 2 * 64 * 64);
+        assert!(none.is_empty(), "what fits is kept whole");
+        // Two copies (two encodings) count twice: 2 × 32² = 2048 > 1500 → 16².
+        let (twice, fitted) = fit_textures(&[(&big, 2)], 1500);
+        assert_eq!((twice[&Arc::as_ptr(&big)].width, fitted.kept), (16, 2 * 16 * 16));
+        let mut plane = mesh::plane(Vec2::ONE);
+        plane.uvs = Some(vec![Vec2::ZERO; plane.positions.len()]);
+        let mut floor = receiver(plane, glam::Mat4::IDENTITY);
+        floor.diffuse.texture = Some(big.clone());
+        let l = layout(&[floor], Default::default(), 0.01, 1500, &mut MeshTrees::default());
+        assert_eq!(l.albedo_texels.len(), 32 * 32);
+        assert_eq!(l.receivers[0].base_texture[1..3], [32, 32]);
+    }
+
     #[test]
     fn huge_receivers_are_capped() {
         let floor = receiver(mesh::plane(Vec2::new(1000.0, 1000.0)), glam::Mat4::IDENTITY);
-        let l = layout(&[floor], Default::default(), 0.001, &mut MeshTrees::default());
+        let l = layout(&[floor], Default::default(), 0.001, u64::MAX, &mut MeshTrees::default());
         assert!(l.texels as f32 <= MAX_ATLAS_TEXELS * 1.01, "{} texels", l.texels);
         assert!(l.charts.iter().all(|c| c.width as f32 <= MAX_CHART_SIDE + 3.0));
     }

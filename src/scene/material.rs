@@ -115,8 +115,31 @@ impl Wrap {
 impl Eq for Texture2d {}
 
 impl Texture2d {
+    /// The texture at half its resolution (rounded up): each texel the mean of the 2 × 2 it
+    /// covers (of those that exist, at an odd edge) — the values are linear, so this is the box
+    /// filter of the light they reflect. For a scene whose textures exceed the GPU's binding.
+    pub fn halved(&self) -> Texture2d {
+        let (w, h) = (self.width.div_ceil(2), self.height.div_ceil(2));
+        let mut texels = Vec::with_capacity((w * h) as usize);
+        for y in 0..h {
+            for x in 0..w {
+                let mut sum = [0.0f32; 4];
+                let mut n = 0.0;
+                for (sx, sy) in [(2 * x, 2 * y), (2 * x + 1, 2 * y), (2 * x, 2 * y + 1), (2 * x + 1, 2 * y + 1)] {
+                    if sx < self.width && sy < self.height {
+                        let t = self.texels[(sy * self.width + sx) as usize];
+                        sum.iter_mut().zip(t).for_each(|(s, v)| *s += v);
+                        n += 1.0;
+                    }
+                }
+                texels.push(sum.map(|s| s / n));
+            }
+        }
+        Texture2d { width: w, height: h, texels, wrap: self.wrap }
+    }
+
     /// Bilinear lookup with the texture's wrap modes — the CPU twin of `texture_at` in
-    /// `shaders/shared/pbr.wgsl`.
+    /// `shaders/shared/texture.wgsl`.
     pub fn sample(&self, uv: Vec2) -> Vec3 {
         let (w, h) = (self.width as i64, self.height as i64);
         // Into [0, 1] first, so large coordinates keep their precision.
@@ -280,6 +303,19 @@ impl Default for Fog {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Halving averages each 2 × 2 block, and at an odd edge the texels that exist.
+    #[test]
+    fn a_halved_texture_is_the_box_filter_of_the_whole() {
+        let t = Texture2d { width: 3, height: 2, texels: (0..6).map(|i| [i as f32, 1.0, 0.0, 1.0]).collect(), wrap: [Wrap::Clamp; 2] };
+        let h = t.halved();
+        assert_eq!((h.width, h.height, h.wrap), (2, 1, [Wrap::Clamp; 2]));
+        // Row 0: 0 1 2, row 1: 3 4 5 → (0+1+3+4)/4 = 2 and (2+5)/2 = 3.5.
+        assert_eq!(h.texels, vec![[2.0, 1.0, 0.0, 1.0], [3.5, 1.0, 0.0, 1.0]]);
+        let one = h.halved();
+        assert_eq!((one.width, one.height), (1, 1));
+        assert_eq!(one.halved().texels, one.texels, "a single texel halves to itself");
+    }
 
     /// A 4-texel row of values 0, 1, 2, 3 sampled between texel centres along u: repeat tiles it,
     /// clamp holds the edge texel, mirror reflects it in every odd tile (glTF 2.0 §5.26).

@@ -12,7 +12,7 @@
 
 fn glass_surface_at(hit: SurfaceHit) -> GlassSurface {
     let f = interfaces[hit.interface_id];
-    var s = GlassSurface(f.tint, f.roughness);
+    var s = plain_surface(hit.interface_id);
     if hit.triangle == 0xffffffffu || !(has_texture(f.roughness_texture) || has_texture(f.tint_texture)) {
         return s;
     }

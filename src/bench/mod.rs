@@ -387,7 +387,8 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
         }
         let run = run_scene(&mut renderer, &mut scene, &eval, frames, 24.0)?;
         if roof.is_none() {
-            roof = Some(roofline::measure(&mut renderer, 3)?);
+            let threads = if opts.quick { roofline::QUICK_THREADS } else { roofline::THREADS };
+            roof = Some(roofline::measure(&mut renderer, threads, 3)?);
         }
         let mut report = scene_json(name, &run, roof.as_ref());
         if run.desc.fog.is_some() {

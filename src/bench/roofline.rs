@@ -13,12 +13,16 @@ pub struct Roofline {
     pub view_steps_per_s: f64,
 }
 
-/// Threads per measurement (each takes `STEPS` = 256 steps in the shader).
-const THREADS: u32 = 1 << 20;
+/// Threads per measurement (each takes `STEPS` = 256 steps in the shader): enough to fill an
+/// H200 many times over, so the figure is the kernel's throughput, not its launch.
+pub const THREADS: u32 = 1 << 20;
+/// Threads under `--quick`, where the adapter is a CPU and only the report's shape matters.
+pub const QUICK_THREADS: u32 = 1 << 15;
 const STEPS: f64 = 256.0;
 
-/// Measures both bare kernels against the renderer's current grids (render a frame first).
-pub fn measure(renderer: &mut Renderer, runs: usize) -> Result<Roofline> {
+/// Measures both bare kernels, `threads` wide, against the renderer's current grids (render a
+/// frame first).
+pub fn measure(renderer: &mut Renderer, threads: u32, runs: usize) -> Result<Roofline> {
     let ctx = &renderer.ctx;
     let grids = renderer.grids().ok_or_else(|| anyhow!("the roofline needs a volume: render a frame first"))?;
     let shaders = crate::gpu::shaders::ShaderLibrary::Embedded;
@@ -36,7 +40,7 @@ pub fn measure(renderer: &mut Renderer, runs: usize) -> Result<Roofline> {
     ctx.queue.write_buffer(&params, 0, bytemuck::bytes_of(&grids.octree_layout.grid));
     let voxels = grids.dims.x as u64 * grids.dims.y as u64 * grids.dims.z as u64;
     let deposits = buffer("roofline deposits", voxels * 4, wgpu::BufferUsages::STORAGE);
-    let sink = buffer("roofline sink", THREADS as u64 * 4, wgpu::BufferUsages::STORAGE);
+    let sink = buffer("roofline sink", threads as u64 * 4, wgpu::BufferUsages::STORAGE);
     let bg = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("roofline"),
         layout: &bgl,
@@ -60,7 +64,7 @@ pub fn measure(renderer: &mut Renderer, runs: usize) -> Result<Roofline> {
             let mut pass = renderer.profiler.pass(&mut enc, label);
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &bg, &[]);
-            let (x, y) = layout::workgroups_1d(THREADS, 64);
+            let (x, y) = layout::workgroups_1d(threads, 64);
             pass.dispatch_workgroups(x, y, 1);
         }
         renderer.profiler.resolve(&mut enc, 0);
@@ -72,6 +76,6 @@ pub fn measure(renderer: &mut Renderer, runs: usize) -> Result<Roofline> {
             }
         }
     }
-    let rate = |ms: f64| THREADS as f64 * STEPS / (ms * 1e-3);
+    let rate = |ms: f64| threads as f64 * STEPS / (ms * 1e-3);
     Ok(Roofline { march_steps_per_s: rate(best[0]), view_steps_per_s: rate(best[1]) })
 }

@@ -154,19 +154,8 @@ impl<'a> Materials<'a> {
             maps.push(("occlusion", UvMap { set: o.tex_coord(), transform }));
             d.occlusion_texture = Some(self.image_texture(o.texture(), what, "occlusion", false)?);
         }
+        warn_uv_maps_differ(&maps, what, warnings);
         let uv = maps.first().map(|m| m.1);
-        for (role, map) in maps.iter().skip(1).filter(|(_, map)| Some(*map) != uv) {
-            warnings.about(
-                what,
-                format!(
-                    "its {role} texture samples {} but its {} texture {}; refrakt samples all of a material's textures as \
-                     the first one",
-                    map.plain(),
-                    maps[0].0,
-                    maps[0].1.plain()
-                ),
-            );
-        }
         Ok((d, uv))
     }
 
@@ -207,7 +196,7 @@ impl<'a> Materials<'a> {
         glass.dispersion = dispersion(m, file, what)?;
         let mut uv = None;
         if transmission > 0.0 {
-            glass.roughness = transmission_roughness(m, file, what, warnings)?;
+            glass.roughness = transmission_roughness(m, file, what)?;
             glass.thin = medium.thin.or(thin_walled(m));
             uv = self.glass_textures(m, what, &mut glass, warnings)?;
         }
@@ -230,14 +219,7 @@ impl<'a> Materials<'a> {
             maps.push(("metallic-roughness", UvMap::of(&info, file, what)?));
             glass.roughness_texture = Some(self.texture(&info, what, "metallic-roughness", false)?);
         }
-        if let [(first, a), (second, b)] = maps[..]
-            && a != b
-        {
-            warnings.about(
-                what,
-                format!("its {second} texture samples {} but its {first} texture {}; refrakt samples both as the first", b.plain(), a.plain()),
-            );
-        }
+        warn_uv_maps_differ(&maps, what, warnings);
         if m.transmission().and_then(|t| t.transmission_texture()).is_some() {
             warnings.about(what, "refrakt does not read a transmissionTexture: all of the glass transmits");
         }
@@ -289,19 +271,43 @@ fn wrap(mode: gltf::texture::WrappingMode) -> Wrap {
 
 /// KHR_materials_transmission's roughness is the material's metallic-roughness roughness
 /// (GGX, α = roughness²).
-fn transmission_roughness(m: &gltf::Material, file: &str, what: &str, warnings: &mut Collector) -> Result<f32> {
-    let pbr = m.pbr_metallic_roughness();
-    let roughness = pbr.roughness_factor();
+fn transmission_roughness(m: &gltf::Material, file: &str, what: &str) -> Result<f32> {
+    let roughness = m.pbr_metallic_roughness().roughness_factor();
     if !(0.0..=1.0).contains(&roughness) {
         bail!("{file}: {what}: roughnessFactor is {roughness}; it must be from 0 to 1");
     }
-    if pbr.metallic_factor() > 0.0 {
+    Ok(roughness)
+}
+
+/// How metal a glass mesh is, at its most: metallicFactor × the metallic-roughness texture's
+/// blue channel at the mesh's vertices (`uvs`, already through the material's UV map).
+/// Sampled where the mesh is, not over the whole image: exporters write metallicFactor 1 with an
+/// atlas that is metal elsewhere and 0 on the glass (Khronos' GlassHurricaneCandleHolder does),
+/// which is no metal at all. (Metal only inside a large triangle is missed: the warning is a
+/// hint, the rendering is the same.)
+pub fn glass_metallic(m: &gltf::Material, metallic_roughness: Option<&Texture2d>, uvs: Option<&[Vec2]>) -> f32 {
+    let factor = m.pbr_metallic_roughness().metallic_factor();
+    let texel_max = match (metallic_roughness, uvs) {
+        (Some(t), Some(uvs)) => uvs.iter().map(|&uv| t.sample(uv).z).fold(0.0, f32::max),
+        _ => 1.0,
+    };
+    factor * texel_max
+}
+
+/// Warns once per texture whose UV map (set and transform) differs from the first texture's:
+/// a material's textures are all sampled with the first one's.
+fn warn_uv_maps_differ(maps: &[(&str, UvMap)], what: &str, warnings: &mut Collector) {
+    let Some(&(first, uv)) = maps.first() else { return };
+    for (role, map) in maps.iter().skip(1).filter(|(_, map)| *map != uv) {
         warnings.about(
-            format!("{what} (metallicFactor {})", pbr.metallic_factor()),
-            "is metallic and transmissive; refrakt renders the glass without the metal",
+            what,
+            format!(
+                "its {role} texture samples {} but its {first} texture {}; refrakt samples all of a material's textures as the first one",
+                map.plain(),
+                uv.plain()
+            ),
         );
     }
-    Ok(roughness)
 }
 
 /// Transmission without KHR_materials_volume is thin-walled, by that extension's definition: a
@@ -377,5 +383,26 @@ mod tests {
         // Offset and scale alone: what gltfpack writes for quantized texture coordinates.
         let q = texture_transform(Vec2::new(0.25, -0.5), 0.0, Vec2::new(2.0, 4.0));
         assert_eq!(q.transform_point2(Vec2::new(0.5, 0.5)), Vec2::new(1.25, 1.5));
+    }
+
+    /// A document of one material, metallicFactor 1.
+    fn metallic_one() -> gltf::Document {
+        let json = r#"{"asset":{"version":"2.0"},"materials":[{"pbrMetallicRoughness":{"metallicFactor":1.0}}]}"#;
+        gltf::Gltf::from_slice(json.as_bytes()).expect("valid glTF").document
+    }
+
+    #[test]
+    fn glass_is_metallic_only_where_its_mesh_samples_a_metal_texel() {
+        let doc = metallic_one();
+        let m = doc.materials().next().expect("one material");
+        // A 2×1 atlas: metal (blue 1) on the left, glass (blue 0) on the right.
+        let atlas = Texture2d { width: 2, height: 1, texels: vec![[0.0, 0.1, 1.0, 1.0], [0.0, 0.1, 0.0, 1.0]], wrap: [Wrap::Clamp; 2] };
+        let on_glass = [Vec2::new(0.9, 0.5), Vec2::new(1.0, 0.2)];
+        let on_metal = [Vec2::new(0.9, 0.5), Vec2::new(0.1, 0.5)];
+        assert_eq!(glass_metallic(&m, Some(&atlas), Some(&on_glass)), 0.0);
+        assert_eq!(glass_metallic(&m, Some(&atlas), Some(&on_metal)), 1.0);
+        // No texture, or no UVs to read it with: the factor is all there is.
+        assert_eq!(glass_metallic(&m, None, Some(&on_glass)), 1.0);
+        assert_eq!(glass_metallic(&m, Some(&atlas), None), 1.0);
     }
 }

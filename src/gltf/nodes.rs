@@ -235,6 +235,7 @@ impl<'a> Builder<'a, '_> {
             let MaterialEntry(material, boundary, _) = self.material(part.material)?;
             if let Material::Glass(glass) = &*material.borrow() {
                 self.warn_if_no_volume(g, &m, &part, glass.thin);
+                self.warn_if_metallic(&part, glass);
             }
             let source = format!("{} meshes[{}]{}", self.file(), m.index(), mesh::quoted(m.name()));
             let shape = Shape::Mesh { mesh: part.rest.clone(), source, boundary };
@@ -297,6 +298,18 @@ impl<'a> Builder<'a, '_> {
                      encloses, so it will not show (leave thin unset for a sheet, or give the sheet a thickness, e.g. \
                      Blender's Solidify modifier, and re-export)"
                 ),
+            );
+        }
+    }
+
+    /// Metal on glass is not rendered: say so where the primitive's surface is metallic.
+    fn warn_if_metallic(&mut self, part: &Part, glass: &Glass) {
+        let Some((index, m)) = part.material.and_then(|i| Some((i, self.materials.doc.materials().nth(i)?))) else { return };
+        let metallic = material::glass_metallic(&m, glass.roughness_texture.as_deref(), part.rest.uvs.as_deref());
+        if metallic > 0.0 {
+            self.warnings.about(
+                format!("materials[{index}]{} (metallic up to {metallic:.2})", mesh::quoted(m.name())),
+                "is metallic and transmissive; refrakt renders the glass without the metal",
             );
         }
     }

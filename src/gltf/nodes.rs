@@ -47,8 +47,8 @@ struct Builder<'a, 'b> {
     graph: Graph,
     /// (deformable, skin index) pairs whose joints are filled in once every node exists.
     skinned: Vec<(usize, usize)>,
-    /// (mesh, primitive) pairs already checked for enclosing a volume.
-    sheets_warned: std::collections::HashSet<(usize, usize)>,
+    /// Glass (mesh, primitive) pairs already checked for enclosing a volume and for metal.
+    glass_checked: std::collections::HashSet<(usize, usize)>,
     /// The KHR_materials_variants variant chosen (its index), if any.
     variant: Option<usize>,
     warnings: &'a mut Collector,
@@ -57,7 +57,7 @@ struct Builder<'a, 'b> {
 pub fn build(doc: &gltf::Document, acc: &Accessors, materials: Materials, roots: &[usize], variant: Option<usize>, warnings: &mut Collector) -> Result<Graph> {
     let n = doc.nodes().count();
     let graph = Graph { roots: Vec::new(), nodes: (0..n).map(|_| Weak::new()).collect(), weights: vec![Vec::new(); n], deformables: Vec::new() };
-    let mut b = Builder { acc, materials, converted: HashMap::new(), meshes: HashMap::new(), graph, skinned: Vec::new(), sheets_warned: Default::default(), variant, warnings };
+    let mut b = Builder { acc, materials, converted: HashMap::new(), meshes: HashMap::new(), graph, skinned: Vec::new(), glass_checked: Default::default(), variant, warnings };
     for &r in roots {
         let node = doc.nodes().nth(r).ok_or_else(|| anyhow!("{}: nodes[{r}] does not exist", acc.file))?;
         let built = b.node(&node)?;
@@ -233,7 +233,10 @@ impl<'a> Builder<'a, '_> {
         let single = parts.len() == 1;
         for part in parts {
             let MaterialEntry(material, boundary, _) = self.material(part.material)?;
-            if let Material::Glass(glass) = &*material.borrow() {
+            // Once per mesh primitive, however many nodes share it.
+            if let Material::Glass(glass) = &*material.borrow()
+                && self.glass_checked.insert((m.index(), part.primitive))
+            {
                 self.warn_if_no_volume(g, &m, &part, glass.thin);
                 self.warn_if_metallic(&part, glass);
             }
@@ -271,9 +274,6 @@ impl<'a> Builder<'a, '_> {
     /// KHR_materials_volume) renders as a thin shell, and a closed but flat solid encloses
     /// nothing to voxelize. (An open mesh with a thickness is a guess the frame warns of.)
     fn warn_if_no_volume(&mut self, g: &gltf::Node, m: &gltf::Mesh, part: &Part, thin: Option<bool>) {
-        if !self.sheets_warned.insert((m.index(), part.primitive)) {
-            return;
-        }
         let what = format!(
             "meshes[{}]{} primitives[{}] (on nodes[{}]{})",
             m.index(),

@@ -385,24 +385,24 @@ mod tests {
         assert_eq!(q.transform_point2(Vec2::new(0.5, 0.5)), Vec2::new(1.25, 1.5));
     }
 
-    /// A document of one material, metallicFactor 1.
-    fn metallic_one() -> gltf::Document {
-        let json = r#"{"asset":{"version":"2.0"},"materials":[{"pbrMetallicRoughness":{"metallicFactor":1.0}}]}"#;
+    /// A document of one material, metallicFactor ½ (not 1, so the factor shows in the product).
+    fn half_metallic() -> gltf::Document {
+        let json = r#"{"asset":{"version":"2.0"},"materials":[{"pbrMetallicRoughness":{"metallicFactor":0.5}}]}"#;
         gltf::Gltf::from_slice(json.as_bytes()).expect("valid glTF").document
     }
 
     #[test]
     fn glass_is_metallic_only_where_its_mesh_samples_a_metal_texel() {
-        let doc = metallic_one();
+        let doc = half_metallic();
         let m = doc.materials().next().expect("one material");
         // A 2×1 atlas: metal (blue 1) on the left, glass (blue 0) on the right.
         let atlas = Texture2d { width: 2, height: 1, texels: vec![[0.0, 0.1, 1.0, 1.0], [0.0, 0.1, 0.0, 1.0]], wrap: [Wrap::Clamp; 2] };
         let on_glass = [Vec2::new(0.9, 0.5), Vec2::new(1.0, 0.2)];
         let on_metal = [Vec2::new(0.9, 0.5), Vec2::new(0.1, 0.5)];
         assert_eq!(glass_metallic(&m, Some(&atlas), Some(&on_glass)), 0.0);
-        assert_eq!(glass_metallic(&m, Some(&atlas), Some(&on_metal)), 1.0);
+        assert_eq!(glass_metallic(&m, Some(&atlas), Some(&on_metal)), 0.5);
         // No texture, or no UVs to read it with: the factor is all there is.
-        assert_eq!(glass_metallic(&m, None, Some(&on_glass)), 1.0);
-        assert_eq!(glass_metallic(&m, Some(&atlas), None), 1.0);
+        assert_eq!(glass_metallic(&m, None, Some(&on_glass)), 0.5);
+        assert_eq!(glass_metallic(&m, Some(&atlas), None), 0.5);
     }
 }

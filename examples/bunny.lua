@@ -15,7 +15,9 @@ local r = require("refrakt")
 -- The bunny's shape and where to put it.
 local function load_bunny()
   local path = r.getenv("REFRAKT_BUNNY")
-  local ok, mesh = pcall(r.mesh, { file = path or "bunny.obj" })
+  -- The scanned bunny has no normals of its own: smooth = 30 shades it smooth where its faces
+  -- meet at less than 30° (without it, it is shaded flat, facet by facet, as Blender shows it).
+  local ok, mesh = pcall(r.mesh, { file = path or "bunny.obj", smooth = 30 })
   if ok then
     return mesh, {0, 0, 0}
   end

@@ -99,6 +99,16 @@ def icosphere(radius, subdivisions):
     return [tuple(radius * x for x in v) for v in verts], faces
 
 
+def unit(v):
+    n = math.sqrt(sum(x * x for x in v))
+    return tuple(x / n for x in v)
+
+
+def sphere_normals(vertices):
+    """A sphere's normals at its vertices (centred on the origin): smooth, as an exporter writes them."""
+    return [unit(v) for v in vertices]
+
+
 def checker_png(squares=8, texels=8, dark=(150, 75, 55), light=(225, 215, 190)):
     """A checkerboard PNG (RGB, 8-bit) of squares × squares, each texels × texels wide, so the
     bilinear lookup keeps the edges sharp."""
@@ -143,14 +153,20 @@ def main():
     floor_mat = g.add("materials", {"name": "Floor", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0}})
 
     ball_v, ball_f = icosphere(0.3, 3)
-    ball = g.add("meshes", {"name": "Ball", "primitives": [{"attributes": {"POSITION": g.floats(ball_v, "VEC3")},
+    ball = g.add("meshes", {"name": "Ball", "primitives": [{"attributes": {"POSITION": g.floats(ball_v, "VEC3"),
+                                                                           "NORMAL": g.floats(sphere_normals(ball_v), "VEC3")},
                                                              "indices": g.indices(ball_f), "material": amber}]})
     drop_v, drop_f = icosphere(0.25, 3)
     # The morph target: squashed to 60 % height and 125 % width, resting on the same bottom point.
     squash = [(0.25 * x, -0.4 * (y + 0.25), 0.25 * z) for x, y, z in drop_v]
+    # The squashed drop's normals: a sphere's scaled by the inverse of the squash (1.25, 0.6, 1.25).
+    round_n = sphere_normals(drop_v)
+    squashed_n = [unit((x / 1.25, y / 0.6, z / 1.25)) for x, y, z in round_n]
     drop = g.add("meshes", {"name": "Drop", "weights": [0.0], "primitives": [{
-        "attributes": {"POSITION": g.floats(drop_v, "VEC3")}, "indices": g.indices(drop_f), "material": water,
-        "targets": [{"POSITION": g.floats(squash, "VEC3")}]}]})
+        "attributes": {"POSITION": g.floats(drop_v, "VEC3"), "NORMAL": g.floats(round_n, "VEC3")},
+        "indices": g.indices(drop_f), "material": water,
+        "targets": [{"POSITION": g.floats(squash, "VEC3"),
+                     "NORMAL": g.floats([tuple(b - a for a, b in zip(n0, n1)) for n0, n1 in zip(round_n, squashed_n)], "VEC3")}]}]})
     floor = g.add("meshes", {"name": "Floor", "primitives": [{"attributes": {
         "POSITION": g.floats([(-5, 0, -5), (5, 0, -5), (5, 0, 5), (-5, 0, 5)], "VEC3"),
         "TEXCOORD_0": g.floats([(0, 0), (5, 0), (5, 5), (0, 5)], "VEC2")},

@@ -19,7 +19,7 @@ import math
 import struct
 import zlib
 
-from make_gltf_example import ROOT, Glb, glass, icosphere, look_at_quat
+from make_gltf_example import ROOT, Glb, glass, icosphere, look_at_quat, sphere_normals
 
 
 def png(width, height, texel, alpha=False):
@@ -64,7 +64,8 @@ def texture(g, data):
 
 def ball(g, name, radius, material):
     v, f = icosphere(radius, 4)
-    return g.add("meshes", {"name": name, "primitives": [{"attributes": {"POSITION": g.floats(v, "VEC3")},
+    return g.add("meshes", {"name": name, "primitives": [{"attributes": {"POSITION": g.floats(v, "VEC3"),
+                                                                         "NORMAL": g.floats(sphere_normals(v), "VEC3")},
                                                           "indices": g.indices(f), "material": material}]})
 
 

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Converged caustic references from Mitsuba 3 (a renderer we did not write) for
-tests/mitsuba_caustics.rs: a glass ball and the glass Stanford bunny over a floor under the sun.
+tests/mitsuba_caustics.rs: a glass ball, the same ball as a mesh of 5120 flat facets, and the
+glass Stanford bunny over a floor under the sun.
 
 Each scene is rendered twice by Mitsuba: its particle tracer (`ptracer`: light paths from the sun
 through the `dielectric` glass — Fresnel reflection and refraction — to the floor) gives all the
@@ -14,7 +15,7 @@ floor point x = −H + (i + ½)·2H/N, z = −H + (j + ½)·2H/N (checked below 
 Values are irradiance in W/m² for a sun of 1 W/m² across its beam (refrakt: 683 lux).
 
     pip install mitsuba==3.5.2        (3.5.x runs on LLVM: the llvm_ad_rgb variant)
-    python3 scripts/mitsuba_reference.py [--spp N]   # writes tests/data/mitsuba/{ball,bunny}.exr
+    python3 scripts/mitsuba_reference.py [--spp N]   # writes tests/data/mitsuba/{ball,facets,bunny}.exr
 
 The bunny is read from ../shared/assets/bunny.obj (not part of this repository).
 """
@@ -116,7 +117,52 @@ def ball_scene():
     return s
 
 
-CREASE_DEGREES = 30.0  # src/pipeline/interfaces.rs: CREASE_ANGLE_DEGREES
+def geodesic_sphere(radius, frequency):
+    """refrakt's `mesh::geodesic_sphere` (src/scene/mesh.rs), vertex for vertex and triangle for
+    triangle: each face of an icosahedron cut into frequency² triangles, projected onto the sphere."""
+    t = (1.0 + math.sqrt(5.0)) / 2.0
+    corners = np.array([(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t), (0, 1, -t),
+                        (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)], dtype=np.float64)
+    faces = [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8],
+             [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]]
+    index, positions, triangles, f = {}, [], [], frequency
+
+    def vertex(weights):
+        key = tuple(sorted(w for w in weights if w[1] > 0))
+        if key not in index:
+            p = sum(corners[c] * w for c, w in key)
+            positions.append(radius * (p / np.linalg.norm(p)))
+            index[key] = len(positions) - 1
+        return index[key]
+
+    for a, b, c in faces:
+        def at(i, j):
+            return vertex([(a, f - i - j), (b, i), (c, j)])
+        for i in range(f):
+            for j in range(f - i):
+                p, q, r = at(i, j), at(i + 1, j), at(i, j + 1)
+                triangles.append((p, q, r))
+                if i + j + 1 < f:
+                    triangles.append((q, at(i + 1, j + 1), r))
+    return np.array(positions), triangles
+
+
+def facets_scene():
+    """The ball as refrakt's `icosphere{ radius = 0.5, subdivisions = 4 }` (5120 triangles),
+    shaded flat: each facet refracts about its own normal (Mitsuba's `face_normals`), as refrakt
+    shades a mesh whose file has no normals."""
+    positions, triangles = geodesic_sphere(BALL["radius"], 16)
+    path = os.path.join(tempfile.gettempdir(), "refrakt_facets.obj")
+    with open(path, "w") as out:
+        out.writelines(f"v {x} {y} {z}\n" for x, y, z in positions)
+        out.writelines(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in triangles)
+    s = floor_and_camera()
+    s["facets"] = {"type": "obj", "filename": path, "face_normals": True,
+                   "to_world": mi.ScalarTransform4f.translate(BALL["centre"]), "bsdf": glass()}
+    return s
+
+
+CREASE_DEGREES = 30.0  # src/scene/mesh.rs: SMOOTH_CREASE_DEGREES (refrakt.mesh's smooth = 30)
 
 
 def with_refrakt_normals(obj_path, out_path):
@@ -198,9 +244,9 @@ def write(name, caustic):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--spp", type=int, default=16384, help="particle tracer samples per pixel (light paths / pixel)")
-    parser.add_argument("--only", choices=["ball", "bunny"], help="render one reference")
+    parser.add_argument("--only", choices=["ball", "facets", "bunny"], help="render one reference")
     args = parser.parse_args()
-    scenes = {"ball": ball_scene, "bunny": bunny_scene}
+    scenes = {"ball": ball_scene, "facets": facets_scene, "bunny": bunny_scene}
     for name in [args.only] if args.only else scenes:
         scene = scenes[name]()
         started = time.time()

@@ -12,7 +12,7 @@ use common::gltf_builder::GltfBuilder;
 use glam::{DQuat, DVec3, DVec4, Mat4, Quat, Vec3};
 use refrakt::gltf::ImportOptions;
 use refrakt::render::GltfScene;
-use refrakt::scene::{MeshData, Scene, Shape};
+use refrakt::scene::{MeshData, Normals, Scene, Shape};
 use serde_json::json;
 
 /// Keyframe times with unequal intervals, so a formula that forgets t_d fails.
@@ -199,8 +199,12 @@ fn morph_weights_blend_the_targets_and_unchanged_meshes_keep_their_arc() {
     let t0 = g.floats(&d0.iter().flatten().copied().collect::<Vec<_>>(), "VEC3");
     let t1 = g.floats(&d1.iter().flatten().copied().collect::<Vec<_>>(), "VEC3");
     let idx = g.uints(&TETRA_TRIS, "SCALAR", 5125);
-    let morph = g.push("meshes", json!({ "primitives": [{ "attributes": { "POSITION": pos }, "indices": idx,
-        "targets": [{ "POSITION": t0 }, { "POSITION": t1 }] }], "weights": [0.25, 0.0] }));
+    // Normals morph too (their displacements blend like the positions'); a target may leave them out.
+    let n = g.floats(&[0.0f32, 0.0, 1.0].repeat(4), "VEC3");
+    let dn0 = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.0]];
+    let n0 = g.floats(&dn0.iter().flatten().copied().collect::<Vec<_>>(), "VEC3");
+    let morph = g.push("meshes", json!({ "primitives": [{ "attributes": { "POSITION": pos, "NORMAL": n }, "indices": idx,
+        "targets": [{ "POSITION": t0, "NORMAL": n0 }, { "POSITION": t1 }] }], "weights": [0.25, 0.0] }));
     let plain = g.push("meshes", json!({ "primitives": [{ "attributes": { "POSITION": pos }, "indices": idx }] }));
     let m = g.push("nodes", json!({ "name": "morph", "mesh": morph }));
     let still = g.push("nodes", json!({ "name": "still", "mesh": plain }));
@@ -224,6 +228,9 @@ fn morph_weights_blend_the_targets_and_unchanged_meshes_keep_their_arc() {
             // §3.7.2.2: position = base + Σ wᵢ · targetᵢ.
             let want = DVec3::from(TETRA[v].map(f64::from)) + DVec3::from(d0[v].map(f64::from)) * w[0] + DVec3::from(d1[v].map(f64::from)) * w[1];
             assert!((mesh.positions[v].as_dvec3() - want).length() < 1e-6, "vertex {v} at t = {t}");
+            let Normals::Authored(normals) = &mesh.normals else { panic!("{:?}", mesh.normals) };
+            let want = DVec3::Z + DVec3::from(dn0[v].map(f64::from)) * w[0];
+            assert!((normals[v].as_dvec3() - want).length() < 1e-6, "normal {v} at t = {t}");
         }
         seen.push((mesh, mesh_of(&s.scene, "still")));
     }
@@ -244,7 +251,8 @@ fn a_skinned_mesh_follows_its_joints_and_ignores_its_own_transform() {
     let j = g.uints(&joints, "VEC4", 5123);
     let w = g.floats(&weights, "VEC4");
     let idx = g.uints(&[0, 1, 2, 0, 2, 3, 0, 3, 1, 1, 3, 2], "SCALAR", 5125);
-    let mesh = g.push("meshes", json!({ "primitives": [{ "attributes": { "POSITION": pos, "JOINTS_0": j, "WEIGHTS_0": w }, "indices": idx }] }));
+    let normal = g.floats(&[1.0f32, 0.0, 0.0].repeat(4), "VEC3");
+    let mesh = g.push("meshes", json!({ "primitives": [{ "attributes": { "POSITION": pos, "NORMAL": normal, "JOINTS_0": j, "WEIGHTS_0": w }, "indices": idx }] }));
     // Bind pose: root at the origin, tip at y = 1 (the bind matrices are their inverses).
     let ibm: Vec<f32> = [Mat4::IDENTITY, Mat4::from_translation(Vec3::Y).inverse()].iter().flat_map(|m| m.to_cols_array()).collect();
     let ibm = g.floats(&ibm, "MAT4");
@@ -277,6 +285,11 @@ fn a_skinned_mesh_follows_its_joints_and_ignores_its_own_transform() {
             let want: Vec3 = (0..4).map(|i| weights[4 * v + i] * joint[joints[4 * v + i] as usize].transform_point3(p)).sum();
             let got = bar_world.transform_point3(mesh.positions[v]);
             assert!((got - want).length() < 1e-5, "vertex {v} at t = {t}: {got} vs {want}");
+            // The normal turns with the joints: Σ w · (joint · inverseBind) applied to a direction.
+            let want: Vec3 = (0..4).map(|i| weights[4 * v + i] * joint[joints[4 * v + i] as usize].transform_vector3(Vec3::X)).sum();
+            let Normals::Authored(normals) = &mesh.normals else { panic!("{:?}", mesh.normals) };
+            let got = bar_world.transform_vector3(normals[v]);
+            assert!(got.normalize().dot(want.normalize()) > 1.0 - 1e-6, "normal {v} at t = {t}: {got} vs {want}");
         }
     }
     // A check of the hand computation itself: fully bent, the tip vertex (weight 1 on "tip")

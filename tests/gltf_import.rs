@@ -367,3 +367,41 @@ fn lua_imports_a_subtree_and_nodes_parent_both_ways() {
     let read: Vec<String> = host.files_read().iter().map(|p| p.file_name().unwrap().to_string_lossy().to_string()).collect();
     assert_eq!(read, ["scene.lua", "h.glb"]);
 }
+
+/// §3.7.2.1: "When normals are not specified, client implementations MUST calculate flat
+/// normals"; given, they shade the mesh. A curved mesh left without them is warned of, once.
+#[test]
+fn normals_shade_as_given_and_a_primitive_without_them_is_flat() {
+    use refrakt::scene::{Normals, mesh};
+    let mut g = GltfBuilder::new();
+    let ball = mesh::icosphere(1.0, 2);
+    let positions: Vec<[f32; 3]> = ball.positions.iter().map(|p| p.to_array()).collect();
+    let bare = g.mesh(&positions, &ball.triangles, None);
+    let with_normals = g.mesh(&positions, &ball.triangles, None);
+    let normals: Vec<f32> = ball.positions.iter().flat_map(|p| p.normalize().to_array()).collect();
+    let n = g.floats(&normals, "VEC3");
+    g.json["meshes"][with_normals]["primitives"][0]["attributes"]["NORMAL"] = json!(n);
+    let cube = g.mesh(&TETRA, &TETRA_TRIS, None);
+    let nodes = [("Bare", bare), ("Smooth", with_normals), ("Tetra", cube), ("Bare again", bare)].map(|(name, mesh)| g.push("nodes", json!({ "name": name, "mesh": mesh })));
+    g.scene("S", &nodes);
+    let dir = tempfile::tempdir().unwrap();
+    let path = g.write_glb(&dir.path().join("normals.glb"));
+    let access = refrakt::lua::sandbox::FileAccess::new(dir.path(), &[]).unwrap();
+    let import = refrakt::gltf::import(&path, "normals.glb", &access, &ImportOptions::default()).unwrap();
+    let scene = load(&path).scene;
+    let mesh_of = |name: &str| match &*scene.find(name).unwrap().borrow().shape.as_ref().unwrap().borrow() {
+        Shape::Mesh { mesh, .. } => mesh.clone(),
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(mesh_of("Bare").normals, Normals::Flat);
+    for (t, corners) in ball.triangles.iter().zip(mesh_of("Bare").corner_normals()) {
+        let [a, b, c] = t.map(|i| ball.positions[i as usize]);
+        assert!(corners.iter().all(|n| n.dot((b - a).cross(c - a).normalize()) > 1.0 - 1e-6), "flat: the face's own normal");
+    }
+    for (t, corners) in ball.triangles.iter().zip(mesh_of("Smooth").corner_normals()) {
+        assert!(t.iter().zip(corners).all(|(&i, n)| n.dot(ball.positions[i as usize].normalize()) > 1.0 - 1e-6), "NORMAL as given");
+    }
+    let said: Vec<String> = import.warnings.iter().map(|w| w.to_string()).filter(|w| w.contains("no NORMAL")).collect();
+    assert_eq!(said.len(), 1, "the bare ball, once for its two nodes; not the tetrahedron, whose faces meet at sharp angles: {said:?}");
+    assert!(said[0].contains("meshes[0]") && said[0].contains("shaded flat") && said[0].contains("Export"), "{said:?}");
+}

@@ -39,8 +39,9 @@ fn glass_lua(absorbing: bool) -> String {
     }
 }
 
-/// ball.glb: the same icosphere as `refrakt.icosphere{radius = R}` (4 subdivisions), its
-/// material glass by KHR_materials_transmission + _ior + _volume.
+/// ball.glb: the same icosphere as `refrakt.icosphere{radius = R}` (4 subdivisions), with the
+/// normals refrakt smooths it with (as an exporter writes a smooth sphere's), its material glass
+/// by KHR_materials_transmission + _ior + _volume.
 fn write_ball(dir: &std::path::Path) {
     let mesh = icosphere(R, 4);
     let mut g = GltfBuilder::new();
@@ -52,7 +53,16 @@ fn write_ball(dir: &std::path::Path) {
         "KHR_materials_ior": { "ior": IOR },
         "KHR_materials_volume": { "thicknessFactor": 0.8, "attenuationColor": COLOR, "attenuationDistance": DISTANCE } } }));
     let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
+    // A sphere has no creases: each vertex's corners share one normal.
+    let mut normals = vec![0.0f32; 3 * positions.len()];
+    for (t, corners) in mesh.triangles.iter().zip(mesh.corner_normals()) {
+        for (&i, n) in t.iter().zip(corners) {
+            normals[3 * i as usize..3 * i as usize + 3].copy_from_slice(&n.to_array());
+        }
+    }
+    let normals = g.floats(&normals, "VEC3");
     let mesh = g.mesh(&positions, &mesh.triangles, Some(m));
+    g.json["meshes"][mesh]["primitives"][0]["attributes"]["NORMAL"] = json!(normals);
     let n = g.push("nodes", json!({ "name": "ball", "mesh": mesh }));
     g.scene("Ball", &[n]);
     g.write_glb(&dir.join("ball.glb"));

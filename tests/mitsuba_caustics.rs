@@ -1,5 +1,5 @@
-//! Caustics against a renderer we did not write: a glass ball and the glass bunny over a floor
-//! under an oblique sun, compared pixel by pixel with converged Mitsuba 3 particle-tracer
+//! Caustics against a renderer we did not write: a glass ball (analytic, and as a mesh of flat
+//! facets) and the glass bunny over a floor under an oblique sun, compared pixel by pixel with converged Mitsuba 3 particle-tracer
 //! references (`scripts/mitsuba_reference.py` made them: tests/data/mitsuba/*.exr, the floor's
 //! caustic irradiance in W/m² for a sun of 1 W/m², on a 128² grid over x, z in [−1, 1] m).
 //!
@@ -153,7 +153,8 @@ fn compare(name: &str, got: &[f32], exact: &[f32], voxel: f32) -> Comparison {
 
 /// Bounds (measured on lavapipe: ball −0.5 % power, 7.0 % pixel error, 2.3 % over 3×3, peak
 /// +0.5 %, fine detail 1.1× the reference's, centroid 0.07 voxel; bunny +1.4 %, 33 %, 12.9 %,
-/// +12.5 %, 1.8×, 0.75 voxel (a quarter of a reference pixel); the bunny's caustic is faint and
+/// +12.5 %, 1.8×, 0.75 voxel (a quarter of a reference pixel); the faceted ball +0.0 %, 14.7 %,
+/// 4.8 %, +3.9 %, 1.3×, 0.03 voxel; the bunny's caustic is faint and
 /// spread, so 1M photons leave more noise per pixel). The bunny came out +3.5 % while the caustic
 /// filter gathered (each texel with the footprint its own neighbourhood asked for), which counted
 /// light beside bright caustics twice; it spreads each texel's deposits over its own footprint now.
@@ -166,18 +167,86 @@ fn check(c: &Comparison, power: f32, pixel: f32, smooth: f32, peak: f32, shift: 
     assert!(c.shift < shift, "the caustic sits {} voxel off the reference's", c.shift);
 }
 
+/// Σ|got − exact| / Σ exact over the whole image (pixel scale), and Pearson's correlation.
+fn l1_and_correlation(got: &[f32], exact: &[f32]) -> (f32, f32) {
+    let l1 = got.iter().zip(exact).map(|(a, b)| (a - b).abs()).sum::<f32>() / exact.iter().sum::<f32>();
+    let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len() as f32;
+    let (ma, mb) = (mean(got), mean(exact));
+    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+    for (a, b) in got.iter().zip(exact) {
+        ab += (a - ma) * (b - mb);
+        aa += (a - ma) * (a - ma);
+        bb += (b - mb) * (b - mb);
+    }
+    (l1, ab / (aa * bb).sqrt())
+}
+
+/// An OBJ of `mesh` in a folder of its own, with `vn` lines when `normals` are given.
+fn write_obj(mesh: &refrakt::scene::MeshData, normals: Option<&[glam::Vec3]>) -> (tempfile::TempDir, PathBuf) {
+    use std::fmt::Write;
+    let mut text = String::new();
+    for p in &mesh.positions {
+        writeln!(text, "v {} {} {}", p.x, p.y, p.z).unwrap();
+    }
+    for n in normals.unwrap_or_default() {
+        writeln!(text, "vn {} {} {}", n.x, n.y, n.z).unwrap();
+    }
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| i + 1);
+        match normals {
+            Some(_) => writeln!(text, "f {a}//{a} {b}//{b} {c}//{c}").unwrap(),
+            None => writeln!(text, "f {a} {b} {c}").unwrap(),
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("mesh.obj");
+    std::fs::write(&path, text).unwrap();
+    (dir, path)
+}
+
+fn glass_mesh_at_the_ball(path: &Path) -> String {
+    format!(r#"scene:add(r.node{{ name = "ball", translation = {{0, 0.8, 0}}, shape = r.mesh{{ file = "{}" }}, material = r.glass{{ ior = 1.5 }} }})"#, path.display())
+}
+
+/// The analytic ball against Mitsuba; then a 5120-triangle mesh of it whose OBJ carries the
+/// sphere's exact normals (`vn`) against the analytic ball: the file's normals, interpolated,
+/// must make the same caustic (the facets' flat hit points are within 1.5 mm of the sphere);
+/// then the same OBJ without `vn`, shaded flat, against Mitsuba's ball of flat facets.
 #[test]
-fn a_glass_balls_caustic_matches_mitsuba() {
-    let (got, voxel) = refrakt_caustic(r#"scene:add(r.node{ name = "ball", translation = {0, 0.8, 0}, shape = r.sphere{ radius = 0.5 }, material = r.glass{ ior = 1.5 } })"#, &[]);
-    let c = compare("ball", &got, &reference("ball"), voxel);
+fn a_glass_balls_caustic_matches_mitsuba_and_a_mesh_with_its_normals_matches_it() {
+    let (analytic, voxel) = refrakt_caustic(r#"scene:add(r.node{ name = "ball", translation = {0, 0.8, 0}, shape = r.sphere{ radius = 0.5 }, material = r.glass{ ior = 1.5 } })"#, &[]);
+    let c = compare("ball", &analytic, &reference("ball"), voxel);
     check(&c, 0.02, 0.10, 0.04, 0.05, 0.5);
+
+    let ball = refrakt::scene::mesh::icosphere(0.5, 4);
+    let normals: Vec<glam::Vec3> = ball.positions.iter().map(|p| p.normalize()).collect();
+    let (dir, obj) = write_obj(&ball, Some(&normals));
+    let (mesh, _) = refrakt_caustic(&glass_mesh_at_the_ball(&obj), &[dir.path().to_path_buf()]);
+    let (l1, correlation) = l1_and_correlation(&mesh, &analytic);
+    eprintln!("mesh with the sphere's normals vs the analytic ball: relative L1 {l1:.4}, correlation {correlation:.5}");
+    assert!(l1 <= 0.06 && correlation >= 0.995, "relative L1 {l1}, correlation {correlation}");
+    // Without its `vn`, the same mesh is flat (OBJ's rule, as Blender reads it): facets show.
+    let (dir, obj) = write_obj(&ball, None);
+    let (flat, _) = refrakt_caustic(&glass_mesh_at_the_ball(&obj), &[dir.path().to_path_buf()]);
+    let facets = reference("facets");
+    let c = compare("facets", &flat, &facets, voxel);
+    check(&c, 0.02, 0.15, 0.06, 0.08, 0.5);
+    // Flat facets make a caustic of their own: refrakt's is nearer Mitsuba's faceted ball than
+    // its smooth one (measured: relative L1 0.22 against 0.38; the smooth-normal mesh's is the
+    // other way round).
+    let ((to_facets, c_facets), (to_ball, c_ball)) = (l1_and_correlation(&flat, &facets), l1_and_correlation(&flat, &reference("ball")));
+    eprintln!("the same mesh without normals vs Mitsuba's faceted ball: relative L1 {to_facets:.4}, correlation {c_facets:.5}; vs its smooth ball {to_ball:.4}, {c_ball:.5}");
+    assert!(to_facets < 0.7 * to_ball, "relative L1 {to_facets} to the faceted reference, {to_ball} to the smooth one");
+    let ((smooth_to_facets, _), (smooth_to_ball, _)) = (l1_and_correlation(&mesh, &facets), l1_and_correlation(&mesh, &reference("ball")));
+    eprintln!("the mesh with normals: relative L1 {smooth_to_facets:.4} to Mitsuba's faceted ball, {smooth_to_ball:.4} to its smooth one");
+    assert!(smooth_to_ball < 0.7 * smooth_to_facets, "the mesh with normals: {smooth_to_ball} to the smooth reference, {smooth_to_facets} to the faceted one");
 }
 
 #[test]
 fn the_glass_bunnys_caustic_matches_mitsuba() {
     let bunny = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/assets/bunny.obj");
     let glass = format!(
-        r#"scene:add(r.node{{ name = "bunny", translation = {{0.07, 0.17, 0.01}}, scale = {{4, 4, 4}}, shape = r.mesh{{ file = "{}" }}, material = r.glass{{ ior = 1.5 }} }})"#,
+        r#"scene:add(r.node{{ name = "bunny", translation = {{0.07, 0.17, 0.01}}, scale = {{4, 4, 4}}, shape = r.mesh{{ file = "{}", smooth = 30 }}, material = r.glass{{ ior = 1.5 }} }})"#,
         bunny.display()
     );
     let (got, voxel) = refrakt_caustic(&glass, &[bunny.parent().unwrap().to_path_buf()]);

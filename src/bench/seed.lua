@@ -17,7 +17,8 @@ local scene = r.scene{
 
 local shape
 if mesh_file ~= "" then
-  shape = r.mesh{ file = mesh_file }
+  -- smooth: the Stanford bunny's OBJ carries no normals (flat faces as it is); the paper's is smooth.
+  shape = r.mesh{ file = mesh_file, smooth = 30 }
 else
   shape = r.blob{ radius = 0.07, detail = @DETAIL@ }
 end

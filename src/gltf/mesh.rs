@@ -1,6 +1,7 @@
 //! Mesh primitives (glTF 2.0 §3.7.2) as refrakt triangle meshes: positions, triangles (from
-//! TRIANGLES, TRIANGLE_STRIP or TRIANGLE_FAN), texture coordinates for a textured receiver, and
-//! what deforms them — morph target displacements (§3.7.2.2) and skin influences (§3.7.3.3).
+//! TRIANGLES, TRIANGLE_STRIP or TRIANGLE_FAN), normals (flat where NORMAL is absent, as §3.7.2.1
+//! requires), texture coordinates for a textured receiver, and what deforms them — morph target
+//! displacements (§3.7.2.2) and skin influences (§3.7.3.3).
 
 use std::sync::Arc;
 
@@ -11,7 +12,7 @@ use gltf::mesh::Mode;
 
 use super::accessor::Accessors;
 use super::material::UvMap;
-use crate::scene::MeshData;
+use crate::scene::{MeshData, Normals};
 
 /// Up to 4·n joints per vertex, with their weights (JOINTS_0/WEIGHTS_0, JOINTS_1/WEIGHTS_1, …).
 #[derive(Clone, Debug, Default)]
@@ -30,6 +31,9 @@ pub struct Part {
     pub rest: Arc<MeshData>,
     /// Per morph target, a displacement per vertex.
     pub targets: Vec<Vec<Vec3>>,
+    /// Per morph target, a normal displacement per vertex (empty where the primitive has no
+    /// NORMAL; zeros for a target without one).
+    pub normal_targets: Vec<Vec<Vec3>>,
     pub influences: Option<Influences>,
 }
 
@@ -87,19 +91,27 @@ fn read_primitive(p: &gltf::Primitive, acc: &Accessors, what: &str, uv_map: Opti
         }
         None => None,
     };
-    let targets = p
-        .morph_targets()
-        .enumerate()
-        .map(|(k, t)| match t.positions() {
-            Some(a) => same_count(acc, vec3s(acc, a.index(), &format!("{what} targets[{k}] POSITION"))?, n, what, "morph target"),
-            None => Ok(vec![Vec3::ZERO; n]),
-        })
-        .collect::<Result<Vec<_>>>()?;
+    let normals = match p.get(&Semantic::Normals) {
+        Some(a) => Normals::Authored(same_count(acc, vec3s(acc, a.index(), &format!("{what} NORMAL"))?, n, what, "NORMAL")?),
+        None => Normals::Flat,
+    };
+    let displacements = |attribute: &str, of: for<'b> fn(&gltf::mesh::MorphTarget<'b>) -> Option<gltf::Accessor<'b>>| {
+        p.morph_targets()
+            .enumerate()
+            .map(|(k, t)| match of(&t) {
+                Some(a) => same_count(acc, vec3s(acc, a.index(), &format!("{what} targets[{k}] {attribute}"))?, n, what, "morph target"),
+                None => Ok(vec![Vec3::ZERO; n]),
+            })
+            .collect::<Result<Vec<_>>>()
+    };
+    let targets = displacements("POSITION", |t| t.positions())?;
+    let normal_targets = if matches!(normals, Normals::Authored(_)) { displacements("NORMAL", |t| t.normals())? } else { Vec::new() };
     Ok(Part {
         primitive: p.index(),
         material: p.material().index(),
-        rest: Arc::new(MeshData { positions, triangles, uvs }),
+        rest: Arc::new(MeshData { positions, triangles, uvs, normals }),
         targets,
+        normal_targets,
         influences: influences(p, acc, what, n)?,
     })
 }
@@ -200,7 +212,7 @@ mod tests {
     #[test]
     fn sheets_enclose_no_volume_and_solids_with_split_vertices_do() {
         let quad = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, 1.0), Vec3::Z];
-        let mesh = |positions: Vec<Vec3>, triangles: Vec<[u32; 3]>| MeshData { positions, triangles, uvs: None };
+        let mesh = |positions: Vec<Vec3>, triangles: Vec<[u32; 3]>| MeshData { positions, triangles, ..Default::default() };
         let single = mesh(quad.to_vec(), vec![[0, 1, 2], [0, 2, 3]]);
         assert!(encloses_no_volume(&single).unwrap().contains("open surface (4 edges"));
         let double_sided = mesh(quad.to_vec(), vec![[0, 1, 2], [0, 2, 3], [0, 2, 1], [0, 3, 2]]);

@@ -14,7 +14,7 @@ use super::extras::{self, FieldExtras, FieldType, NodeRole};
 use super::material::{self, Converted, Materials, UvMap};
 use super::mesh::{self, Part};
 use super::player::{Deformable, Skin};
-use crate::scene::{Camera, Glass, Light, LightKind, Material, Node, Origin, Shape, Shared, shared};
+use crate::scene::{Camera, Glass, Light, LightKind, Material, Node, Normals, Origin, Shape, Shared, shared};
 use crate::warnings::Collector;
 
 /// Height of the image a glTF camera gets when the file gives only its aspect ratio (the width
@@ -47,8 +47,9 @@ struct Builder<'a, 'b> {
     graph: Graph,
     /// (deformable, skin index) pairs whose joints are filled in once every node exists.
     skinned: Vec<(usize, usize)>,
-    /// Glass (mesh, primitive) pairs already checked for enclosing a volume and for metal.
-    glass_checked: std::collections::HashSet<(usize, usize)>,
+    /// (mesh, primitive) pairs already checked: for normals, and glass for enclosing a volume
+    /// and for metal.
+    checked: std::collections::HashSet<(usize, usize)>,
     /// The KHR_materials_variants variant chosen (its index), if any.
     variant: Option<usize>,
     warnings: &'a mut Collector,
@@ -57,7 +58,7 @@ struct Builder<'a, 'b> {
 pub fn build(doc: &gltf::Document, acc: &Accessors, materials: Materials, roots: &[usize], variant: Option<usize>, warnings: &mut Collector) -> Result<Graph> {
     let n = doc.nodes().count();
     let graph = Graph { roots: Vec::new(), nodes: (0..n).map(|_| Weak::new()).collect(), weights: vec![Vec::new(); n], deformables: Vec::new() };
-    let mut b = Builder { acc, materials, converted: HashMap::new(), meshes: HashMap::new(), graph, skinned: Vec::new(), glass_checked: Default::default(), variant, warnings };
+    let mut b = Builder { acc, materials, converted: HashMap::new(), meshes: HashMap::new(), graph, skinned: Vec::new(), checked: Default::default(), variant, warnings };
     for &r in roots {
         let node = doc.nodes().nth(r).ok_or_else(|| anyhow!("{}: nodes[{r}] does not exist", acc.file))?;
         let built = b.node(&node)?;
@@ -234,11 +235,12 @@ impl<'a> Builder<'a, '_> {
         for part in parts {
             let MaterialEntry(material, boundary, _) = self.material(part.material)?;
             // Once per mesh primitive, however many nodes share it.
-            if let Material::Glass(glass) = &*material.borrow()
-                && self.glass_checked.insert((m.index(), part.primitive))
-            {
-                self.warn_if_no_volume(g, &m, &part, glass.thin);
-                self.warn_if_metallic(&part, glass);
+            if self.checked.insert((m.index(), part.primitive)) {
+                self.warn_if_flat_but_curved(g, &m, &part);
+                if let Material::Glass(glass) = &*material.borrow() {
+                    self.warn_if_no_volume(g, &m, &part, glass.thin);
+                    self.warn_if_metallic(&part, glass);
+                }
             }
             let source = format!("{} meshes[{}]{}", self.file(), m.index(), mesh::quoted(m.name()));
             let shape = Shape::Mesh { mesh: part.rest.clone(), source, boundary };
@@ -274,14 +276,7 @@ impl<'a> Builder<'a, '_> {
     /// KHR_materials_volume) renders as a thin shell, and a closed but flat solid encloses
     /// nothing to voxelize. (An open mesh with a thickness is a guess the frame warns of.)
     fn warn_if_no_volume(&mut self, g: &gltf::Node, m: &gltf::Mesh, part: &Part, thin: Option<bool>) {
-        let what = format!(
-            "meshes[{}]{} primitives[{}] (on nodes[{}]{})",
-            m.index(),
-            mesh::quoted(m.name()),
-            part.primitive,
-            g.index(),
-            mesh::quoted(g.name())
-        );
+        let what = primitive_name(g, m, part);
         let why = mesh::encloses_no_volume(&part.rest);
         if thin == Some(true) && why.is_none() {
             self.warnings.about(
@@ -298,6 +293,20 @@ impl<'a> Builder<'a, '_> {
                      encloses, so it will not show (leave thin unset for a sheet, or give the sheet a thickness, e.g. \
                      Blender's Solidify modifier, and re-export)"
                 ),
+            );
+        }
+    }
+
+    /// A primitive without NORMAL is shaded flat, as §3.7.2.1 requires; where its faces meet at
+    /// the small angles of a curved surface, the exporter most likely left its normals out, and
+    /// the facets will show (in glass most of all: each refracts on its own).
+    fn warn_if_flat_but_curved(&mut self, g: &gltf::Node, m: &gltf::Mesh, part: &Part) {
+        if part.rest.normals == Normals::Flat && part.rest.looks_curved() {
+            self.warnings.about(
+                primitive_name(g, m, part),
+                "has no NORMAL attribute, so it is shaded flat as glTF requires, though its faces meet at the small angles \
+                 of a curved surface: its facets will show; export it with normals (Blender: Export ▸ Data ▸ Mesh ▸ Normals) \
+                 for a smooth surface",
             );
         }
     }
@@ -373,4 +382,9 @@ impl<'a> Builder<'a, '_> {
         }
         Ok(())
     }
+}
+
+/// "meshes[i] "name" primitives[j] (on nodes[k] "name")", as warnings name a primitive.
+fn primitive_name(g: &gltf::Node, m: &gltf::Mesh, part: &Part) -> String {
+    format!("meshes[{}]{} primitives[{}] (on nodes[{}]{})", m.index(), mesh::quoted(m.name()), part.primitive, g.index(), mesh::quoted(g.name()))
 }

@@ -12,7 +12,7 @@ use glam::{Mat4, Vec3};
 
 use super::animation::{Clip, Pose};
 use super::mesh::Part;
-use crate::scene::{MeshData, Node, Scene, Shape, Shared};
+use crate::scene::{MeshData, Node, Normals, Scene, Shape, Shared};
 
 /// A skin (§3.7.3): the joint nodes and their inverse bind matrices.
 pub struct Skin {
@@ -108,18 +108,30 @@ impl Player {
         let worlds = if self.deformables.iter().any(|d| d.skin.is_some()) { world_matrices(scene) } else { HashMap::new() };
         for d in &mut self.deformables {
             let Some(node) = d.node.upgrade() else { continue };
-            let mut positions = morph(&d.part, &self.weights[d.weights_of]);
+            let weights = &self.weights[d.weights_of];
+            let mut positions = morph(&d.part.rest.positions, &d.part.targets, weights);
+            let mut normals = match &d.part.rest.normals {
+                Normals::Authored(rest) => Normals::Authored(morph(rest, &d.part.normal_targets, weights)),
+                other => other.clone(),
+            };
             if let Some(skin) = &d.skin {
                 match skin_matrices(skin, &node, &worlds) {
-                    Some(joints) => skin_positions(&mut positions, &d.part, &joints),
+                    Some(joints) => {
+                        skin_vertices(&mut positions, &d.part, |m, p| m.transform_point3(p), &joints);
+                        if let Normals::Authored(n) = &mut normals {
+                            // Normals turn with the joints (their rotation and uniform scale;
+                            // they are normalized when used).
+                            skin_vertices(n, &d.part, |m, n| m.transform_vector3(n), &joints);
+                        }
+                    }
                     // A joint or the mesh is not in the scene (or cannot be inverted): keep the last shape.
                     None => continue,
                 }
             }
-            if positions == d.current.positions {
+            if positions == d.current.positions && normals == d.current.normals {
                 continue;
             }
-            let mesh = Arc::new(MeshData { positions, triangles: d.part.rest.triangles.clone(), uvs: d.part.rest.uvs.clone() });
+            let mesh = Arc::new(MeshData { positions, triangles: d.part.rest.triangles.clone(), uvs: d.part.rest.uvs.clone(), normals });
             let node = node.borrow();
             if let Some(shape) = &node.shape {
                 // Only a shape that is still the imported mesh is replaced: a script may have
@@ -135,10 +147,11 @@ impl Player {
     }
 }
 
-/// §3.7.2.2: the morphed position is the rest position plus Σ wᵢ · (displacement of target i).
-fn morph(part: &Part, weights: &[f32]) -> Vec<Vec3> {
-    let mut p = part.rest.positions.clone();
-    for (target, &w) in part.targets.iter().zip(weights) {
+/// §3.7.2.2: the morphed position (or normal) is the rest one plus Σ wᵢ · (displacement of
+/// target i).
+fn morph(rest: &[Vec3], targets: &[Vec<Vec3>], weights: &[f32]) -> Vec<Vec3> {
+    let mut p = rest.to_vec();
+    for (target, &w) in targets.iter().zip(weights) {
         if w != 0.0 {
             for (p, d) in p.iter_mut().zip(target) {
                 *p += w * *d;
@@ -164,16 +177,17 @@ fn skin_matrices(skin: &Skin, node: &Shared<Node>, worlds: &HashMap<*const RefCe
         .collect()
 }
 
-/// Linear blend skinning: p' = Σₖ wₖ · joint matrix(jₖ) · p over the vertex's influences.
-fn skin_positions(positions: &mut [Vec3], part: &Part, joints: &[Mat4]) {
+/// Linear blend skinning: p' = Σₖ wₖ · apply(joint matrix(jₖ), p) over the vertex's influences
+/// (a point for positions, a direction for normals).
+fn skin_vertices(values: &mut [Vec3], part: &Part, apply: impl Fn(&Mat4, Vec3) -> Vec3, joints: &[Mat4]) {
     let Some(inf) = &part.influences else { return };
     let k = inf.per_vertex;
-    for (v, p) in positions.iter_mut().enumerate() {
+    for (v, p) in values.iter_mut().enumerate() {
         let mut sum = Vec3::ZERO;
         for i in v * k..(v + 1) * k {
             let w = inf.weights[i];
             if w != 0.0 {
-                sum += w * joints[inf.joints[i] as usize].transform_point3(*p);
+                sum += w * apply(&joints[inf.joints[i] as usize], *p);
             }
         }
         *p = sum;

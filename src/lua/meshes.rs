@@ -14,7 +14,10 @@ use mlua::{Lua, Table, Value};
 use super::convert::{self as cv, FieldName, error_at, unknown_field};
 use super::objects::{LuaObject, Obj};
 use super::sandbox::FileAccess;
-use crate::scene::{MeshData, Shape, mesh, obj, shared};
+use crate::scene::{MeshData, Normals, Shape, mesh, obj, shared};
+
+/// Fields every mesh constructor takes.
+const EVERY_MESH: [&str; 2] = ["boundary", "smooth"];
 
 /// The constructor table of one mesh constructor: only known keys (a typo gets "did you
 /// mean …?"), read with the usual typed conversions.
@@ -36,9 +39,9 @@ impl<'a> Args<'a> {
                 Value::String(s) => s.to_string_lossy(),
                 other => return Err(error_at(lua, format!("{what} fields are named by strings, got {}", cv::describe(other)))),
             };
-            if !known.contains(&key.as_str()) && key != "boundary" {
+            if !known.contains(&key.as_str()) && !EVERY_MESH.contains(&key.as_str()) {
                 let mut all = known.to_vec();
-                all.push("boundary");
+                all.extend(EVERY_MESH);
                 return Err(unknown_field(lua, what, &key, &all));
             }
         }
@@ -64,6 +67,25 @@ impl<'a> Args<'a> {
         Ok(v)
     }
 
+    /// `smooth`: a crease angle in degrees (faces meeting at less share a smooth normal), `true`
+    /// for Blender's default of 30°, `false` for flat faces; `None` keeps the mesh's own normals
+    /// (a file's, or a procedural shape's 30°).
+    fn smooth(&self) -> mlua::Result<Option<Normals>> {
+        Ok(match self.get("smooth")? {
+            Value::Nil => None,
+            Value::Boolean(true) => Some(Normals::Crease(mesh::SMOOTH_CREASE_DEGREES)),
+            Value::Boolean(false) => Some(Normals::Flat),
+            v => Some(Normals::Crease(cv::number_in(
+                self.lua,
+                self.name("smooth"),
+                &v,
+                Some(0.0),
+                Some(180.0),
+                "a crease angle in degrees from 0 to 180, or true (30°) or false (flat)",
+            )? as f32)),
+        })
+    }
+
     /// A length in metres (> 0), required.
     fn length(&self, key: &str) -> mlua::Result<f32> {
         cv::positive(self.lua, self.name(key), &self.required(key)?)
@@ -77,8 +99,11 @@ impl<'a> Args<'a> {
         }
     }
 
-    /// The `mesh` shape made of `mesh`, with this table's `boundary` if it has one.
-    fn shape(&self, mesh: MeshData, source: String) -> mlua::Result<Obj<Shape>> {
+    /// The `mesh` shape made of `mesh`, with this table's `boundary` and `smooth` if it has them.
+    fn shape(&self, mut mesh: MeshData, source: String) -> mlua::Result<Obj<Shape>> {
+        if let Some(normals) = self.smooth()? {
+            mesh.normals = normals;
+        }
         let mut shape = Shape::Mesh { mesh: Arc::new(mesh), source, boundary: None };
         let boundary = self.get("boundary")?;
         if !boundary.is_nil() {
@@ -88,13 +113,14 @@ impl<'a> Args<'a> {
     }
 }
 
-/// `refrakt.mesh{file = "…obj"}` or `refrakt.mesh{vertices = {{x, y, z}, …}, triangles = {{1, 2, 3}, …}}`.
+/// `refrakt.mesh{file = "…obj"}` or `refrakt.mesh{vertices = {{x, y, z}, …}, triangles = {{1, 2, 3}, …}}`
+/// (with `normals`, one per vertex, to shade it smooth; flat without).
 fn mesh_from(lua: &Lua, t: Option<Table>) -> mlua::Result<Obj<Shape>> {
-    let args = Args::new(lua, "mesh", t, &["file", "vertices", "triangles"])?;
+    let args = Args::new(lua, "mesh", t, &["file", "vertices", "triangles", "normals"])?;
     let file = args.get("file")?;
     if !file.is_nil() {
-        if !args.get("vertices")?.is_nil() || !args.get("triangles")?.is_nil() {
-            return Err(error_at(lua, "give a mesh either a file or vertices and triangles, not both"));
+        if !args.get("vertices")?.is_nil() || !args.get("triangles")?.is_nil() || !args.get("normals")?.is_nil() {
+            return Err(error_at(lua, "give a mesh either a file or vertices and triangles (and normals), not both"));
         }
         let given = cv::string(lua, args.name("file"), &file)?;
         let path = FileAccess::resolve(lua, &given)?;
@@ -127,6 +153,19 @@ fn mesh_from(lua: &Lua, t: Option<Table>) -> mlua::Result<Obj<Shape>> {
             tri[k] = (cv::integer(lua, args.name(&field), c, 1, n.max(1))? - 1) as u32;
         }
         mesh.triangles.push(tri);
+    }
+    let normals = args.get("normals")?;
+    if !normals.is_nil() {
+        let normals = list(lua, "mesh.normals", &normals)?;
+        if normals.len() != mesh.positions.len() {
+            return Err(error_at(
+                lua,
+                format!("mesh.normals lists {} normals for {} vertices; give one per vertex, in the same order", normals.len(), mesh.positions.len()),
+            ));
+        }
+        let field = |i: usize| format!("normals[{}]", i + 1);
+        let normals = normals.iter().enumerate().map(|(i, n)| cv::vec3(lua, args.name(&field(i)), n)).collect::<mlua::Result<_>>()?;
+        mesh.normals = Normals::Authored(normals);
     }
     mesh.check().map_err(|e| error_at(lua, format!("mesh: {e}")))?;
     args.shape(mesh, "vertices".into())

@@ -120,15 +120,18 @@ fn triangle_uvs(bvh: &Bvh, receivers: &[Receiver], interface_uvs: &[[Vec2; 3]]) 
 }
 
 /// Per BVH triangle (in leaf order), the unit shading normals at its three corners, one vec4
-/// each: a sharp mesh's smooth normals, a PBR receiver's smooth normals (creases kept as glass
-/// keeps them), a Lambertian receiver's face normal.
+/// each: a sharp mesh's and a PBR receiver's shading normals (the mesh's [`Normals`]), a
+/// Lambertian receiver's face normal (its light is the irradiance photons deposit on the
+/// triangles themselves, which no shading normal enters).
+///
+/// [`Normals`]: crate::scene::Normals
 fn triangle_normals(bvh: &Bvh, receivers: &[Receiver], interface_normals: &[[Vec3; 3]]) -> Vec<[f32; 4]> {
     let smooth: Vec<Option<Vec<[Vec3; 3]>>> = receivers
         .iter()
         .map(|r| {
             r.diffuse.is_pbr().then(|| {
                 let to_world = glam::Mat3::from_mat4(r.world).inverse().transpose();
-                let corners = r.mesh.corner_normals(crate::scene::mesh::GLASS_CREASE_DEGREES.to_radians());
+                let corners = r.mesh.corner_normals();
                 corners.into_iter().map(|c| c.map(|n| (to_world * n).normalize_or_zero())).collect()
             })
         })

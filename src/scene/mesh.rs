@@ -13,6 +13,25 @@ pub struct MeshData {
     pub triangles: Vec<[u32; 3]>,
     /// Per-vertex texture coordinates, if the mesh has them.
     pub uvs: Option<Vec<Vec2>>,
+    /// How the surface is shaded between its corners.
+    pub normals: Normals,
+}
+
+/// The shading normals of a mesh: what a ray that hits it refracts or reflects about. The
+/// surface itself (and so the voxelized solid and every ray's hit point) is always the flat
+/// triangles; shading normals only bend the normal the optics use, as every renderer does.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum Normals {
+    /// Each triangle's own normal: the rule glTF gives for a primitive without NORMAL (and
+    /// Blender's, importing an OBJ without `vn`).
+    #[default]
+    Flat,
+    /// One normal per vertex as the file authored it (glTF NORMAL, OBJ `vn`), interpolated
+    /// across each triangle.
+    Authored(Vec<Vec3>),
+    /// Smooth where faces meet at less than this many degrees, sharp beyond (Blender's "smooth
+    /// by angle"): computed from the faces, for procedural shapes and `smooth = angle`.
+    Crease(f32),
 }
 
 // Equality of the data, and (as `Eq`) equal to itself: `Arc<MeshData>`'s == then checks the pointer
@@ -29,13 +48,13 @@ pub struct GlassFacts {
     pub closed: bool,
     /// [`MeshData::is_flat`].
     pub flat: bool,
-    /// [`MeshData::corner_normals`] at [`GLASS_CREASE_DEGREES`].
+    /// [`MeshData::corner_normals`].
     pub corner_normals: Vec<[Vec3; 3]>,
 }
 
-/// Faces of a glass mesh meeting at less than this angle share a smooth shading normal (the value
-/// Blender's "auto smooth" defaults to); at more, the edge stays sharp.
-pub const GLASS_CREASE_DEGREES: f32 = 30.0;
+/// Faces of a procedural shape meeting at less than this angle share a smooth shading normal
+/// (the value Blender's "auto smooth" defaults to); at more, the edge stays sharp.
+pub const SMOOTH_CREASE_DEGREES: f32 = 30.0;
 
 impl MeshData {
     /// The glass facts of `mesh`, from a process-wide cache keyed by the shared mesh (entries
@@ -50,7 +69,7 @@ impl MeshData {
         let facts = Arc::new(GlassFacts {
             closed: mesh.is_closed(),
             flat: mesh.is_flat(),
-            corner_normals: mesh.corner_normals(GLASS_CREASE_DEGREES.to_radians()),
+            corner_normals: mesh.corner_normals(),
         });
         cache.push((Arc::downgrade(mesh), facts.clone()));
         facts
@@ -162,6 +181,37 @@ impl MeshData {
         edges
     }
 
+    /// Whether the surface is mostly bent by a little where it is bent at all: of the length of
+    /// its edges between two faces that are not coplanar (corners welded by position), more lies
+    /// where the faces meet at less than [`SMOOTH_CREASE_DEGREES`] than at more — a curved
+    /// surface cut into triangles (a sphere; a cylinder's side, longer than its rims), unlike a
+    /// box (all 90°) or a sheet (no bends).
+    pub fn looks_curved(&self) -> bool {
+        let faces: Vec<Vec3> = self.face_normals().collect();
+        let mut first_face: HashMap<[[u32; 3]; 2], usize> = HashMap::new();
+        let (mut bent, mut sharp) = (0.0f32, 0.0f32);
+        let (coplanar, crease) = (1f32.to_radians().cos(), SMOOTH_CREASE_DEGREES.to_radians().cos());
+        for (k, t) in self.triangles.iter().enumerate() {
+            let c = t.map(|i| self.positions[i as usize]);
+            for (a, b) in [(c[0], c[1]), (c[1], c[2]), (c[2], c[0])] {
+                let (a_key, b_key) = (a.to_array().map(f32::to_bits), b.to_array().map(f32::to_bits));
+                let edge = if a_key < b_key { [a_key, b_key] } else { [b_key, a_key] };
+                match first_face.remove(&edge) {
+                    Some(j) => {
+                        let cos = faces[j].dot(faces[k]);
+                        if cos < coplanar {
+                            *(if cos > crease { &mut bent } else { &mut sharp }) += a.distance(b);
+                        }
+                    }
+                    None => {
+                        first_face.insert(edge, k);
+                    }
+                }
+            }
+        }
+        bent > sharp
+    }
+
     /// Whether `p` is inside the closed surface this mesh makes under `world`: an odd number of
     /// crossings along a ray (slightly off-axis, so it does not run along the edges of
     /// axis-aligned meshes). Triangles naming a missing vertex are skipped.
@@ -179,11 +229,41 @@ impl MeshData {
         crossings % 2 == 1
     }
 
+    /// Shading normals at each corner of each triangle, unit and oriented like the triangle's
+    /// own normal (the winding decides which side is which), by the mesh's [`Normals`]. An
+    /// authored normal that points against its triangle is turned around (a mesh whose winding
+    /// was flipped keeps its normals' shape); one that is zero or not finite gives way to the
+    /// triangle's own.
+    pub fn corner_normals(&self) -> Vec<[Vec3; 3]> {
+        match &self.normals {
+            Normals::Flat => self.face_normals().map(|n| [n; 3]).collect(),
+            Normals::Crease(degrees) => self.crease_normals(degrees.to_radians()),
+            Normals::Authored(per_vertex) => self
+                .face_normals()
+                .zip(&self.triangles)
+                .map(|(own, t)| {
+                    t.map(|i| {
+                        let n = per_vertex.get(i as usize).and_then(|n| n.try_normalize()).unwrap_or(own);
+                        if n.dot(own) < 0.0 { -n } else { n }
+                    })
+                })
+                .collect(),
+        }
+    }
+
+    /// Each triangle's unit normal by its winding (zero for a triangle without area).
+    fn face_normals(&self) -> impl Iterator<Item = Vec3> + '_ {
+        self.triangles.iter().map(|t| {
+            let [a, b, c] = t.map(|i| self.positions[i as usize]);
+            (b - a).cross(c - a).normalize_or_zero()
+        })
+    }
+
     /// Shading normals at each corner of each triangle (unit, oriented like the triangle's own
     /// normal): the area-weighted mean of the normals of the triangles around that corner's
     /// position that meet this one at less than `crease` radians, so a curved surface refracts
     /// smoothly while a cube's edges stay sharp (Blender's "auto smooth").
-    pub fn corner_normals(&self, crease: f32) -> Vec<[Vec3; 3]> {
+    fn crease_normals(&self, crease: f32) -> Vec<[Vec3; 3]> {
         let face: Vec<Vec3> = self
             .triangles
             .iter()
@@ -226,6 +306,7 @@ pub fn plane(size: Vec2) -> MeshData {
         // Counter-clockwise seen from +Y.
         triangles: vec![[0, 2, 1], [0, 3, 2]],
         uvs: Some(vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)]),
+        normals: Normals::Flat,
     }
 }
 
@@ -280,7 +361,7 @@ fn geodesic(f: u32, place: impl Fn(Vec3) -> Vec3) -> MeshData {
         [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
     ];
     let mut index = std::collections::HashMap::new();
-    let mut m = MeshData::default();
+    let mut m = MeshData { normals: Normals::Crease(SMOOTH_CREASE_DEGREES), ..Default::default() };
     // A point is Σ wₖ·cornerₖ / f with integer weights; keyed by its (corner, weight) pairs in
     // corner order, it is computed in that order too, whichever face asks for it.
     let mut vertex = |weights: [(u32, u32); 3], m: &mut MeshData| -> u32 {
@@ -374,7 +455,7 @@ pub fn lathe(profile: &[Vec2], segments: u32, closed: bool) -> MeshData {
         points.reverse();
     }
     let segments = segments.max(3);
-    let mut m = MeshData::default();
+    let mut m = MeshData { normals: Normals::Crease(SMOOTH_CREASE_DEGREES), ..Default::default() };
     // Each profile point becomes a ring of `segments` vertices, or one vertex on the axis.
     let rings: Vec<Vec<u32>> = points
         .iter()
@@ -471,9 +552,15 @@ mod tests {
         let mut m = cuboid(Vec3::ONE);
         m.triangles[2][1] = 99;
         assert!(m.check().unwrap_err().contains("triangle 3 refers to vertex 100"));
-        let flat = MeshData { positions: vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0], triangles: vec![[0, 1, 2], [0, 0, 1]], uvs: None };
+        let flat = MeshData { positions: vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0], triangles: vec![[0, 1, 2], [0, 0, 1]], ..Default::default() };
         assert!(flat.check().unwrap_err().contains("zero area"));
         assert!(MeshData::default().check().unwrap_err().contains("empty"));
+    }
+
+    #[test]
+    fn a_sphere_looks_curved_and_a_box_and_a_sheet_do_not() {
+        assert!(icosphere(1.0, 2).looks_curved() && cylinder(1.0, 1.0, 64).looks_curved());
+        assert!(!cuboid(Vec3::ONE).looks_curved() && !plane(Vec2::ONE).looks_curved());
     }
 
     #[test]

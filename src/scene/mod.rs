@@ -29,7 +29,7 @@ pub use environment::{EnvImage, Environment, EnvironmentSource};
 pub use index_fn::{IndexFn, IndexFunction};
 pub use light::{Light, LightKind};
 pub use material::{AlphaMode, Diffuse, Fog, Glass, Material, Texture2d, Wrap};
-pub use mesh::MeshData;
+pub use mesh::{MeshData, Normals};
 pub use shape::Shape;
 
 pub type Shared<T> = Rc<RefCell<T>>;

@@ -1,18 +1,22 @@
 //! Wavefront OBJ meshes (`tobj`): every object and group of the file merged into one mesh,
-//! polygons fanned into triangles, materials ignored (refrakt's material comes from the script).
+//! polygons fanned into triangles, its `vn` normals as the shading normals (flat where the file
+//! has none, as Blender imports it), materials ignored (refrakt's material comes from the script).
 
 use std::path::Path;
 
 use anyhow::{Result, anyhow, bail};
 use glam::Vec3;
 
-use super::MeshData;
+use super::{MeshData, Normals};
 
 /// Reads the OBJ file at `path` into one mesh and checks it (see [`MeshData::check`]).
 pub fn load(path: &Path) -> Result<MeshData> {
     let shown = path.display();
     let file = std::fs::File::open(path).map_err(|e| anyhow!("cannot open the mesh {shown}: {e}"))?;
-    let options = tobj::LoadOptions { triangulate: true, ignore_points: true, ignore_lines: true, ..Default::default() };
+    // One index per vertex: a corner's position and normal come from one vertex (tobj splits a
+    // position that has several normals — a crease — into several vertices, which the closed-
+    // surface checks weld back by position).
+    let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
     // Materials are not read: the scene script gives the glass its index and color, and a
     // missing .mtl next to a downloaded model is no reason to fail.
     let (models, _) = tobj::load_obj_buf(&mut std::io::BufReader::new(file), &options, |_| {
@@ -20,10 +24,20 @@ pub fn load(path: &Path) -> Result<MeshData> {
     })
     .map_err(|e| anyhow!("{shown} is not a valid OBJ file ({e}); export it again as triangles or polygons"))?;
     let mut mesh = MeshData::default();
+    let mut normals = Vec::new();
     for model in &models {
         let base = mesh.positions.len() as u32;
-        mesh.positions.extend(model.mesh.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
+        let vertices = model.mesh.positions.len() / 3;
+        mesh.positions.extend(model.mesh.positions.chunks_exact(3).map(Vec3::from_slice));
         mesh.triangles.extend(model.mesh.indices.chunks_exact(3).map(|t| [base + t[0], base + t[1], base + t[2]]));
+        // A group without `vn` gets zero normals: its triangles are shaded flat.
+        match model.mesh.normals.chunks_exact(3).map(Vec3::from_slice).collect::<Vec<_>>() {
+            given if given.len() == vertices => normals.extend(given),
+            _ => normals.extend(std::iter::repeat_n(Vec3::ZERO, vertices)),
+        }
+    }
+    if normals.iter().any(|n| *n != Vec3::ZERO) {
+        mesh.normals = Normals::Authored(normals);
     }
     if mesh.triangles.is_empty() {
         bail!("{shown} has no faces ({} vertices, no triangles or polygons); a glass mesh needs a surface", mesh.positions.len());
@@ -49,6 +63,24 @@ mod tests {
         assert_eq!(m.triangles.len(), 3);
         assert_eq!(m.positions.len(), 7);
         assert_eq!(m.triangles[2], [4, 5, 6]);
+    }
+
+    #[test]
+    fn vn_normals_shade_the_mesh_and_a_file_without_them_is_flat() {
+        // A square pyramid's two slopes, each corner with a normal of its own (a crease at the
+        // ridge: the ridge's position has two normals), and a triangle of a group without `vn`.
+        let f = write(
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nvn 0 0 2\nvn 0.6 0 0.8\n\
+             f 1//1 2//2 3//1\nf 2//2 4//2 3//1\no bare\nf 1 2 5\n",
+        );
+        let m = load(f.path()).unwrap();
+        assert_eq!(m.triangles.len(), 3);
+        let corners = m.corner_normals();
+        assert_eq!(corners[0], [Vec3::Z, Vec3::new(0.6, 0.0, 0.8), Vec3::Z], "vn as given, normalized");
+        // The triangle without normals: its own face normal (−Y for corners 1, 2, 5) at each corner.
+        assert_eq!(corners[2], [Vec3::NEG_Y; 3]);
+        let flat = load(write("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").path()).unwrap();
+        assert_eq!(flat.normals, Normals::Flat);
     }
 
     #[test]

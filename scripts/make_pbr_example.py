@@ -4,8 +4,9 @@ with nothing but the Python standard library (it reuses make_gltf_example.py's w
 
 - a glass ball (KHR_materials_transmission + _ior + _volume, faintly amber) throwing a caustic
   onto the floor under a spot light;
-- a polished copper ball (metallic 1, roughness 0.25) and a brushed steel one (roughness 0.55),
-  mirroring the studio environment;
+- a polished copper ball (metallic 1, roughness 0.25) mirroring the studio environment, a red
+  lacquered one (a rough base under a polished KHR_materials_clearcoat) and a small velvet one
+  (KHR_materials_sheen);
 - a tiled floor: a base colour texture and a metallic-roughness texture whose roughness is low
   on the tiles and high in the grout, so the tiles are glossy;
 - a glowing panel (emissiveFactor × KHR_materials_emissive_strength);
@@ -81,12 +82,19 @@ def quad(g, name, half_w, half_h, material, repeat=1.0):
 def main():
     g = Glb()
     g.json["extensionsUsed"] = ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
-                                "KHR_lights_punctual", "KHR_materials_emissive_strength"]
+                                "KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_clearcoat",
+                                "KHR_materials_sheen"]
     crystal = glass(g, "Glass", 1.5, [1.0, 0.9, 0.75], 0.6)
     copper = g.add("materials", {"name": "Copper", "pbrMetallicRoughness": {
         "baseColorFactor": [0.95, 0.64, 0.54, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.25}})
-    steel = g.add("materials", {"name": "Steel", "pbrMetallicRoughness": {
-        "baseColorFactor": [0.56, 0.57, 0.58, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.55}})
+    # Red lacquer: a rough red base under a polished clear coat (KHR_materials_clearcoat).
+    lacquer = g.add("materials", {"name": "Lacquer", "pbrMetallicRoughness": {
+        "baseColorFactor": [0.55, 0.04, 0.03, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.5},
+        "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1.0, "clearcoatRoughnessFactor": 0.05}}})
+    # Blue velvet: a dark base under a pale sheen (KHR_materials_sheen).
+    velvet = g.add("materials", {"name": "Velvet", "pbrMetallicRoughness": {
+        "baseColorFactor": [0.03, 0.04, 0.15, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0},
+        "extensions": {"KHR_materials_sheen": {"sheenColorFactor": [0.7, 0.75, 1.0], "sheenRoughnessFactor": 0.45}}})
     tiles = g.add("materials", {"name": "Tiles", "pbrMetallicRoughness": {
         "baseColorTexture": {"index": texture(g, png(64, 64, tile_color))},
         "metallicRoughnessTexture": {"index": texture(g, png(64, 64, tile_roughness))},
@@ -114,7 +122,8 @@ def main():
         g.add("nodes", {"name": "Floor", "mesh": floor}),
         g.add("nodes", {"name": "Glass", "mesh": ball(g, "Glass", 0.35, crystal), "translation": [0.0, 0.35, 0.3]}),
         g.add("nodes", {"name": "Copper", "mesh": ball(g, "Copper", 0.3, copper), "translation": [-0.95, 0.3, -0.1]}),
-        g.add("nodes", {"name": "Steel", "mesh": ball(g, "Steel", 0.25, steel), "translation": [0.9, 0.25, -0.2]}),
+        g.add("nodes", {"name": "Lacquer", "mesh": ball(g, "Lacquer", 0.25, lacquer), "translation": [0.9, 0.25, -0.2]}),
+        g.add("nodes", {"name": "Velvet", "mesh": ball(g, "Velvet", 0.15, velvet), "translation": [-0.55, 0.15, 0.75]}),
         g.add("nodes", {"name": "Panel", "mesh": quad(g, "Panel", 0.35, 0.5, glow), "translation": [1.7, 0.5, -1.3],
                         "rotation": [0.0, math.sin(math.radians(-20)), 0.0, math.cos(math.radians(-20))]}),
         g.add("nodes", {"name": "Screen", "mesh": quad(g, "Screen", 0.9, 0.7, screen, repeat=3.0), "translation": [-0.4, 0.7, -1.6]}),

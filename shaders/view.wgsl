@@ -294,11 +294,28 @@ fn caustic_irradiance_at(receiver: u32, p: vec3<f32>, facing: vec3<f32>, back: b
 // A receiver of the full metallic-roughness model at a hit: the lights through both lobes,
 // the environment by the split sum, the caustics on the diffuse lobe only.
 fn shade_pbr(r: ReceiverGpu, hit: SurfaceHit, uv: vec2<f32>, base: vec3<f32>, q: vec3<f32>, facing: vec3<f32>, d: vec3<f32>, k: u32, e_caustic: vec3<f32>) -> Shading {
-    var s = PbrSurface(base, r.metallic, r.roughness, r.specular, 1.0, pbr_normal(r, hit.triangle, hit.u, hit.v, uv, facing), -d, 0.0);
+    // The coat's normal is the surface's own, without the normal map (KHR_materials_clearcoat
+    // without a clearcoatNormalTexture).
+    let smooth_n = shading_normal(hit.triangle, hit.u, hit.v);
+    let coat_n = select(smooth_n, -smooth_n, dot(smooth_n, facing) < 0.0);
+    var s = PbrSurface(base, r.metallic, r.roughness, r.specular, 1.0, pbr_normal(r, hit.triangle, hit.u, hit.v, uv, facing), -d, 0.0,
+                       r.clearcoat, r.clearcoat_roughness, coat_n, clamp(dot(coat_n, -d), 1e-4, 1.0), r.sheen_color, r.sheen_roughness);
     if has_texture(r.metallic_roughness_texture) {
         let mr = texture_at(r.metallic_roughness_texture, uv);
         s.roughness *= mr.g;
         s.metallic *= mr.b;
+    }
+    if has_texture(r.clearcoat_texture) {
+        s.clearcoat *= texture_at(r.clearcoat_texture, uv).r;
+    }
+    if has_texture(r.clearcoat_roughness_texture) {
+        s.clearcoat_roughness *= texture_at(r.clearcoat_roughness_texture, uv).g;
+    }
+    if has_texture(r.sheen_color_texture) {
+        s.sheen_color *= texture_at(r.sheen_color_texture, uv).rgb;
+    }
+    if has_texture(r.sheen_roughness_texture) {
+        s.sheen_roughness *= texture_at(r.sheen_roughness_texture, uv).a;
     }
     if has_texture(r.occlusion_texture) {
         s.occlusion = 1.0 + r.occlusion_strength * (texture_at(r.occlusion_texture, uv).r - 1.0);

@@ -124,7 +124,9 @@ fn material_json(m: &Material) -> Value {
                     "alpha": d.alpha, "alpha_mode": d.alpha_mode.name(), "alpha_cutoff": d.alpha_cutoff,
                     "emission": vec3(d.emitted()),
                     "metallic_roughness_texture": size(&d.metallic_roughness_texture), "normal_texture": size(&d.normal_texture),
-                    "occlusion_texture": size(&d.occlusion_texture), "emission_texture": size(&d.emission_texture) })
+                    "occlusion_texture": size(&d.occlusion_texture), "emission_texture": size(&d.emission_texture),
+                    "clearcoat": d.clearcoat, "clearcoat_roughness": d.clearcoat_roughness,
+                    "sheen_color": vec3(d.sheen_color), "sheen_roughness": d.sheen_roughness })
         }
     }
 }

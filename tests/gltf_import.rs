@@ -110,7 +110,7 @@ fn material_scene(materials: &[(&str, serde_json::Value)]) -> GltfBuilder {
     for ext in ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume", "KHR_materials_dispersion"] {
         g.uses(ext, true);
     }
-    g.uses("KHR_materials_sheen", false);
+    g.uses("KHR_materials_anisotropy", false);
     let mut roots = Vec::new();
     for (i, (name, m)) in materials.iter().enumerate() {
         let mi = g.push("materials", m.clone());
@@ -164,7 +164,7 @@ fn transmission_ior_and_volume_make_glass_with_beer_lambert_absorption() {
     assert_eq!(paint.color, Vec3::new(0.2, 0.4, 0.6));
     let path = dir.path().join("m.glb");
     let import = refrakt::gltf::import(&path, "m.glb", &refrakt::lua::sandbox::FileAccess::new(dir.path(), &[]).unwrap(), &ImportOptions::default()).unwrap();
-    assert!(import.warnings.iter().any(|w| w.to_string().contains("KHR_materials_sheen is not supported")), "{:?}", import.warnings);
+    assert!(import.warnings.iter().any(|w| w.to_string().contains("KHR_materials_anisotropy is not supported")), "{:?}", import.warnings);
     assert!(!import.warnings.iter().any(|w| w.to_string().contains("KHR_materials_dispersion")), "{:?}", import.warnings);
 }
 

@@ -188,13 +188,19 @@ struct ReceiverGpu {
     flags: u32,
     normal_scale: f32,
     occlusion_strength: f32,
-    _pad0: u32,
-    _pad1: u32,
+    clearcoat: f32,
+    clearcoat_roughness: f32,
+    sheen_color: vec3<f32>,
+    sheen_roughness: f32,
     base_texture: vec4<u32>,
     metallic_roughness_texture: vec4<u32>,
     normal_texture: vec4<u32>,
     occlusion_texture: vec4<u32>,
     emission_texture: vec4<u32>,
+    clearcoat_texture: vec4<u32>,
+    clearcoat_roughness_texture: vec4<u32>,
+    sheen_color_texture: vec4<u32>,
+    sheen_roughness_texture: vec4<u32>,
 }
 
 const RECEIVER_PBR: u32 = 1u;

@@ -6,5 +6,6 @@ pub mod field;
 pub mod interface;
 pub mod mesh;
 pub mod octree;
+pub mod pbr;
 pub mod ray;
 pub mod spectrum;

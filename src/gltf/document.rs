@@ -12,9 +12,11 @@ use gltf::json::validation::Validate;
 /// changes what the data means (compressed geometry, texture formats, …) and the file is refused.
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
+    "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
     "KHR_materials_dispersion",
     "KHR_materials_ior",
+    "KHR_materials_sheen",
     "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_variants",

@@ -5,8 +5,8 @@
 //! refrakt's material extras override that medium where present. Anything else is an opaque
 //! receiver of the metallic-roughness model (`scene::Diffuse`): base colour, metallic,
 //! roughness, their textures, normal and occlusion maps, emission (with
-//! KHR_materials_emissive_strength), alphaMode / alphaCutoff, and KHR_materials_specular's
-//! specular factor.
+//! KHR_materials_emissive_strength), alphaMode / alphaCutoff, KHR_materials_specular's
+//! specular factor, and the clearcoat and sheen layers (`super::layers`).
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -126,7 +126,7 @@ impl<'a> Materials<'a> {
             ..Diffuse::pbr()
         };
         // Each texture with where it is sampled; the material keeps the first one's UV map.
-        let mut maps: Vec<(&str, UvMap)> = Vec::new();
+        let mut maps: Vec<(&'static str, UvMap)> = Vec::new();
         let mut load = |this: &mut Self, info: &gltf::texture::Info, role: &'static str, srgb: bool| -> Result<Arc<Texture2d>> {
             maps.push((role, UvMap::of(info, file, what)?));
             this.texture(info, what, role, srgb)
@@ -154,6 +154,7 @@ impl<'a> Materials<'a> {
             maps.push(("occlusion", UvMap { set: o.tex_coord(), transform }));
             d.occlusion_texture = Some(self.image_texture(o.texture(), what, "occlusion", false)?);
         }
+        self.layers(m, what, &mut d, &mut maps, warnings)?;
         warn_uv_maps_differ(&maps, what, warnings);
         let uv = maps.first().map(|m| m.1);
         Ok((d, uv))
@@ -238,7 +239,7 @@ impl<'a> Materials<'a> {
         self.image_texture(info.texture(), what, role, srgb)
     }
 
-    fn image_texture(&mut self, texture: gltf::Texture, what: &str, role: &str, srgb: bool) -> Result<Arc<Texture2d>> {
+    pub(super) fn image_texture(&mut self, texture: gltf::Texture, what: &str, role: &str, srgb: bool) -> Result<Arc<Texture2d>> {
         let sampler = texture.sampler();
         let wrap = [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())];
         let image = texture.source().index();

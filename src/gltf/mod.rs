@@ -13,6 +13,7 @@ pub mod buffers;
 pub mod document;
 pub mod extras;
 pub mod framing;
+mod layers;
 pub mod material;
 pub mod mesh;
 pub mod meshopt;

@@ -320,8 +320,12 @@ gpu_struct! {
         pub flags: u32,
         pub normal_scale: f32,
         pub occlusion_strength: f32,
-        pub _pad0: u32,
-        pub _pad1: u32,
+        /// KHR_materials_clearcoat: the coat's weight and perceptual roughness.
+        pub clearcoat: f32,
+        pub clearcoat_roughness: f32,
+        /// KHR_materials_sheen: the sheen's colour and perceptual roughness.
+        pub sheen_color: [f32; 3],
+        pub sheen_roughness: f32,
         /// Each texture as (first texel, width, height, encoding and wrap modes:
         /// `texel_encoding`); width 0: none.
         pub base_texture: [u32; 4],
@@ -329,6 +333,10 @@ gpu_struct! {
         pub normal_texture: [u32; 4],
         pub occlusion_texture: [u32; 4],
         pub emission_texture: [u32; 4],
+        pub clearcoat_texture: [u32; 4],
+        pub clearcoat_roughness_texture: [u32; 4],
+        pub sheen_color_texture: [u32; 4],
+        pub sheen_roughness_texture: [u32; 4],
     }
 }
 

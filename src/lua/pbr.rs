@@ -28,6 +28,14 @@ pub const FIELDS: &[&str] = &[
     "normal_texture",
     "occlusion_texture",
     "emission_texture",
+    "clearcoat",
+    "clearcoat_roughness",
+    "clearcoat_texture",
+    "clearcoat_roughness_texture",
+    "sheen_color",
+    "sheen_roughness",
+    "sheen_color_texture",
+    "sheen_roughness_texture",
 ];
 
 /// The texture field `key` of `d`, and whether its file is sRGB-encoded (colour) or linear.
@@ -38,6 +46,10 @@ fn texture_slot<'a>(d: &'a mut Diffuse, key: &str) -> Option<(&'a mut Option<Arc
         "normal_texture" => (&mut d.normal_texture, false),
         "occlusion_texture" => (&mut d.occlusion_texture, false),
         "emission_texture" => (&mut d.emission_texture, true),
+        "clearcoat_texture" => (&mut d.clearcoat_texture, false),
+        "clearcoat_roughness_texture" => (&mut d.clearcoat_roughness_texture, false),
+        "sheen_color_texture" => (&mut d.sheen_color_texture, true),
+        "sheen_roughness_texture" => (&mut d.sheen_roughness_texture, false),
         _ => return None,
     })
 }
@@ -70,6 +82,14 @@ pub fn get(lua: &Lua, d: &Diffuse, key: &str) -> Option<mlua::Result<Value>> {
         "normal_texture" => texture_value(lua, &d.normal_texture),
         "occlusion_texture" => texture_value(lua, &d.occlusion_texture),
         "emission_texture" => texture_value(lua, &d.emission_texture),
+        "clearcoat" => number(d.clearcoat),
+        "clearcoat_roughness" => number(d.clearcoat_roughness),
+        "sheen_color" => super::objects::vec_value(lua, d.sheen_color),
+        "sheen_roughness" => number(d.sheen_roughness),
+        "clearcoat_texture" => texture_value(lua, &d.clearcoat_texture),
+        "clearcoat_roughness_texture" => texture_value(lua, &d.clearcoat_roughness_texture),
+        "sheen_color_texture" => texture_value(lua, &d.sheen_color_texture),
+        "sheen_roughness_texture" => texture_value(lua, &d.sheen_roughness_texture),
         _ => return None,
     })
 }
@@ -83,13 +103,11 @@ pub fn set(lua: &Lua, d: &mut Diffuse, what: &'static str, key: &str, value: Val
     let fraction = |v: &Value| cv::number_in(lua, name, v, Some(0.0), Some(1.0), "a number from 0 to 1").map(|x| x as f32);
     let result = (|| {
         match key {
-            "color" => {
-                let c = cv::color(lua, name, &value)?;
-                if c.max_element() > 1.0 {
-                    return Err(error_at(lua, format!("{name} is an albedo: components must be from 0 to 1, got {c}")));
-                }
-                d.color = c;
-            }
+            "color" => d.color = reflectance(lua, name, &value, "an albedo")?,
+            "sheen_color" => d.sheen_color = reflectance(lua, name, &value, "a reflectance")?,
+            "clearcoat" => d.clearcoat = fraction(&value)?,
+            "clearcoat_roughness" => d.clearcoat_roughness = fraction(&value)?,
+            "sheen_roughness" => d.sheen_roughness = fraction(&value)?,
             "alpha" => d.alpha = fraction(&value)?,
             "alpha_cutoff" => d.alpha_cutoff = fraction(&value)?,
             "metallic" => d.metallic = fraction(&value)?,
@@ -112,6 +130,15 @@ pub fn set(lua: &Lua, d: &mut Diffuse, what: &'static str, key: &str, value: Val
         Ok(())
     })();
     Some(result)
+}
+
+/// A colour whose components are fractions of the light (0 to 1).
+fn reflectance(lua: &Lua, name: FieldName, value: &Value, what: &str) -> mlua::Result<glam::Vec3> {
+    let c = cv::color(lua, name, value)?;
+    if c.max_element() > 1.0 {
+        return Err(error_at(lua, format!("{name} is {what}: components must be from 0 to 1, got {c}")));
+    }
+    Ok(c)
 }
 
 /// A PNG or JPEG texture named relative to the scene's folder (nil: none).

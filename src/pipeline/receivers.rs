@@ -58,7 +58,7 @@ fn world_triangles(r: &Receiver, index: u32) -> Vec<Triangle> {
 }
 
 /// A receiver's textures in `ReceiverGpu`'s order, each with the encoding its texels take.
-fn textures(d: &Diffuse) -> [(Option<&Arc<Texture2d>>, u32); 5] {
+fn textures(d: &Diffuse) -> [(Option<&Arc<Texture2d>>, u32); 9] {
     use texel_encoding::{LINEAR, SRGB};
     [
         (d.texture.as_ref(), SRGB),
@@ -66,6 +66,10 @@ fn textures(d: &Diffuse) -> [(Option<&Arc<Texture2d>>, u32); 5] {
         (d.normal_texture.as_ref(), LINEAR),
         (d.occlusion_texture.as_ref(), LINEAR),
         (d.emission_texture.as_ref(), SRGB),
+        (d.clearcoat_texture.as_ref(), LINEAR),
+        (d.clearcoat_roughness_texture.as_ref(), LINEAR),
+        (d.sheen_color_texture.as_ref(), SRGB),
+        (d.sheen_roughness_texture.as_ref(), LINEAR),
     ]
 }
 
@@ -259,11 +263,19 @@ fn receiver_gpu(r: &Receiver, atlas: &mut TexelAtlas) -> ReceiverGpu {
         flags,
         normal_scale: d.normal_scale,
         occlusion_strength: d.occlusion_strength,
+        clearcoat: d.clearcoat,
+        clearcoat_roughness: d.clearcoat_roughness,
+        sheen_color: d.sheen_color.into(),
+        sheen_roughness: d.sheen_roughness,
         base_texture: tex[0],
         metallic_roughness_texture: tex[1],
         normal_texture: tex[2],
         occlusion_texture: tex[3],
         emission_texture: tex[4],
+        clearcoat_texture: tex[5],
+        clearcoat_roughness_texture: tex[6],
+        sheen_color_texture: tex[7],
+        sheen_roughness_texture: tex[8],
         ..Default::default()
     }
 }

@@ -11,7 +11,9 @@
 //!   sampling"), so few samples give a smooth result. Computed on the CPU once per image.
 //! - `A`, `B`: the directional albedo of the GGX lobe (Smith height-correlated visibility)
 //!   split by Schlick's Fresnel, integrated once on the CPU into a [`LUT_SIZE`]² table over
-//!   (n·v, roughness): [`brdf_lut`].
+//!   (n·v, roughness): [`brdf_lut`]. The same buffer holds, after it, the directional albedo
+//!   E of KHR_materials_sheen's lobe (Charlie distribution, the Sample Viewer's visibility), by
+//!   which the sheen dims the surface below it and reflects a uniform environment.
 //!
 //! The view shader reads both (`shaders/shared/pbr.wgsl`).
 
@@ -62,6 +64,47 @@ pub fn smith_visibility(n_l: f32, n_v: f32, alpha: f32) -> f32 {
     if s > 0.0 { 0.5 / s } else { 0.0 }
 }
 
+/// The Charlie sheen distribution (Estevez & Kulla 2017, "Production Friendly Microfacet
+/// Sheen BRDF"): D(h) = (2 + 1/α) sin^(1/α)θ_h / 2π, α = roughness² (KHR_materials_sheen).
+pub fn charlie_d(n_h: f32, roughness: f32) -> f32 {
+    let inv_alpha = 1.0 / (roughness * roughness).max(1e-6);
+    let sin2 = (1.0 - n_h * n_h).max(0.0);
+    (2.0 + inv_alpha) * sin2.powf(0.5 * inv_alpha) / (2.0 * PI)
+}
+
+/// The sheen's visibility, V = 1 / ((1 + Λ(n·v) + Λ(n·l)) · 4 (n·l)(n·v)), clamped to 1, with
+/// Λ the curve fit of Estevez & Kulla (the Khronos Sample Viewer's `V_Sheen`).
+pub fn sheen_visibility(n_l: f32, n_v: f32, roughness: f32) -> f32 {
+    let alpha = (roughness * roughness).max(1e-6);
+    let fit = |x: f32| {
+        let t = (1.0 - alpha) * (1.0 - alpha);
+        let mix = |a: f32, b: f32| a + (b - a) * t;
+        mix(21.5473, 25.3245) / (1.0 + mix(3.82987, 3.32435) * x.powf(mix(0.19823, 0.16801))) + mix(-1.97760, -1.27393) * x + mix(-4.32054, -4.85967)
+    };
+    let lambda = |c: f32| if c.abs() < 0.5 { fit(c).exp() } else { (2.0 * fit(0.5) - fit(1.0 - c)).exp() };
+    (1.0 / ((1.0 + lambda(n_v) + lambda(n_l)) * 4.0 * n_v * n_l)).clamp(0.0, 1.0)
+}
+
+/// E(n·v, roughness) = ∫ D·V (n·l) dl of the sheen lobe of colour 1, by a midpoint rule over
+/// the hemisphere of l (the lobe is broad and smooth; 64 × 64 cells hold it to 10⁻³).
+pub fn sheen_albedo_integral(n_v: f32, roughness: f32) -> f32 {
+    const CELLS: u32 = 64;
+    let v = Vec3::new((1.0 - n_v * n_v).max(0.0).sqrt(), 0.0, n_v);
+    let mut sum = 0.0;
+    for i in 0..CELLS {
+        // Uniform in cos θ, so dω = d(cos θ) dφ.
+        let cos_t = (i as f32 + 0.5) / CELLS as f32;
+        let sin_t = (1.0 - cos_t * cos_t).sqrt();
+        for j in 0..CELLS {
+            let phi = 2.0 * PI * (j as f32 + 0.5) / CELLS as f32;
+            let l = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
+            let h = (l + v).normalize();
+            sum += charlie_d(h.z, roughness) * sheen_visibility(cos_t, n_v, roughness) * cos_t;
+        }
+    }
+    sum * 2.0 * PI / (CELLS * CELLS) as f32
+}
+
 /// (A, B) for n·v and roughness: ∫ f_spec/F · (1 − (1 − v·h)⁵) (n·l) dl and ∫ f_spec/F ·
 /// (1 − v·h)⁵ (n·l) dl, GGX importance-sampled.
 fn brdf_integral(n_v: f32, roughness: f32) -> [f32; 2] {
@@ -86,13 +129,32 @@ fn brdf_integral(n_v: f32, roughness: f32) -> [f32; 2] {
 }
 
 /// The split-sum table: entry `j · LUT_SIZE + i` is (A, B) at n·v = (i + ½)/LUT_SIZE,
-/// roughness = (j + ½)/LUT_SIZE (the shader interpolates between entry centres).
+/// roughness = (j + ½)/LUT_SIZE (the shader interpolates between entry centres); then, from
+/// entry LUT_SIZE², the sheen table laid out alike: (E, 0).
 pub fn brdf_lut() -> &'static [[f32; 2]] {
     static LUT: OnceLock<Vec<[f32; 2]>> = OnceLock::new();
     LUT.get_or_init(|| {
         let centre = |k: usize| (k as f32 + 0.5) / LUT_SIZE as f32;
-        (0..LUT_SIZE * LUT_SIZE).map(|e| brdf_integral(centre(e % LUT_SIZE), centre(e / LUT_SIZE))).collect()
+        let entries = 0..LUT_SIZE * LUT_SIZE;
+        let ggx = entries.clone().map(|e| brdf_integral(centre(e % LUT_SIZE), centre(e / LUT_SIZE)));
+        let sheen = entries.map(|e| [sheen_albedo_integral(centre(e % LUT_SIZE), centre(e / LUT_SIZE)), 0.0]);
+        ggx.chain(sheen).collect()
     })
+}
+
+/// The table at (n·v, roughness), bilinear between entry centres as the shader reads it
+/// (`lut_at` in shaders/shared/pbr.wgsl); `table` 0 is (A, B), 1 the sheen's (E, 0).
+pub fn lut_at(table: usize, n_v: f32, roughness: f32) -> [f32; 2] {
+    let lut = &brdf_lut()[table * LUT_SIZE * LUT_SIZE..];
+    let last = (LUT_SIZE - 1) as f32;
+    let f = (Vec2::new(n_v, roughness) * LUT_SIZE as f32 - 0.5).clamp(Vec2::ZERO, Vec2::splat(last));
+    let (i, t) = (f.floor(), f - f.floor());
+    let (i0, j0) = (i.x as usize, i.y as usize);
+    let (i1, j1) = ((i0 + 1).min(LUT_SIZE - 1), (j0 + 1).min(LUT_SIZE - 1));
+    let at = |i: usize, j: usize| Vec2::from(lut[j * LUT_SIZE + i]);
+    let row0 = at(i0, j0).lerp(at(i1, j0), t.x);
+    let row1 = at(i0, j1).lerp(at(i1, j1), t.x);
+    row0.lerp(row1, t.y).to_array()
 }
 
 /// An image and its box-filtered halvings down to one texel row.
@@ -204,6 +266,35 @@ mod tests {
         let [a, b] = at(LUT_SIZE / 2, LUT_SIZE - 1);
         assert!((0.4..0.55).contains(&(a + b)), "A + B = {}", a + b);
         assert!(lut.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+    }
+
+    #[test]
+    fn the_sheen_table_holds_the_lobes_albedo() {
+        // Against a finer quadrature of the same integral, in spherical coordinates (θ, φ) this
+        // time, so a slip in either parametrization shows.
+        let fine = |n_v: f32, roughness: f32| {
+            let v = Vec3::new((1.0 - n_v * n_v).sqrt(), 0.0, n_v);
+            let (n, mut sum) = (400u32, 0.0f64);
+            for i in 0..n {
+                let theta = 0.5 * PI * (i as f32 + 0.5) / n as f32;
+                for j in 0..n {
+                    let phi = 2.0 * PI * (j as f32 + 0.5) / n as f32;
+                    let l = Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
+                    let f = charlie_d((l + v).normalize().z, roughness) * sheen_visibility(l.z, n_v, roughness);
+                    sum += (f * l.z * theta.sin()) as f64;
+                }
+            }
+            (sum * (0.5 * PI as f64 / n as f64) * (2.0 * PI as f64 / n as f64)) as f32
+        };
+        for (n_v, roughness) in [(0.9, 0.3), (0.5, 0.5), (0.2, 0.8), (0.7, 1.0)] {
+            let (table, exact) = (sheen_albedo_integral(n_v, roughness), fine(n_v, roughness));
+            assert!((table - exact).abs() < 2e-3 + 0.01 * exact, "E({n_v}, {roughness}) = {table}, finer quadrature {exact}");
+            // A sheen reflects a part of the light, never more than all of it.
+            assert!((0.0..1.0).contains(&table), "E({n_v}, {roughness}) = {table}");
+        }
+        // The table's entries are the integral at their centres.
+        let centre = (3.5 / LUT_SIZE as f32, 20.5 / LUT_SIZE as f32);
+        assert!((lut_at(1, centre.0, centre.1)[0] - sheen_albedo_integral(centre.0, centre.1)).abs() < 1e-6);
     }
 
     #[test]

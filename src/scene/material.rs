@@ -230,6 +230,22 @@ pub struct Diffuse {
     pub emission_strength: f32,
     /// Multiplies `emission` (glTF's emissiveTexture, sRGB-encoded like the base colour).
     pub emission_texture: Option<Arc<Texture2d>>,
+    /// KHR_materials_clearcoat: a clear lacquer (n = 1.5) over the surface, 0 (none) to 1.
+    pub clearcoat: f32,
+    /// The coat's perceptual roughness (GGX α = roughness²).
+    pub clearcoat_roughness: f32,
+    /// Multiplies `clearcoat` (R, linear).
+    pub clearcoat_texture: Option<Arc<Texture2d>>,
+    /// Multiplies `clearcoat_roughness` (G, linear).
+    pub clearcoat_roughness_texture: Option<Arc<Texture2d>>,
+    /// KHR_materials_sheen: the colour of a fabric's sheen (linear, 0 to 1; 0: none).
+    pub sheen_color: Vec3,
+    /// The sheen's perceptual roughness (Charlie α = roughness²).
+    pub sheen_roughness: f32,
+    /// Multiplies `sheen_color` (RGB, sRGB-encoded).
+    pub sheen_color_texture: Option<Arc<Texture2d>>,
+    /// Multiplies `sheen_roughness` (A, linear).
+    pub sheen_roughness_texture: Option<Arc<Texture2d>>,
 }
 
 impl Default for Diffuse {
@@ -251,6 +267,14 @@ impl Default for Diffuse {
             emission: Vec3::ZERO,
             emission_strength: 1.0,
             emission_texture: None,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.0,
+            clearcoat_texture: None,
+            clearcoat_roughness_texture: None,
+            sheen_color: Vec3::ZERO,
+            sheen_roughness: 0.0,
+            sheen_color_texture: None,
+            sheen_roughness_texture: None,
         }
     }
 }
@@ -263,9 +287,10 @@ impl Diffuse {
     }
 
     /// Whether the surface needs more than the Lambertian shading: a specular lobe (metal or
-    /// dielectric Fresnel) or a normal map. Receivers without one are shaded as before PBR.
+    /// dielectric Fresnel), a normal map, a clear coat or a sheen. Receivers without one are
+    /// shaded as before PBR.
     pub fn is_pbr(&self) -> bool {
-        self.metallic > 0.0 || self.specular > 0.0 || self.normal_texture.is_some()
+        self.metallic > 0.0 || self.specular > 0.0 || self.normal_texture.is_some() || self.clearcoat > 0.0 || self.sheen_color.max_element() > 0.0
     }
 
     /// The emitted radiance at full texture: `emission × emission_strength`.

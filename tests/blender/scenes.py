@@ -71,6 +71,9 @@ def round_trip_scene():
     sun.rotation_euler = (math.radians(30), math.radians(10), 0)
 
     bpy.ops.mesh.primitive_uv_sphere_add(radius=0.5, location=(-1.0, 0.0, 0.5), segments=24, ring_count=12)
+    # Smooth, as a glass ball is modelled: the exporter writes its normals, and refrakt (like
+    # Cycles) would refract a flat-shaded one facet by facet.
+    bpy.ops.object.shade_smooth()
     ball = bpy.context.object
     ball.name = "Ball"
     ball.data.materials.append(glass_material())

@@ -136,7 +136,7 @@ def look_at_quat(eye, target):
 
 
 def glass(g, name, ior, color, distance):
-    return g.add("materials", {"name": name, "pbrMetallicRoughness": {"roughnessFactor": 0.0}, "extensions": {
+    return g.add("materials", {"name": name, "pbrMetallicRoughness": {"metallicFactor": 0.0, "roughnessFactor": 0.0}, "extensions": {
         "KHR_materials_transmission": {"transmissionFactor": 1.0},
         "KHR_materials_ior": {"ior": ior},
         "KHR_materials_volume": {"thicknessFactor": 0.5, "attenuationColor": color, "attenuationDistance": distance}}})

@@ -351,3 +351,70 @@ fn a_lua_update_runs_on_top_of_the_gltf_animation() {
         assert!(1.0 - tr.rotation.dot(Quat::from_rotation_y((90.0 * t as f32).to_radians())).abs() < 1e-6, "the script's rotation at {t}: {:?}", tr.rotation);
     }
 }
+
+/// KHR_animation_pointer (as Blender's exporter writes for animated light power and colour, a
+/// camera's lens, material values): channels without a node, aimed by a JSON pointer. A light's
+/// colour, intensity and spot cones, a camera's yfov, a material's base colour and emissive
+/// strength and a node's translation follow their samplers; a pointer to a property refrakt does
+/// not animate is said once and the file loads.
+#[test]
+fn animation_pointers_drive_lights_cameras_and_materials() {
+    use refrakt::scene::{LightKind, Material};
+    let mut g = GltfBuilder::new();
+    g.uses("KHR_animation_pointer", true);
+    g.uses("KHR_lights_punctual", false);
+    g.json["extensions"] = json!({ "KHR_lights_punctual": { "lights": [
+        { "type": "spot", "intensity": 10.0, "color": [1.0, 1.0, 1.0], "spot": { "innerConeAngle": 0.2, "outerConeAngle": 0.6 } } ] } });
+    g.push("cameras", json!({ "type": "perspective", "perspective": { "yfov": 0.5, "znear": 0.1 } }));
+    let m = g.push("materials", json!({ "pbrMetallicRoughness": { "baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0 } }));
+    let mesh = g.mesh(&TETRA, &[[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], Some(m));
+    let lamp = g.push("nodes", json!({ "name": "lamp", "extensions": { "KHR_lights_punctual": { "light": 0 } } }));
+    let cam = g.push("nodes", json!({ "name": "cam", "camera": 0, "translation": [0.0, 0.0, 5.0] }));
+    let thing = g.push("nodes", json!({ "name": "thing", "mesh": mesh }));
+    // Keyframes at 0, 1 and 3 s (TIMES), LINEAR.
+    let mut anim = Anim::default();
+    let pointers: [(&str, Vec<f32>, &str); 7] = [
+        ("/extensions/KHR_lights_punctual/lights/0/intensity", vec![10.0, 30.0, 30.0], "SCALAR"),
+        ("/extensions/KHR_lights_punctual/lights/0/color", vec![1.0, 1.0, 1.0, 1.0, 0.5, 0.0, 1.0, 0.5, 0.0], "VEC3"),
+        ("/extensions/KHR_lights_punctual/lights/0/spot/outerConeAngle", vec![0.6, 0.8, 0.8], "SCALAR"),
+        ("/cameras/0/perspective/yfov", vec![0.5, 1.0, 1.0], "SCALAR"),
+        ("/materials/0/pbrMetallicRoughness/baseColorFactor", vec![1.0, 1.0, 1.0, 1.0, 0.0, 0.5, 1.0, 0.5, 0.0, 0.5, 1.0, 0.5], "VEC4"),
+        ("/nodes/2/translation", vec![0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 2.0, 0.0, 0.0], "VEC3"),
+        ("/cameras/0/perspective/znear", vec![0.1, 0.2, 0.2], "SCALAR"),
+    ];
+    for (pointer, values, kind) in &pointers {
+        let input = g.floats(&TIMES, "SCALAR");
+        let output = g.floats(values, kind);
+        anim.samplers.push(json!({ "input": input, "output": output, "interpolation": "LINEAR" }));
+        anim.channels.push(json!({ "sampler": anim.samplers.len() - 1,
+            "target": { "path": "pointer", "extensions": { "KHR_animation_pointer": { "pointer": pointer } } } }));
+    }
+    anim.add_to(&mut g, "lights camera action");
+    g.scene("S", &[lamp, cam, thing]);
+    let (dir, path) = write(&g, "pointer.glb");
+    let access = refrakt::lua::sandbox::FileAccess::new(dir.path(), &[]).unwrap();
+    let import = refrakt::gltf::import(&path, "pointer.glb", &access, &ImportOptions::default()).unwrap_or_else(|e| panic!("{e:#}"));
+    let said: Vec<String> = import.warnings.iter().map(|w| w.to_string()).filter(|w| w.contains("KHR_animation_pointer")).collect();
+    assert!(said.len() == 1 && said[0].contains("/cameras/0/perspective/znear") && said[0].contains("keep the file's values"), "{said:?}");
+
+    let mut s = load(&path, &ImportOptions::default());
+    assert_eq!(s.player.duration(), Some(3.0));
+    s.player.pose(0.5);
+    let node = |name: &str| s.scene.find(name).unwrap();
+    let light = node("lamp").borrow().light.clone().unwrap();
+    let light = light.borrow();
+    assert!((light.intensity - 20.0).abs() < 1e-5, "intensity {}", light.intensity);
+    assert!((light.color - Vec3::new(1.0, 0.75, 0.5)).length() < 1e-6, "colour {}", light.color);
+    let LightKind::Spot { angle, blend } = light.kind else { panic!("{:?}", light.kind) };
+    // The outer cone widens to 0.7; the inner one stays 0.2.
+    assert!((angle - 0.7).abs() < 1e-6 && (angle * (1.0 - blend) - 0.2).abs() < 1e-6, "{angle}, {blend}");
+    let fov = node("cam").borrow().camera.clone().unwrap().borrow().fov_y;
+    assert!((fov - 0.75).abs() < 1e-6, "yfov {fov}");
+    let material = node("thing").borrow().material.clone().unwrap();
+    let Material::Diffuse(d) = &*material.borrow() else { panic!() };
+    assert!((d.color - Vec3::new(0.5, 0.75, 1.0)).length() < 1e-6 && (d.alpha - 0.75).abs() < 1e-6, "{} {}", d.color, d.alpha);
+    assert!((node_transform(&s.scene, "thing").translation - Vec3::new(1.0, 0.0, 0.0)).length() < 1e-6);
+    // The frame carries them: the light's radiant intensity is the candela over 683 lm/W.
+    let desc = refrakt::scene::eval::evaluate(&s.scene, 0.5, &Default::default()).unwrap();
+    assert!((desc.lights[0].radiant.x - 20.0 / 683.0).abs() < 1e-6, "{}", desc.lights[0].radiant);
+}

@@ -1,7 +1,8 @@
 //! Keyframe animation (glTF 2.0 §3.11 and Appendix C, "Interpolation"): samplers that turn a
 //! time into a value by STEP, LINEAR (spherical linear for rotations) or CUBICSPLINE (cubic
 //! Hermite with the keyframe's tangents) interpolation, and channels that aim them at a node's
-//! translation, rotation, scale or morph weights.
+//! translation, rotation, scale or morph weights — or, through KHR_animation_pointer
+//! (`super::pointer`), at a light's, camera's or material's property.
 //!
 //! Time is the scene clock in seconds, which is the file's own time unit. Before the first
 //! keyframe a sampler holds its first value, after the last its last value (no looping).
@@ -11,6 +12,8 @@ use glam::{Quat, Vec3, Vec4};
 use gltf::animation::{Interpolation, Property};
 
 use super::accessor::Accessors;
+use super::pointer::{self, CameraProperty, LightProperty, MaterialProperty, PointerChannel};
+use crate::warnings::Collector;
 
 /// One sampler's keyframes: `times` and, per keyframe, `width` values — or 3·`width` for
 /// CUBICSPLINE, stored as (in-tangent aₖ, value vₖ, out-tangent bₖ).
@@ -106,6 +109,9 @@ pub enum Target {
     Rotation,
     Scale,
     Weights,
+    Light(LightProperty),
+    Camera(CameraProperty),
+    Material(MaterialProperty),
 }
 
 impl Target {
@@ -116,12 +122,27 @@ impl Target {
             Target::Rotation => "rotation",
             Target::Scale => "scale",
             Target::Weights => "morph weights",
+            Target::Light(_) => "light",
+            Target::Camera(_) => "camera",
+            Target::Material(_) => "material",
+        }
+    }
+
+    /// The array whose element `Channel::node` indexes, for messages.
+    pub fn owners(self) -> &'static str {
+        match self {
+            Target::Light(_) => "lights",
+            Target::Camera(_) => "cameras",
+            Target::Material(_) => "materials",
+            _ => "nodes",
         }
     }
 }
 
 #[derive(Clone, Debug)]
 pub struct Channel {
+    /// The node — or for a light, camera or material target, the light, camera or material —
+    /// the channel drives, by its glTF index.
     pub node: usize,
     pub target: Target,
     pub sampler: usize,
@@ -135,12 +156,14 @@ pub struct Clip {
     pub channels: Vec<Channel>,
 }
 
-/// A value a channel produced at some time, for the node it targets.
+/// A value a channel produced at some time, for the node (light, camera, material) it targets.
 pub enum Pose<'a> {
     Translation(Vec3),
     Rotation(Quat),
     Scale(Vec3),
     Weights(&'a [f32]),
+    /// A light's, camera's or material's property (the target says which).
+    Property(Target, &'a [f32]),
 }
 
 impl Clip {
@@ -156,6 +179,7 @@ impl Clip {
                 Target::Rotation => Pose::Rotation(Quat::from_vec4(Vec4::from_slice(v).normalize_or(Vec4::W))),
                 Target::Scale => Pose::Scale(Vec3::from_slice(v)),
                 Target::Weights => Pose::Weights(v),
+                other => Pose::Property(other, v),
             };
             apply(c.node, pose);
         }
@@ -167,9 +191,18 @@ impl Clip {
     }
 }
 
-/// Reads the given animations. `morph_targets(node)` is the number of morph targets
-/// of the mesh on glTF node `node` (the width of its weights channels).
-pub fn read_clips(animations: Vec<gltf::Animation>, acc: &Accessors, morph_targets: impl Fn(usize) -> usize) -> Result<Vec<Clip>> {
+/// Reads the given animations, with their animation-pointer channels (those whose pointer names
+/// a property refrakt does not animate are said once and skipped). `morph_targets(node)` is the
+/// number of morph targets of the mesh on glTF node `node` (the width of its weights channels);
+/// `counts` how many (nodes, lights, cameras, materials) the file has.
+pub fn read_clips(
+    animations: Vec<gltf::Animation>,
+    pointers: &[PointerChannel],
+    acc: &Accessors,
+    counts: [usize; 4],
+    morph_targets: impl Fn(usize) -> usize,
+    warnings: &mut Collector,
+) -> Result<Vec<Clip>> {
     animations
         .into_iter()
         .map(|a| {
@@ -177,20 +210,37 @@ pub fn read_clips(animations: Vec<gltf::Animation>, acc: &Accessors, morph_targe
             let what = format!("animations[{}] \"{name}\"", a.index());
             let mut samplers: Vec<Option<Sampler>> = vec![None; a.samplers().count()];
             let mut channels = Vec::new();
-            for c in a.channels() {
-                let node = c.target().node().index();
+            let plain = a.channels().map(|c| {
                 let target = match c.target().property() {
                     Property::Translation => Target::Translation,
                     Property::Rotation => Target::Rotation,
                     Property::Scale => Target::Scale,
                     Property::MorphTargetWeights => Target::Weights,
                 };
+                Ok((c.target().node().index(), target, c.sampler()))
+            });
+            let mut unread = Vec::new();
+            let pointed = pointers.iter().filter(|p| p.animation == a.index()).filter_map(|p| {
+                let Some((target, index)) = pointer::resolve(&p.pointer) else {
+                    unread.push(p.pointer.clone());
+                    return None;
+                };
+                let owners = [("nodes", counts[0]), ("lights", counts[1]), ("cameras", counts[2]), ("materials", counts[3])];
+                let count = owners.iter().find(|(name, _)| *name == target.owners()).map_or(0, |o| o.1);
+                Some(match a.samplers().nth(p.sampler) {
+                    _ if index >= count => Err(anyhow!("{}: {what}: the animation pointer {} names {}[{index}], which does not exist", acc.file, p.pointer, target.owners())),
+                    Some(s) => Ok((index, target, s)),
+                    None => Err(anyhow!("{}: {what}: the channel for {} names sampler {}, which does not exist", acc.file, p.pointer, p.sampler)),
+                })
+            });
+            for c in plain.chain(pointed).collect::<Result<Vec<_>>>()? {
+                let (node, target, s) = c;
                 let width = match target {
                     Target::Rotation => 4,
                     Target::Weights => morph_targets(node),
-                    _ => 3,
+                    Target::Translation | Target::Scale => 3,
+                    other => pointer::width(other),
                 };
-                let s = c.sampler();
                 let swhat = format!("{what} samplers[{}]", s.index());
                 let sampler = read_sampler(&s, acc, &swhat, width, target)?;
                 match &samplers[s.index()] {
@@ -200,6 +250,12 @@ pub fn read_clips(animations: Vec<gltf::Animation>, acc: &Accessors, morph_targe
                     _ => samplers[s.index()] = Some(sampler),
                 }
                 channels.push(Channel { node, target, sampler: s.index() });
+            }
+            if !unread.is_empty() {
+                warnings.about(
+                    format!("{what} ({})", unread.join(", ")),
+                    "animates properties through KHR_animation_pointer that refrakt does not animate; they keep the file's values",
+                );
             }
             // Samplers no channel uses are kept as placeholders so channel indices stay valid.
             let samplers = samplers

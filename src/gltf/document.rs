@@ -11,6 +11,9 @@ use gltf::json::validation::Validate;
 /// Extensions refrakt reads in full, so a file may require them. Any other required extension
 /// changes what the data means (compressed geometry, texture formats, …) and the file is refused.
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    // Its channels are read by super::pointer (a pointer to a property refrakt does not
+    // animate is warned of, and the property keeps its value).
+    "KHR_animation_pointer",
     "KHR_lights_punctual",
     "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
@@ -198,7 +201,7 @@ fn check_channel_targets(root: &json::Root, file: &str) -> Result<()> {
             if !matches!(channel.target.path, json::validation::Checked::Valid(_)) {
                 bail!(
                     "{file}: the glTF is invalid: {at}.path is not one of translation, rotation, scale, weights \
-                     (animation pointers are not supported); fix or re-export the file"
+                     or pointer (KHR_animation_pointer); fix or re-export the file"
                 );
             }
         }

@@ -19,6 +19,7 @@ pub mod mesh;
 pub mod meshopt;
 pub mod nodes;
 pub mod player;
+pub mod pointer;
 
 use std::path::{Path, PathBuf};
 
@@ -128,7 +129,8 @@ pub fn import(path: &Path, shown: &str, access: &FileAccess, opts: &ImportOption
     access.record(&path.canonicalize().unwrap_or_else(|_| path.to_path_buf()));
     let binary = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("glb"));
     let container = document::container(&bytes, shown, binary)?;
-    let doc = document::parse(container.json, shown)?;
+    let (json, pointers) = pointer::split(container.json, shown)?;
+    let doc = document::parse(&json, shown)?;
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new(".")).to_path_buf();
     let at = buffers::Location { file: shown, dir: &dir, access };
     let mut buffers = buffers::load_buffers(&doc, container.bin, &at)?;
@@ -158,7 +160,7 @@ pub fn import(path: &Path, shown: &str, access: &FileAccess, opts: &ImportOption
     };
     let materials = material::Materials::new(&doc, &buffers, &at);
     let graph = nodes::build(&doc, &acc, materials, &roots, variant, &mut warnings)?;
-    let clips = clips(&doc, &acc, &graph, opts.animation.as_deref(), shown, &mut warnings)?;
+    let clips = clips(&doc, &pointers, &acc, &graph, opts.animation.as_deref(), shown, &mut warnings)?;
     let animations: Vec<Option<&str>> = doc.animations().map(|a| a.name()).collect();
     let catalog = Catalog {
         scenes: doc.scenes().map(|s| s.name().map(str::to_string)).collect(),
@@ -171,7 +173,7 @@ pub fn import(path: &Path, shown: &str, access: &FileAccess, opts: &ImportOption
     let name = scene.and_then(|s| s.name().map(str::to_string)).unwrap_or_else(|| {
         path.file_stem().map_or_else(|| "gltf".to_string(), |s| s.to_string_lossy().to_string())
     });
-    let player = Player::new(graph.nodes, clips, graph.weights, graph.deformables);
+    let player = Player::new(graph.nodes, clips, graph.weights, graph.deformables).with_animated(graph.animated);
     Ok(Import { name, roots: graph.roots, settings, player, catalog, warnings: warnings.into_warnings() })
 }
 
@@ -210,6 +212,7 @@ fn root_nodes(doc: &gltf::Document) -> Vec<usize> {
 /// two of them drive the same property, where the later one wins).
 fn clips(
     doc: &gltf::Document,
+    pointers: &[pointer::PointerChannel],
     acc: &accessor::Accessors,
     graph: &nodes::Graph,
     name: Option<&str>,
@@ -226,7 +229,8 @@ fn clips(
         }
         None => doc.animations().collect(),
     };
-    let clips = animation::read_clips(chosen, acc, |n| graph.weights[n].len())?;
+    let counts = [doc.nodes().count(), doc.lights().map_or(0, |l| l.count()), doc.cameras().count(), doc.materials().count()];
+    let clips = animation::read_clips(chosen, pointers, acc, counts, |n| graph.weights[n].len(), warnings)?;
     for message in overlaps(&clips) {
         warnings.file_wide(message);
     }
@@ -261,11 +265,12 @@ fn overlaps(clips: &[animation::Clip]) -> Vec<String> {
         .map(|Overlap { clips: (a, b), shared: n, node, target }| {
             let more = if n > 1 { format!(" and {} more propert{}", n - 1, if n == 2 { "y" } else { "ies" }) } else { String::new() };
             format!(
-                "animations \"{}\" and \"{}\" both drive the {} of nodes[{node}]{more}; all animations play at once \
+                "animations \"{}\" and \"{}\" both drive the {} of {}[{node}]{more}; all animations play at once \
                  and the later wins (pick one with --animation NAME or INDEX)",
                 clips[a].name,
                 clips[b].name,
-                target.plain()
+                target.plain(),
+                target.owners()
             )
         })
         .collect()

@@ -13,7 +13,7 @@ use super::accessor::Accessors;
 use super::extras::{self, FieldExtras, FieldType, NodeRole};
 use super::material::{self, Converted, Materials, UvMap};
 use super::mesh::{self, Part};
-use super::player::{Deformable, Skin};
+use super::player::{Animated, Deformable, Skin};
 use crate::scene::{Camera, Glass, Light, LightKind, Material, Node, Normals, Origin, Shape, Shared, shared};
 use crate::warnings::Collector;
 
@@ -32,6 +32,8 @@ pub struct Graph {
     pub nodes: Vec<Weak<RefCell<Node>>>,
     pub weights: Vec<Vec<f32>>,
     pub deformables: Vec<Deformable>,
+    /// The lights, cameras and materials made of each glTF one, for animation pointers.
+    pub animated: Animated,
 }
 
 /// A converted material, shared by every node that uses it: (material, boundary, where its
@@ -57,7 +59,12 @@ struct Builder<'a, 'b> {
 
 pub fn build(doc: &gltf::Document, acc: &Accessors, materials: Materials, roots: &[usize], variant: Option<usize>, warnings: &mut Collector) -> Result<Graph> {
     let n = doc.nodes().count();
-    let graph = Graph { roots: Vec::new(), nodes: (0..n).map(|_| Weak::new()).collect(), weights: vec![Vec::new(); n], deformables: Vec::new() };
+    let animated = Animated {
+        lights: vec![Vec::new(); doc.lights().map_or(0, |l| l.count())],
+        cameras: vec![Vec::new(); doc.cameras().count()],
+        materials: (0..doc.materials().count()).map(|_| Weak::new()).collect(),
+    };
+    let graph = Graph { roots: Vec::new(), nodes: (0..n).map(|_| Weak::new()).collect(), weights: vec![Vec::new(); n], deformables: Vec::new(), animated };
     let mut b = Builder { acc, materials, converted: HashMap::new(), meshes: HashMap::new(), graph, skinned: Vec::new(), checked: Default::default(), variant, warnings };
     for &r in roots {
         let node = doc.nodes().nth(r).ok_or_else(|| anyhow!("{}: nodes[{r}] does not exist", acc.file))?;
@@ -65,6 +72,11 @@ pub fn build(doc: &gltf::Document, acc: &Accessors, materials: Materials, roots:
         b.graph.roots.push(built);
     }
     b.bind_skins(doc)?;
+    for (index, entry) in &b.converted {
+        if let Some(slot) = index.and_then(|i| b.graph.animated.materials.get_mut(i)) {
+            *slot = Rc::downgrade(&entry.0);
+        }
+    }
     Ok(b.graph)
 }
 
@@ -136,7 +148,7 @@ impl<'a> Builder<'a, '_> {
                     self.warnings.about(format!("{what} (yfov {fov_y})"), "its camera's yfov is not an angle in (0, π); the camera is skipped");
                     return;
                 }
-                node.borrow_mut().camera = Some(shared(Camera { fov_y, size, ..Camera::default() }));
+                self.place_camera(&cam, node, Camera { fov_y, size, ..Camera::default() });
             }
             // §3.10.3: xmag and ymag are half the view's width and height.
             gltf::camera::Projection::Orthographic(o) => {
@@ -147,9 +159,16 @@ impl<'a> Builder<'a, '_> {
                 }
                 let aspect = (xmag / ymag).abs();
                 let size = (((DEFAULT_HEIGHT as f32 * aspect).round() as u32).clamp(1, 16384), DEFAULT_HEIGHT);
-                node.borrow_mut().camera = Some(shared(Camera { size, orthographic: Some(2.0 * ymag.abs()), ..Camera::default() }));
+                self.place_camera(&cam, node, Camera { size, orthographic: Some(2.0 * ymag.abs()), ..Camera::default() });
             }
         }
+    }
+
+    /// Puts the camera made of glTF camera `cam` on `node`, noted for animation pointers.
+    fn place_camera(&mut self, cam: &gltf::Camera, node: &Shared<Node>, camera: Camera) {
+        let camera = shared(camera);
+        self.graph.animated.cameras[cam.index()].push(Rc::downgrade(&camera));
+        node.borrow_mut().camera = Some(camera);
     }
 
     /// KHR_lights_punctual: intensity in candela (point, spot) or lux (directional), which is
@@ -183,7 +202,9 @@ impl<'a> Builder<'a, '_> {
         if let (true, Some(r)) = (bulb, radius) {
             light.radius = r;
         }
-        node.borrow_mut().light = Some(shared(light));
+        let light = shared(light);
+        self.graph.animated.lights[l.index()].push(Rc::downgrade(&light));
+        node.borrow_mut().light = Some(light);
         Ok(())
     }
 

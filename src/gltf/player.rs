@@ -10,9 +10,10 @@ use std::sync::Arc;
 
 use glam::{Mat4, Vec3};
 
-use super::animation::{Clip, Pose};
+use super::animation::{Clip, Pose, Target};
+use super::pointer;
 use super::mesh::Part;
-use crate::scene::{MeshData, Node, Normals, Scene, Shape, Shared};
+use crate::scene::{Camera, Light, Material, MeshData, Node, Normals, Scene, Shape, Shared};
 
 /// A skin (§3.7.3): the joint nodes and their inverse bind matrices.
 pub struct Skin {
@@ -32,6 +33,15 @@ pub struct Deformable {
     pub current: Arc<MeshData>,
 }
 
+/// What animation pointers can drive, by glTF index: each light's and camera's copies (one per
+/// node that carries it) and each material (shared by its nodes; dangling where unused).
+#[derive(Default)]
+pub struct Animated {
+    pub lights: Vec<Vec<Weak<RefCell<Light>>>>,
+    pub cameras: Vec<Vec<Weak<RefCell<Camera>>>>,
+    pub materials: Vec<Weak<RefCell<Material>>>,
+}
+
 pub struct Player {
     /// The built node of each glTF node (dangling for nodes outside the imported scene).
     pub nodes: Vec<Weak<RefCell<Node>>>,
@@ -40,6 +50,7 @@ pub struct Player {
     /// Morph weights of each glTF node now (node.weights, else its mesh's, then animated).
     pub weights: Vec<Vec<f32>>,
     pub deformables: Vec<Deformable>,
+    animated: Animated,
     scratch: Vec<f32>,
 }
 
@@ -59,7 +70,12 @@ fn world_matrices(scene: &Scene) -> HashMap<*const RefCell<Node>, Mat4> {
 
 impl Player {
     pub fn new(nodes: Vec<Weak<RefCell<Node>>>, clips: Vec<Clip>, weights: Vec<Vec<f32>>, deformables: Vec<Deformable>) -> Self {
-        Self { nodes, clips, weights, deformables, scratch: Vec::new() }
+        Self { nodes, clips, weights, deformables, animated: Animated::default(), scratch: Vec::new() }
+    }
+
+    /// The lights, cameras and materials its animation pointers drive.
+    pub fn with_animated(self, animated: Animated) -> Self {
+        Self { animated, ..self }
     }
 
     /// Whether any node it animates or deforms still exists (a script may drop an import).
@@ -80,13 +96,17 @@ impl Player {
 
     /// Sets transforms and weights to the animations' values at `t` seconds.
     pub fn pose(&mut self, t: f64) {
-        let (nodes, weights) = (&self.nodes, &mut self.weights);
+        let (nodes, weights, animated) = (&self.nodes, &mut self.weights, &self.animated);
         for clip in &self.clips {
             clip.sample(t as f32, &mut self.scratch, |i, pose| {
-                if let Pose::Weights(w) = pose {
-                    weights[i].clear();
-                    weights[i].extend_from_slice(w);
-                    return;
+                match pose {
+                    Pose::Weights(w) => {
+                        weights[i].clear();
+                        weights[i].extend_from_slice(w);
+                        return;
+                    }
+                    Pose::Property(target, v) => return animated.set(target, i, v),
+                    _ => {}
                 }
                 let Some(node) = nodes[i].upgrade() else { return };
                 let mut node = node.borrow_mut();
@@ -94,7 +114,7 @@ impl Player {
                     Pose::Translation(v) => node.transform.translation = v,
                     Pose::Rotation(q) => node.transform.rotation = q,
                     Pose::Scale(v) => node.transform.scale = v,
-                    Pose::Weights(_) => {}
+                    Pose::Weights(_) | Pose::Property(..) => {}
                 }
             });
         }
@@ -145,6 +165,27 @@ impl Player {
             d.current = mesh;
         }
     }
+}
+
+impl Animated {
+    /// Sets property `target` of light, camera or material `index` to `v`.
+    fn set(&self, target: Target, index: usize, v: &[f32]) {
+        match target {
+            Target::Light(p) => live(self.lights.get(index)).for_each(|l| pointer::apply_light(&mut l.borrow_mut(), p, v)),
+            Target::Camera(p) => live(self.cameras.get(index)).for_each(|c| pointer::apply_camera(&mut c.borrow_mut(), p, v)),
+            Target::Material(p) => {
+                if let Some(m) = self.materials.get(index).and_then(Weak::upgrade) {
+                    pointer::apply_material(&mut m.borrow_mut(), p, v);
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// The copies in `all` that still exist.
+fn live<T>(all: Option<&Vec<Weak<RefCell<T>>>>) -> impl Iterator<Item = Shared<T>> + '_ {
+    all.into_iter().flatten().filter_map(Weak::upgrade)
 }
 
 /// §3.7.2.2: the morphed position (or normal) is the rest one plus Σ wᵢ · (displacement of

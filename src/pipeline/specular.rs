@@ -86,7 +86,8 @@ pub fn sheen_visibility(n_l: f32, n_v: f32, roughness: f32) -> f32 {
 }
 
 /// E(n·v, roughness) = ∫ D·V (n·l) dl of the sheen lobe of colour 1, by a midpoint rule over
-/// the hemisphere of l (the lobe is broad and smooth; 64 × 64 cells hold it to 10⁻³).
+/// the hemisphere of l (the lobe is broad and smooth; 64 × 64 cells hold it to 10⁻³), the
+/// half φ ∈ [0, π] counted twice: v lies in the xz plane, so the integrand is even in φ.
 pub fn sheen_albedo_integral(n_v: f32, roughness: f32) -> f32 {
     const CELLS: u32 = 64;
     let v = Vec3::new((1.0 - n_v * n_v).max(0.0).sqrt(), 0.0, n_v);
@@ -95,14 +96,15 @@ pub fn sheen_albedo_integral(n_v: f32, roughness: f32) -> f32 {
         // Uniform in cos θ, so dω = d(cos θ) dφ.
         let cos_t = (i as f32 + 0.5) / CELLS as f32;
         let sin_t = (1.0 - cos_t * cos_t).sqrt();
-        for j in 0..CELLS {
+        let visibility = sheen_visibility(cos_t, n_v, roughness);
+        for j in 0..CELLS / 2 {
             let phi = 2.0 * PI * (j as f32 + 0.5) / CELLS as f32;
             let l = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
             let h = (l + v).normalize();
-            sum += charlie_d(h.z, roughness) * sheen_visibility(cos_t, n_v, roughness) * cos_t;
+            sum += charlie_d(h.z, roughness) * visibility * cos_t;
         }
     }
-    sum * 2.0 * PI / (CELLS * CELLS) as f32
+    2.0 * sum * 2.0 * PI / (CELLS * CELLS) as f32
 }
 
 /// (A, B) for n·v and roughness: ∫ f_spec/F · (1 − (1 − v·h)⁵) (n·l) dl and ∫ f_spec/F ·

@@ -1,0 +1,224 @@
+//! KHR_animation_pointer: animation channels aimed at a property by a JSON pointer
+//! (`/extensions/KHR_lights_punctual/lights/0/intensity`) instead of a node's transform —
+//! Blender's exporter writes them for animated light power and colour, camera lenses and
+//! material values. The gltf crate cannot read such a channel (it has no node), so they are
+//! taken out of the JSON before it parses (`split`) and read here; the properties refrakt
+//! animates are resolved to a [`Target`], the others said once and left at the file's value.
+
+use std::borrow::Cow;
+
+use anyhow::{Result, anyhow};
+use glam::{Vec3, Vec4};
+use serde_json::Value;
+
+use super::animation::Target;
+use crate::scene::{Camera, Light, LightKind, Material};
+
+/// A channel of animation `animation` that drives what `pointer` names, by its sampler.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointerChannel {
+    pub animation: usize,
+    pub sampler: usize,
+    pub pointer: String,
+}
+
+/// What a light's animation pointer can drive (KHR_lights_punctual).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum LightProperty {
+    Color,
+    Intensity,
+    InnerCone,
+    OuterCone,
+}
+
+/// What a camera's animation pointer can drive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CameraProperty {
+    /// perspective.yfov, radians.
+    Yfov,
+    /// orthographic.ymag: half the view's height.
+    Ymag,
+}
+
+/// What a material's animation pointer can drive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum MaterialProperty {
+    BaseColor,
+    Metallic,
+    Roughness,
+    Emissive,
+    EmissiveStrength,
+    AlphaCutoff,
+}
+
+/// The JSON without its pointer channels (the original bytes when it has none), and those
+/// channels.
+pub fn split<'a>(json_text: &'a [u8], file: &str) -> Result<(Cow<'a, [u8]>, Vec<PointerChannel>)> {
+    // Most files have none: only they are parsed twice.
+    if !json_text.windows(21).any(|w| w == b"KHR_animation_pointer") {
+        return Ok((Cow::Borrowed(json_text), Vec::new()));
+    }
+    let mut root: Value = serde_json::from_slice(json_text).map_err(|e| anyhow!("{file}: the glTF JSON cannot be read: {e} (is the file complete? re-export it)"))?;
+    let mut found = Vec::new();
+    if let Some(animations) = root.get_mut("animations").and_then(Value::as_array_mut) {
+        for (a, animation) in animations.iter_mut().enumerate() {
+            let Some(channels) = animation.get_mut("channels").and_then(Value::as_array_mut) else { continue };
+            channels.retain(|c| {
+                let target = &c["target"];
+                if target["path"] != "pointer" {
+                    return true;
+                }
+                let pointer = target["extensions"]["KHR_animation_pointer"]["pointer"].as_str().unwrap_or_default().to_string();
+                let sampler = c["sampler"].as_u64().map_or(usize::MAX, |s| s as usize);
+                found.push(PointerChannel { animation: a, sampler, pointer });
+                false
+            });
+        }
+    }
+    let text = serde_json::to_vec(&root).map_err(|e| anyhow!("{file}: {e}"))?;
+    Ok((Cow::Owned(text), found))
+}
+
+/// The target and the index of the node, light, camera or material `pointer` names, if
+/// refrakt animates that property.
+pub fn resolve(pointer: &str) -> Option<(Target, usize)> {
+    let parts: Vec<&str> = pointer.strip_prefix('/')?.split('/').collect();
+    let index = |s: &str| s.parse::<usize>().ok();
+    Some(match parts.as_slice() {
+        ["nodes", i, "translation"] => (Target::Translation, index(i)?),
+        ["nodes", i, "rotation"] => (Target::Rotation, index(i)?),
+        ["nodes", i, "scale"] => (Target::Scale, index(i)?),
+        ["nodes", i, "weights"] => (Target::Weights, index(i)?),
+        ["extensions", "KHR_lights_punctual", "lights", i, rest @ ..] => {
+            let p = match rest {
+                ["color"] => LightProperty::Color,
+                ["intensity"] => LightProperty::Intensity,
+                ["spot", "innerConeAngle"] => LightProperty::InnerCone,
+                ["spot", "outerConeAngle"] => LightProperty::OuterCone,
+                _ => return None,
+            };
+            (Target::Light(p), index(i)?)
+        }
+        ["cameras", i, "perspective", "yfov"] => (Target::Camera(CameraProperty::Yfov), index(i)?),
+        ["cameras", i, "orthographic", "ymag"] => (Target::Camera(CameraProperty::Ymag), index(i)?),
+        ["materials", i, rest @ ..] => {
+            let p = match rest {
+                ["pbrMetallicRoughness", "baseColorFactor"] => MaterialProperty::BaseColor,
+                ["pbrMetallicRoughness", "metallicFactor"] => MaterialProperty::Metallic,
+                ["pbrMetallicRoughness", "roughnessFactor"] => MaterialProperty::Roughness,
+                ["emissiveFactor"] => MaterialProperty::Emissive,
+                ["extensions", "KHR_materials_emissive_strength", "emissiveStrength"] => MaterialProperty::EmissiveStrength,
+                ["alphaCutoff"] => MaterialProperty::AlphaCutoff,
+                _ => return None,
+            };
+            (Target::Material(p), index(i)?)
+        }
+        _ => return None,
+    })
+}
+
+/// How many numbers a value of `target` has.
+pub fn width(target: Target) -> usize {
+    match target {
+        Target::Light(LightProperty::Color) | Target::Material(MaterialProperty::Emissive) => 3,
+        Target::Material(MaterialProperty::BaseColor) => 4,
+        _ => 1,
+    }
+}
+
+/// Sets a light's animated property (negative values held at 0; cone angles kept ordered as
+/// KHR_lights_punctual requires).
+pub fn apply_light(light: &mut Light, p: LightProperty, v: &[f32]) {
+    match p {
+        LightProperty::Color => light.color = Vec3::from_slice(v).max(Vec3::ZERO),
+        LightProperty::Intensity => light.intensity = v[0].max(0.0),
+        LightProperty::InnerCone | LightProperty::OuterCone => {
+            let LightKind::Spot { angle, blend } = &mut light.kind else { return };
+            // refrakt's spot is full inside angle·(1 − blend) (nodes.rs: the import).
+            let (mut inner, mut outer) = (*angle * (1.0 - *blend), *angle);
+            match p {
+                LightProperty::InnerCone => inner = v[0],
+                _ => outer = v[0],
+            }
+            let outer = outer.clamp(1e-4, std::f32::consts::FRAC_PI_2);
+            *angle = outer;
+            *blend = 1.0 - inner.clamp(0.0, outer) / outer;
+        }
+    }
+}
+
+pub fn apply_camera(camera: &mut Camera, p: CameraProperty, v: &[f32]) {
+    match p {
+        CameraProperty::Yfov => camera.fov_y = v[0].clamp(1e-4, std::f32::consts::PI - 1e-4),
+        CameraProperty::Ymag => {
+            if camera.orthographic.is_some() {
+                camera.orthographic = Some(2.0 * v[0].abs().max(1e-6));
+            }
+        }
+    }
+}
+
+/// Sets a material's animated factor, clamped as the import clamps it: a receiver's, or a
+/// glass's tint and roughness (what else glass does not have is left alone).
+pub fn apply_material(material: &mut Material, p: MaterialProperty, v: &[f32]) {
+    let unit = |x: f32| x.clamp(0.0, 1.0);
+    match material {
+        Material::Diffuse(d) => match p {
+            MaterialProperty::BaseColor => {
+                let c = Vec4::from_slice(v).clamp(Vec4::ZERO, Vec4::ONE);
+                (d.color, d.alpha) = (c.truncate(), c.w);
+            }
+            MaterialProperty::Metallic => d.metallic = unit(v[0]),
+            MaterialProperty::Roughness => d.roughness = unit(v[0]),
+            MaterialProperty::Emissive => d.emission = Vec3::from_slice(v).max(Vec3::ZERO),
+            MaterialProperty::EmissiveStrength => d.emission_strength = v[0].max(0.0),
+            MaterialProperty::AlphaCutoff => d.alpha_cutoff = unit(v[0]),
+        },
+        Material::Glass(g) => match p {
+            MaterialProperty::BaseColor => g.tint = Vec3::from_slice(&v[..3]).clamp(Vec3::ZERO, Vec3::ONE),
+            MaterialProperty::Roughness => g.roughness = unit(v[0]),
+            _ => {}
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pointers_resolve_to_what_refrakt_animates_and_only_that() {
+        assert_eq!(resolve("/extensions/KHR_lights_punctual/lights/2/intensity"), Some((Target::Light(LightProperty::Intensity), 2)));
+        assert_eq!(resolve("/extensions/KHR_lights_punctual/lights/0/spot/outerConeAngle"), Some((Target::Light(LightProperty::OuterCone), 0)));
+        assert_eq!(resolve("/cameras/1/perspective/yfov"), Some((Target::Camera(CameraProperty::Yfov), 1)));
+        assert_eq!(resolve("/materials/3/pbrMetallicRoughness/baseColorFactor"), Some((Target::Material(MaterialProperty::BaseColor), 3)));
+        assert_eq!(resolve("/nodes/4/translation"), Some((Target::Translation, 4)));
+        for unread in ["/extensions/KHR_lights_punctual/lights/0/range", "/cameras/0/perspective/znear", "/materials/x/alphaCutoff", "nodes/0/scale", ""] {
+            assert_eq!(resolve(unread), None, "{unread}");
+        }
+    }
+
+    #[test]
+    fn spot_cones_stay_ordered() {
+        let mut l = Light::new(LightKind::Spot { angle: 0.8, blend: 0.5 });
+        apply_light(&mut l, LightProperty::InnerCone, &[0.2]);
+        let LightKind::Spot { angle, blend } = l.kind else { panic!() };
+        assert!((angle - 0.8).abs() < 1e-6 && (angle * (1.0 - blend) - 0.2).abs() < 1e-6);
+        // An outer cone animated inside the inner one takes the inner one with it.
+        apply_light(&mut l, LightProperty::OuterCone, &[0.1]);
+        let LightKind::Spot { angle, blend } = l.kind else { panic!() };
+        assert!((angle - 0.1).abs() < 1e-6 && blend.abs() < 1e-6);
+    }
+
+    #[test]
+    fn split_takes_out_pointer_channels_only() {
+        let json = br#"{"animations":[{"channels":[{"sampler":0,"target":{"node":0,"path":"translation"}},
+            {"sampler":1,"target":{"path":"pointer","extensions":{"KHR_animation_pointer":{"pointer":"/cameras/0/perspective/yfov"}}}}],
+            "samplers":[]}]}"#;
+        let (text, found) = split(json, "a.gltf").unwrap();
+        assert_eq!(found, vec![PointerChannel { animation: 0, sampler: 1, pointer: "/cameras/0/perspective/yfov".into() }]);
+        let left: Value = serde_json::from_slice(&text).unwrap();
+        assert_eq!(left["animations"][0]["channels"].as_array().unwrap().len(), 1);
+        assert!(matches!(split(b"{}", "a.gltf").unwrap().0, Cow::Borrowed(_)));
+    }
+}

@@ -294,10 +294,9 @@ fn caustic_irradiance_at(receiver: u32, p: vec3<f32>, facing: vec3<f32>, back: b
 // A receiver of the full metallic-roughness model at a hit: the lights through both lobes,
 // the environment by the split sum, the caustics on the diffuse lobe only.
 fn shade_pbr(r: ReceiverGpu, hit: SurfaceHit, uv: vec2<f32>, base: vec3<f32>, q: vec3<f32>, facing: vec3<f32>, d: vec3<f32>, k: u32, e_caustic: vec3<f32>) -> Shading {
-    // The coat's normal is the surface's own, without the normal map (KHR_materials_clearcoat
-    // without a clearcoatNormalTexture).
-    let smooth_n = shading_normal(hit.triangle, hit.u, hit.v);
-    let coat_n = select(smooth_n, -smooth_n, dot(smooth_n, facing) < 0.0);
+    // The coat's normal: the surface's own bent by the coat's normal map, not the base's
+    // (KHR_materials_clearcoat).
+    let coat_n = mapped_normal(r.clearcoat_normal_texture, r.clearcoat_normal_scale, hit.triangle, hit.u, hit.v, uv, facing);
     var s = PbrSurface(base, r.metallic, r.roughness, r.specular, 1.0, pbr_normal(r, hit.triangle, hit.u, hit.v, uv, facing), -d, 0.0,
                        r.clearcoat, r.clearcoat_roughness, coat_n, clamp(dot(coat_n, -d), 1e-4, 1.0), r.sheen_color, r.sheen_roughness);
     if has_texture(r.metallic_roughness_texture) {

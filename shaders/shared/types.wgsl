@@ -201,6 +201,11 @@ struct ReceiverGpu {
     clearcoat_roughness_texture: vec4<u32>,
     sheen_color_texture: vec4<u32>,
     sheen_roughness_texture: vec4<u32>,
+    clearcoat_normal_texture: vec4<u32>,
+    clearcoat_normal_scale: f32,
+    _pad0: f32,
+    _pad1: f32,
+    _pad2: f32,
 }
 
 const RECEIVER_PBR: u32 = 1u;

@@ -13,8 +13,9 @@ use crate::pipeline::specular::{charlie_d, ggx_d, lut_at, sheen_visibility, smit
 /// The perceptual roughness the lights see at least (`MIN_LIGHT_ROUGHNESS` in the shader).
 pub const MIN_LIGHT_ROUGHNESS: f32 = 0.03;
 
-/// A shading point: the material's values there, the normal `n` (the coat's too: no normal
-/// map) and the direction `v` toward the viewer, both unit.
+/// A shading point: the material's values there, the normal `n`, the coat's normal `coat_n`
+/// (`n` unless the coat has a normal map of its own) and the direction `v` toward the viewer,
+/// all unit.
 #[derive(Clone, Copy, Debug)]
 pub struct Surface {
     pub base: Vec3,
@@ -26,6 +27,7 @@ pub struct Surface {
     pub sheen_color: Vec3,
     pub sheen_roughness: f32,
     pub n: Vec3,
+    pub coat_n: Vec3,
     pub v: Vec3,
 }
 
@@ -39,8 +41,12 @@ impl Surface {
         self.n.dot(self.v).clamp(1e-4, 1.0)
     }
 
+    fn coat_n_v(&self) -> f32 {
+        self.coat_n.dot(self.v).clamp(1e-4, 1.0)
+    }
+
     fn coat_weight(&self) -> f32 {
-        self.clearcoat * schlick(Vec3::splat(0.04), 1.0, self.n_v()).x
+        self.clearcoat * schlick(Vec3::splat(0.04), 1.0, self.coat_n_v()).x
     }
 
     fn sheen_albedo(&self, cos: f32) -> f32 {
@@ -67,9 +73,14 @@ impl Surface {
             f = f * below + self.sheen_color * charlie_d(n_h, self.sheen_roughness) * sheen_visibility(n_l, n_v, self.sheen_roughness);
         }
         if self.clearcoat > 0.0 {
-            let r = self.clearcoat_roughness.max(MIN_LIGHT_ROUGHNESS);
-            let coat = ggx_d(n_h, r * r) * smith_visibility(n_l, n_v, r * r) * schlick(Vec3::splat(0.04), 1.0, v_h).x;
-            f = f * (1.0 - self.coat_weight()) + Vec3::splat(self.clearcoat * coat);
+            f *= 1.0 - self.coat_weight();
+            let c_l = self.coat_n.dot(l);
+            if c_l > 0.0 {
+                let r = self.clearcoat_roughness.max(MIN_LIGHT_ROUGHNESS);
+                let lobe = ggx_d(self.coat_n.dot(h).max(0.0), r * r) * smith_visibility(c_l, self.coat_n_v(), r * r);
+                // Weighed by n·l like the rest, the coat's own cosine being n_c·l.
+                f += Vec3::splat(self.clearcoat * lobe * schlick(Vec3::splat(0.04), 1.0, v_h).x * c_l / n_l);
+            }
         }
         f
     }
@@ -91,7 +102,7 @@ impl Surface {
             specular = specular * (1.0 - sheen * e) + self.sheen_color * e * l;
         }
         if self.clearcoat > 0.0 {
-            let [a, b] = lut_at(0, n_v, self.clearcoat_roughness);
+            let [a, b] = lut_at(0, self.coat_n_v(), self.clearcoat_roughness);
             let below = 1.0 - self.coat_weight();
             diffuse *= below;
             specular = specular * below + self.clearcoat * (0.04 * a + b) * l;

@@ -11,7 +11,6 @@ use serde_json::Value;
 
 use super::material::{Materials, UvMap, texture_transform};
 use crate::scene::{Diffuse, Texture2d};
-use crate::warnings::Collector;
 
 /// A texture of a layer, with where it is sampled.
 type Layer = Option<(Arc<Texture2d>, UvMap)>;
@@ -19,7 +18,7 @@ type Layer = Option<(Arc<Texture2d>, UvMap)>;
 impl Materials<'_> {
     /// Reads both layers' factors and textures into `d`, pushing each texture's UV map onto
     /// `maps` (the material samples all its textures by one map).
-    pub(super) fn layers(&mut self, m: &gltf::Material, what: &str, d: &mut Diffuse, maps: &mut Vec<(&'static str, UvMap)>, warnings: &mut Collector) -> Result<()> {
+    pub(super) fn layers(&mut self, m: &gltf::Material, what: &str, d: &mut Diffuse, maps: &mut Vec<(&'static str, UvMap)>) -> Result<()> {
         if let Some(ext) = m.extension_value("KHR_materials_clearcoat") {
             let name = "KHR_materials_clearcoat";
             d.clearcoat = self.fraction(ext, name, "clearcoatFactor", 0.0, what)?;
@@ -27,8 +26,12 @@ impl Materials<'_> {
             d.clearcoat_texture = self.layer_texture(ext, "clearcoatTexture", what, "clearcoat", false)?.map(|t| keep(t, "clearcoat", maps));
             d.clearcoat_roughness_texture =
                 self.layer_texture(ext, "clearcoatRoughnessTexture", what, "clearcoat roughness", false)?.map(|t| keep(t, "clearcoat roughness", maps));
-            if ext.get("clearcoatNormalTexture").is_some() {
-                warnings.about(what, "has a clearcoatNormalTexture, which refrakt does not read: the coat follows the surface's own normals");
+            d.clearcoat_normal_texture = self.layer_texture(ext, "clearcoatNormalTexture", what, "clearcoat normal", false)?.map(|t| keep(t, "clearcoat normal", maps));
+            if let Some(scale) = ext.get("clearcoatNormalTexture").and_then(|t| t.get("scale")) {
+                d.clearcoat_normal_scale = scale
+                    .as_f64()
+                    .filter(|s| s.is_finite())
+                    .ok_or_else(|| anyhow!("{}: {what}: {name} clearcoatNormalTexture.scale must be a number, got {scale}", self.at.file))? as f32;
             }
         }
         if let Some(ext) = m.extension_value("KHR_materials_sheen") {

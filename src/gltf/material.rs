@@ -154,7 +154,7 @@ impl<'a> Materials<'a> {
             maps.push(("occlusion", UvMap { set: o.tex_coord(), transform }));
             d.occlusion_texture = Some(self.image_texture(o.texture(), what, "occlusion", false)?);
         }
-        self.layers(m, what, &mut d, &mut maps, warnings)?;
+        self.layers(m, what, &mut d, &mut maps)?;
         warn_uv_maps_differ(&maps, what, warnings);
         let uv = maps.first().map(|m| m.1);
         Ok((d, uv))

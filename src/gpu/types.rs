@@ -337,6 +337,11 @@ gpu_struct! {
         pub clearcoat_roughness_texture: [u32; 4],
         pub sheen_color_texture: [u32; 4],
         pub sheen_roughness_texture: [u32; 4],
+        pub clearcoat_normal_texture: [u32; 4],
+        pub clearcoat_normal_scale: f32,
+        pub _pad0: f32,
+        pub _pad1: f32,
+        pub _pad2: f32,
     }
 }
 

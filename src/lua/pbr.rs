@@ -32,6 +32,8 @@ pub const FIELDS: &[&str] = &[
     "clearcoat_roughness",
     "clearcoat_texture",
     "clearcoat_roughness_texture",
+    "clearcoat_normal_texture",
+    "clearcoat_normal_scale",
     "sheen_color",
     "sheen_roughness",
     "sheen_color_texture",
@@ -48,6 +50,7 @@ fn texture_slot<'a>(d: &'a mut Diffuse, key: &str) -> Option<(&'a mut Option<Arc
         "emission_texture" => (&mut d.emission_texture, true),
         "clearcoat_texture" => (&mut d.clearcoat_texture, false),
         "clearcoat_roughness_texture" => (&mut d.clearcoat_roughness_texture, false),
+        "clearcoat_normal_texture" => (&mut d.clearcoat_normal_texture, false),
         "sheen_color_texture" => (&mut d.sheen_color_texture, true),
         "sheen_roughness_texture" => (&mut d.sheen_roughness_texture, false),
         _ => return None,
@@ -88,6 +91,8 @@ pub fn get(lua: &Lua, d: &Diffuse, key: &str) -> Option<mlua::Result<Value>> {
         "sheen_roughness" => number(d.sheen_roughness),
         "clearcoat_texture" => texture_value(lua, &d.clearcoat_texture),
         "clearcoat_roughness_texture" => texture_value(lua, &d.clearcoat_roughness_texture),
+        "clearcoat_normal_texture" => texture_value(lua, &d.clearcoat_normal_texture),
+        "clearcoat_normal_scale" => number(d.clearcoat_normal_scale),
         "sheen_color_texture" => texture_value(lua, &d.sheen_color_texture),
         "sheen_roughness_texture" => texture_value(lua, &d.sheen_roughness_texture),
         _ => return None,
@@ -122,6 +127,9 @@ pub fn set(lua: &Lua, d: &mut Diffuse, what: &'static str, key: &str, value: Val
             "emission" => d.emission = cv::color(lua, name, &value)?,
             "emission_strength" => d.emission_strength = cv::non_negative(lua, name, &value)?,
             "normal_scale" => d.normal_scale = cv::number_in(lua, name, &value, Some(-16.0), Some(16.0), "a number from −16 to 16")? as f32,
+            "clearcoat_normal_scale" => {
+                d.clearcoat_normal_scale = cv::number_in(lua, name, &value, Some(-16.0), Some(16.0), "a number from −16 to 16")? as f32
+            }
             _ => {
                 let (slot, srgb) = texture_slot(d, key).expect("the caller checked the field");
                 *slot = texture(lua, name, &value, srgb)?;

@@ -58,7 +58,7 @@ fn world_triangles(r: &Receiver, index: u32) -> Vec<Triangle> {
 }
 
 /// A receiver's textures in `ReceiverGpu`'s order, each with the encoding its texels take.
-fn textures(d: &Diffuse) -> [(Option<&Arc<Texture2d>>, u32); 9] {
+fn textures(d: &Diffuse) -> [(Option<&Arc<Texture2d>>, u32); 10] {
     use texel_encoding::{LINEAR, SRGB};
     [
         (d.texture.as_ref(), SRGB),
@@ -70,6 +70,7 @@ fn textures(d: &Diffuse) -> [(Option<&Arc<Texture2d>>, u32); 9] {
         (d.clearcoat_roughness_texture.as_ref(), LINEAR),
         (d.sheen_color_texture.as_ref(), SRGB),
         (d.sheen_roughness_texture.as_ref(), LINEAR),
+        (d.clearcoat_normal_texture.as_ref(), LINEAR),
     ]
 }
 
@@ -276,6 +277,8 @@ fn receiver_gpu(r: &Receiver, atlas: &mut TexelAtlas) -> ReceiverGpu {
         clearcoat_roughness_texture: tex[6],
         sheen_color_texture: tex[7],
         sheen_roughness_texture: tex[8],
+        clearcoat_normal_texture: tex[9],
+        clearcoat_normal_scale: d.clearcoat_normal_scale,
         ..Default::default()
     }
 }

@@ -238,6 +238,11 @@ pub struct Diffuse {
     pub clearcoat_texture: Option<Arc<Texture2d>>,
     /// Multiplies `clearcoat_roughness` (G, linear).
     pub clearcoat_roughness_texture: Option<Arc<Texture2d>>,
+    /// The coat's own tangent-space normal map (without one, the coat follows the surface's
+    /// normals, not bent by `normal_texture`).
+    pub clearcoat_normal_texture: Option<Arc<Texture2d>>,
+    /// Scales the coat's normal map's x and y.
+    pub clearcoat_normal_scale: f32,
     /// KHR_materials_sheen: the colour of a fabric's sheen (linear, 0 to 1; 0: none).
     pub sheen_color: Vec3,
     /// The sheen's perceptual roughness (Charlie α = roughness²).
@@ -271,6 +276,8 @@ impl Default for Diffuse {
             clearcoat_roughness: 0.0,
             clearcoat_texture: None,
             clearcoat_roughness_texture: None,
+            clearcoat_normal_texture: None,
+            clearcoat_normal_scale: 1.0,
             sheen_color: Vec3::ZERO,
             sheen_roughness: 0.0,
             sheen_color_texture: None,

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Converged caustic references from Mitsuba 3 (a renderer we did not write) for
 tests/mitsuba_caustics.rs: a glass ball, the same ball as a mesh of 5120 flat facets, and the
-glass Stanford bunny over a floor under the sun.
+glass Stanford bunny over a floor under the sun; and the glass ball under an environment image.
 
 Each scene is rendered twice by Mitsuba: its particle tracer (`ptracer`: light paths from the sun
 through the `dielectric` glass — Fresnel reflection and refraction — to the floor) gives all the
@@ -15,9 +15,23 @@ floor point x = −H + (i + ½)·2H/N, z = −H + (j + ½)·2H/N (checked below 
 Values are irradiance in W/m² for a sun of 1 W/m² across its beam (refrakt: 683 lux).
 
     pip install mitsuba==3.5.2        (3.5.x runs on LLVM: the llvm_ad_rgb variant)
-    python3 scripts/mitsuba_reference.py [--spp N]   # writes tests/data/mitsuba/{ball,facets,bunny}.exr
+    python3 scripts/mitsuba_reference.py [--spp N]   # writes tests/data/mitsuba/{ball,facets,bunny,hdri}.exr
+    python3 scripts/mitsuba_reference.py --only hdri # just one of them
 
 The bunny is read from ../shared/assets/bunny.obj (not part of this repository).
+
+`hdri` (`hdri_reference`): the ball lit only by an environment image that this script makes and
+writes as tests/data/mitsuba/hdri_sky.exr (256×128 half floats in refrakt's equirectangular
+convention: a sky gradient of 0.1–0.36 W/m²/sr, black below the horizon, and a sun 3° across,
+60° up, of 6 W/m²), given to Mitsuba's `envmap` resampled to its own convention (see
+MITSUBA_SKY_SIZE). Its values are the caustic irradiance in W/m² for the image's radiance as it is
+(envmap scale 1; refrakt also reads the image as W/m²/sr, so no 683 enters). Before rendering it
+checks that the envmap holds the same radiance field as refrakt's texels (pointwise, and ∫ L dω and
+the open floor's irradiance within 0.1 %), that Mitsuba's direct integrator and particle tracer
+give the open floor that irradiance (within 1 %), and after, that the ball's shadow and caustic lie
+where the image's sun puts them. 65536 light paths per pixel (with control variates, see
+`hdri_reference`); 632 s on a 2-core machine shared with a build (565 s of it the
+particle tracer, twice; 54 s the direct light, 8192 spp, twice).
 """
 
 import argparse
@@ -103,17 +117,25 @@ def floor_and_camera():
             "film": {"type": "hdrfilm", "width": PIXELS, "height": PIXELS, "rfilter": {"type": "box"}, "pixel_format": "rgb"},
             "sampler": {"type": "independent"},
         },
-        "sun": {"type": "directional", "direction": SUN.tolist(), "irradiance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}},
     }
+
+
+def under_the_sun(scene):
+    scene["sun"] = {"type": "directional", "direction": SUN.tolist(), "irradiance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}
+    return scene
 
 
 def glass():
     return {"type": "dielectric", "int_ior": IOR, "ext_ior": 1.0}
 
 
+def the_ball():
+    return {"type": "sphere", "center": BALL["centre"], "radius": BALL["radius"], "bsdf": glass()}
+
+
 def ball_scene():
-    s = floor_and_camera()
-    s["ball"] = {"type": "sphere", "center": BALL["centre"], "radius": BALL["radius"], "bsdf": glass()}
+    s = under_the_sun(floor_and_camera())
+    s["ball"] = the_ball()
     return s
 
 
@@ -156,7 +178,7 @@ def facets_scene():
     with open(path, "w") as out:
         out.writelines(f"v {x} {y} {z}\n" for x, y, z in positions)
         out.writelines(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in triangles)
-    s = floor_and_camera()
+    s = under_the_sun(floor_and_camera())
     s["facets"] = {"type": "obj", "filename": path, "face_normals": True,
                    "to_world": mi.ScalarTransform4f.translate(BALL["centre"]), "bsdf": glass()}
     return s
@@ -199,7 +221,7 @@ def with_refrakt_normals(obj_path, out_path):
 
 
 def bunny_scene():
-    s = floor_and_camera()
+    s = under_the_sun(floor_and_camera())
     s["bunny"] = {
         "type": "obj",
         "filename": with_refrakt_normals(BUNNY, os.path.join(tempfile.gettempdir(), "refrakt_bunny_normals.obj")),
@@ -207,6 +229,209 @@ def bunny_scene():
         "bsdf": glass(),
     }
     return s
+
+
+# The `hdri` reference: the ball under an environment image instead of the sun. The image is made
+# here (`sky_image`) and written in refrakt's equirectangular convention (Blender's, Y up: texel
+# column x spans u ∈ [x/W, (x+1)/W] with φ = 2π(u − ½) = atan2(d.z, d.x), row y — row 0 at the
+# top — spans elevations β ∈ [(½ − (y+1)/H)π, (½ − y/H)π]; d = (cos β cos φ, sin β, cos β sin φ)).
+# refrakt lights with it as pbrt's image infinite light does: radiance constant over each texel.
+SKY_FILE = os.path.join(OUT, "hdri_sky.exr")
+SKY_SIZE = (256, 128)  # width, height
+SUN_ELEVATION, SUN_AZIMUTH = math.radians(60.0), 2.2  # refrakt's φ of the sun: atan2(d.z, d.x)
+SUN_HALF_ANGLE = math.radians(1.5)  # a disc 3° across
+SUN_IRRADIANCE = 6.0  # W/m² (channel mean) on a plane facing it: ~6× the sky's on the floor
+SUN_COLOUR = np.array([1.08, 1.0, 0.92])
+TOWARD_SKY_SUN = np.array([math.cos(SUN_ELEVATION) * math.cos(SUN_AZIMUTH), math.sin(SUN_ELEVATION),
+                           math.cos(SUN_ELEVATION) * math.sin(SUN_AZIMUTH)])
+# Mitsuba's envmap (src/emitters/envmap.cpp) reads its image differently: bilinearly between
+# texel values held at u = (x + ½)/W (φ_m = 2πu) and at θ = y·π/(H − 1) from +Y — rows 0 and
+# H − 1 on the poles — with d = (sin φ_m sin θ, cos θ, −cos φ_m sin θ). The same direction has
+# θ = π/2 − β and φ_m = φ + π/2, i.e. u_mitsuba = u_refrakt − ¼. It is given refrakt's piecewise
+# constant field sampled 8× finer (texel values at its grid points; the mean of the two sides on
+# a row edge), so its bilinear ramps are 1/8 texel wide and keep the energy (`check_sky`).
+MITSUBA_SKY_SIZE = (2048, 1025)
+
+
+def sky_radiance(d):
+    """The continuous sky (before it is averaged over texels): a gradient from a blue zenith to a
+    paler horizon, brighter toward the sun's azimuth, the sun's disc, and black below the horizon
+    (so that nothing lights the floor from below, which Mitsuba's transmitting floor would pass up)."""
+    h = 1.0 - np.clip(d[..., 1], 0.0, 1.0)
+    toward = 0.5 * (1.0 + (d[..., 0] * TOWARD_SKY_SUN[0] + d[..., 2] * TOWARD_SKY_SUN[2]) / math.cos(SUN_ELEVATION)
+                    / np.maximum(np.hypot(d[..., 0], d[..., 2]), 1e-9))
+    sky = np.stack([0.10 + 0.12 * h + 0.08 * toward * h, 0.16 + 0.10 * h + 0.05 * toward * h, 0.34 - 0.04 * h + 0.02 * toward], axis=-1)
+    sun_radiance = SUN_IRRADIANCE / (2.0 * math.pi * (1.0 - math.cos(SUN_HALF_ANGLE)))
+    in_sun = (d @ TOWARD_SKY_SUN) >= math.cos(SUN_HALF_ANGLE)
+    sky = sky + in_sun[..., None] * sun_radiance * SUN_COLOUR
+    return np.where(d[..., 1:2] >= 0.0, sky, 0.0)
+
+
+def refrakt_texel_edges(width, height):
+    """sin β at the rows' edges (top to bottom) and φ at the columns' edges."""
+    sin_edges = np.sin((0.5 - np.arange(height + 1) / height) * math.pi)
+    phi_edges = (np.arange(width + 1) / width - 0.5) * 2.0 * math.pi
+    return sin_edges, phi_edges
+
+
+def sky_image(k=8):
+    """The refrakt-convention image: each texel the mean of `sky_radiance` over its solid angle
+    (k × k samples, equal-area: uniform in φ and sin β)."""
+    w, h = SKY_SIZE
+    sin_edges, _ = refrakt_texel_edges(w, h)
+    t = (np.arange(k) + 0.5) / k
+    s = sin_edges[:-1, None] + (sin_edges[1:] - sin_edges[:-1])[:, None] * t[None, :]  # (h, k)
+    phi = ((np.arange(w)[:, None] + t[None, :]) / w - 0.5) * 2.0 * math.pi  # (w, k)
+    s, phi = s[:, :, None, None], phi[None, None, :, :]
+    c = np.sqrt(np.maximum(1.0 - s * s, 0.0))
+    d = np.stack(np.broadcast_arrays(c * np.cos(phi), s, c * np.sin(phi)), axis=-1)  # (h, k, w, k, 3)
+    return sky_radiance(d).mean(axis=(1, 3))
+
+
+def refrakt_lookup(sky, d):
+    """refrakt's radiance along world directions d (…, 3): the texel it falls in (`dir_to_uv`)."""
+    h, w = sky.shape[:2]
+    u = 0.5 + np.arctan2(d[..., 2], d[..., 0]) / (2.0 * math.pi)
+    v = 1.0 - (0.5 + np.arcsin(np.clip(d[..., 1], -1.0, 1.0)) / math.pi)
+    x = np.floor(u * w).astype(int) % w
+    y = np.clip(np.floor(v * h).astype(int), 0, h - 1)
+    return sky[y, x]
+
+
+def mitsuba_sky(sky):
+    """The image to give Mitsuba's envmap for the same radiance field (see MITSUBA_SKY_SIZE)."""
+    h, w = sky.shape[:2]
+    wm, hm = MITSUBA_SKY_SIZE
+    rows = np.arange(hm) / (hm - 1) * h  # θ/π in refrakt rows (β = π/2 − θ)
+    cols = ((np.arange(wm) + 0.5) / wm + 0.25) * w  # u_refrakt = u_mitsuba + ¼, in columns
+    out = 0.0
+    for dy in (-1e-4, 1e-4):  # on an edge between two rows: their mean
+        for dx in (-1e-4, 1e-4):
+            y = np.clip(np.floor(rows + dy).astype(int), 0, h - 1)
+            x = np.floor(cols + dx).astype(int) % w
+            out = out + sky[y][:, x]
+    return (out / 4.0).astype(np.float32)
+
+
+def sky_integrals(sky):
+    """∫ L dω (rgb) and the irradiance of an open floor, E = ∫ L max(ω_y, 0) dω, of refrakt's
+    piecewise constant field, in closed form: a texel spans Δφ (sin β_top − sin β_bottom) sr and
+    gives the floor Δφ (sin² β_top − sin² β_bottom)/2 (rows above the horizon)."""
+    h, w = sky.shape[:2]
+    s, _ = refrakt_texel_edges(w, h)
+    dphi = 2.0 * math.pi / w
+    omega = dphi * (s[:-1] - s[1:])
+    floor = dphi * (np.maximum(s[:-1], 0) ** 2 - np.maximum(s[1:], 0) ** 2) / 2.0
+    return (sky * omega[:, None, None]).sum(axis=(0, 1)), (sky * floor[:, None, None]).sum(axis=(0, 1))
+
+
+def write_sky():
+    """Writes the refrakt-convention image (half floats) and returns it as written."""
+    os.makedirs(OUT, exist_ok=True)
+    mi.Bitmap(sky_image().astype(np.float16), pixel_format=mi.Bitmap.PixelFormat.RGB).write(SKY_FILE)
+    sky = np.array(mi.Bitmap(SKY_FILE), dtype=np.float64)[:, :, :3]
+    print(f"wrote {SKY_FILE}: {sky.shape[1]}×{sky.shape[0]}, {os.path.getsize(SKY_FILE)} bytes")
+    return sky
+
+
+def envmap(sky):
+    return {"type": "envmap", "bitmap": mi.Bitmap(mitsuba_sky(sky), pixel_format=mi.Bitmap.PixelFormat.RGB), "scale": 1.0}
+
+
+def hdri_scene(sky, ball=True):
+    s = floor_and_camera()
+    # The floor cut to 2.2 × 2.2 m (the view is 2 × 2): it sends no light back up and nothing
+    # lights it from below, so this changes nothing in view — but the envmap's light paths start
+    # on a disc across the scene's bounding sphere, and this one is 2.5× narrower: 6× more of them
+    # meet the ball.
+    s["floor"] = dict(s["floor"], to_world=mi.ScalarTransform4f.rotate([1, 0, 0], -90).scale(1.1))
+    s["sky"] = envmap(sky)
+    if ball:
+        s["ball"] = the_ball()
+    return s
+
+
+def sphere_directions(n):
+    """n directions spread evenly in solid angle (a Fibonacci lattice), each worth 4π/n sr."""
+    i = np.arange(n) + 0.5
+    y = 1.0 - 2.0 * i / n
+    phi = math.pi * (1.0 + 5.0 ** 0.5) * i
+    r = np.sqrt(1.0 - y * y)
+    return np.stack([r * np.cos(phi), y, r * np.sin(phi)], axis=-1)
+
+
+def check_sky(sky):
+    """Mitsuba's envmap, evaluated along many directions, against refrakt's lookup of the image:
+    equal (to float rounding) wherever Mitsuba does not interpolate — all but the strips within
+    1/16 texel of a column's edge and 1/8 of a row's — and the same ∫ L dω and open-floor
+    irradiance (within 0.1 %) over the whole sphere, ramps included."""
+    emitter = mi.load_dict(envmap(sky))
+    d = sphere_directions(4_000_000)
+    si = dr.zeros(mi.SurfaceInteraction3f, len(d))
+    si.wi = mi.Vector3f(*(-d.T.astype(np.float32)))
+    got = np.array(emitter.eval(si), dtype=np.float64)  # (n, 3)
+    want = refrakt_lookup(sky, d)
+    h, w = sky.shape[:2]
+    col = (0.5 + np.arctan2(d[:, 2], d[:, 0]) / (2.0 * math.pi)) * w
+    row = (0.5 - np.arcsin(d[:, 1]) / math.pi) * h
+    inside = (np.abs(col - np.round(col)) > 1 / 16 + 1e-3) & (np.abs(row - np.round(row)) > 1 / 8 + 1e-3)
+    worst = (np.abs(got - want) / np.maximum(want, 1e-3))[inside].max()
+    l1 = np.abs(got - want).sum() / want.sum()
+    turned = refrakt_lookup(sky, d[:, [2, 1, 0]] * [-1, 1, 1])  # a quarter turn off: what u ± ¼ would give
+    l1_turned = np.abs(got - turned).sum() / want.sum()
+    omega = 4.0 * math.pi / len(d)
+    integral, floor = sky_integrals(sky)
+    got_integral = got.sum(axis=0) * omega
+    got_floor = (got * np.maximum(d[:, 1:2], 0)).sum(axis=0) * omega
+    print(f"  Mitsuba's envmap vs refrakt's texels along {len(d)} directions: off texel edges ({100 * inside.mean():.0f} % of them) "
+          f"within {worst:.1e}; over all, relative L1 {l1:.3f} (the ramps at the sun's edges; a quarter turn off: {l1_turned:.2f})")
+    print(f"  ∫ L dω: Mitsuba {got_integral} vs refrakt {integral}; open floor E: Mitsuba {got_floor} vs refrakt {floor} W/m²")
+    assert worst < 1e-5 and l1 < 0.2 < l1_turned, (worst, l1, l1_turned)
+    assert np.all(np.abs(got_integral / integral - 1) < 1e-3) and np.all(np.abs(got_floor / floor - 1) < 1e-3)
+    return floor
+
+
+def rgb_irradiance(scene, integrator, spp, seed=0):
+    """As `irradiance`, all three channels."""
+    s = dict(scene, type="scene", integrator=integrator)
+    return orient(np.array(mi.render(mi.load_dict(s), spp=spp, seed=seed)) * math.pi)
+
+
+def check_hdri_floor(sky, floor):
+    """The open floor, rendered by Mitsuba's direct light integrator and by its particle tracer,
+    gets the irradiance integrated from refrakt's texels (within 1 %)."""
+    for name, integrator, spp in [("direct", {"type": "direct"}, 64), ("ptracer", {"type": "ptracer", "max_depth": 64, "hide_emitters": True}, 256)]:
+        e = rgb_irradiance(hdri_scene(sky, ball=False), integrator, spp).mean(axis=(0, 1))
+        print(f"  open floor, Mitsuba {name}: E = {e} vs {floor} W/m² ({np.array2string(100 * (e / floor - 1), precision=2)} %)")
+        assert np.all(np.abs(e / floor - 1) < 0.01), (name, e, floor)
+
+
+def check_hdri_sun(direct, caustic):
+    """The ball's shadow from the image's sun and its sun caustic both centre on the ball's
+    centre projected along the sun's direction (from the image's own row and column, by
+    refrakt's convention)."""
+    # The sun's direction from the written image: the mean direction of its texels (all those far
+    # brighter than the sky), weighted by radiance × solid angle.
+    sky = np.array(mi.Bitmap(SKY_FILE), dtype=np.float64)[:, :, 1]
+    h, w = sky.shape
+    y, x = np.nonzero(sky > 10.0)
+    u, v = (x + 0.5) / w, (y + 0.5) / h
+    phi, beta = (u - 0.5) * 2 * math.pi, (0.5 - v) * math.pi
+    d = np.stack([np.cos(beta) * np.cos(phi), np.sin(beta), np.cos(beta) * np.sin(phi)], axis=-1)
+    toward = (d * (sky[y, x] * np.cos(beta))[:, None]).sum(axis=0)
+    toward /= np.linalg.norm(toward)
+    centre = np.array(BALL["centre"])
+    expected = (centre - centre[1] / toward[1] * toward)[[0, 2]]
+    axis = -HALF + (np.arange(PIXELS) + 0.5) * 2 * HALF / PIXELS
+    z, xx = np.meshgrid(axis, axis, indexing="ij")
+    shadow = direct < 0.5 * direct.max()
+    bright = caustic > 0.5 * caustic.max()
+    got_shadow = np.array([xx[shadow].mean(), z[shadow].mean()])
+    got_caustic = (np.array([(xx * caustic)[bright].sum(), (z * caustic)[bright].sum()]) / caustic[bright].sum())
+    print(f"  the image's sun toward {toward} (set: {TOWARD_SKY_SUN}); ball centre projected to (x, z) = {expected}: "
+          f"shadow centre {got_shadow}, bright caustic's centroid {got_caustic}")
+    assert np.allclose(got_shadow, expected, atol=0.02), (got_shadow, expected)
+    assert np.allclose(got_caustic, expected, atol=0.03), (got_caustic, expected)
 
 
 def irradiance(scene, integrator, spp):
@@ -233,24 +458,68 @@ def check_orientation(direct):
     assert np.allclose(got, expected[[0, 2]], atol=0.02), f"shadow centre {got}, expected {expected[[0, 2]]}"
 
 
+def hdri_reference(spp):
+    """The ball's caustic under the environment image: Mitsuba's particle tracer minus its direct
+    light integrator, as for the sun — each with a control variate, as the sky's and sun's direct
+    light (~6 W/m² on every pixel) would otherwise bury the caustic (~1 W/m² on average) in noise:
+
+    * the particle tracer also renders the scene with the ball made of `null` (light passes it
+      untouched; it keeps the scene's bounds, so the emitter's rays start where they did) from the
+      same seed: light paths that miss the ball are the same in both and cancel;
+    * the direct integrator also renders the floor without the ball from the same seed: samples
+      whose rays miss the ball cancel.
+
+    Both stand-ins have a known mean, the open floor's irradiance E (`sky_integrals`, checked by
+    `check_hdri_floor`), so caustic = (ptracer − ptracer_null + E) − (direct − direct_open + E).
+    (Measured at 1024 spp: the relative L1 noise of the particle tracer's part drops from 0.23 to
+    0.11 with it, and the direct part's from 0.050 to 0.020.)"""
+    sky = write_sky()
+    floor = check_sky(sky)
+    check_hdri_floor(sky, floor)
+    scene, clear, open_floor = hdri_scene(sky), hdri_scene(sky), hdri_scene(sky, ball=False)
+    clear["ball"] = dict(clear["ball"], bsdf={"type": "null"})
+    ptracer = {"type": "ptracer", "max_depth": 64, "hide_emitters": True, "samples_per_pass": min(spp, 1024)}
+    started = time.time()
+    through_glass = rgb_irradiance(scene, ptracer, spp, seed=1) - rgb_irradiance(clear, ptracer, spp, seed=1)
+    print(f"  particle tracer, {spp} spp, twice: {time.time() - started:.0f} s")
+    # Direct light as a path tracer sees it: shadow rays toward the environment stop at glass,
+    # and its BSDF-sampled rays that meet glass end there (depth 2).
+    started, direct_spp = time.time(), max(spp // 8, 1)
+    shadow = rgb_irradiance(scene, {"type": "direct"}, direct_spp, seed=2) - rgb_irradiance(open_floor, {"type": "direct"}, direct_spp, seed=2)
+    print(f"  direct light, {direct_spp} spp, twice: {time.time() - started:.0f} s")
+    caustic = through_glass - shadow
+    check_hdri_sun(floor[1] + shadow[:, :, 1], caustic[:, :, 1])
+    return caustic
+
+
 def write(name, caustic):
+    """The caustic as an RGB EXR: one channel repeated (the sun's are grey), or its three."""
     os.makedirs(OUT, exist_ok=True)
     path = os.path.join(OUT, name + ".exr")
-    rgb = np.repeat(caustic[:, :, None], 3, axis=2).astype(np.float32)
-    mi.Bitmap(rgb, pixel_format=mi.Bitmap.PixelFormat.RGB).write(path)
-    print(f"wrote {path}: caustic power {caustic.sum() * (2 * HALF / PIXELS) ** 2:.5f} W, peak {caustic.max():.3f} W/m²")
+    rgb = caustic if caustic.ndim == 3 else np.repeat(caustic[:, :, None], 3, axis=2)
+    mi.Bitmap(rgb.astype(np.float32), pixel_format=mi.Bitmap.PixelFormat.RGB).write(path)
+    green = rgb[:, :, 1]
+    print(f"wrote {path}: caustic power {green.sum() * (2 * HALF / PIXELS) ** 2:.5f} W, peak {green.max():.3f} W/m² (green)")
+
+
+SPP = {"ball": 16384, "facets": 16384, "bunny": 16384, "hdri": 65536}
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--spp", type=int, default=16384, help="particle tracer samples per pixel (light paths / pixel)")
-    parser.add_argument("--only", choices=["ball", "facets", "bunny"], help="render one reference")
+    parser.add_argument("--spp", type=int, help=f"particle tracer samples per pixel (light paths / pixel; default {SPP})")
+    parser.add_argument("--only", choices=list(SPP), help="render one reference")
     args = parser.parse_args()
     scenes = {"ball": ball_scene, "facets": facets_scene, "bunny": bunny_scene}
-    for name in [args.only] if args.only else scenes:
-        scene = scenes[name]()
+    for name in [args.only] if args.only else SPP:
+        spp = args.spp or SPP[name]
         started = time.time()
-        total = irradiance(scene, {"type": "ptracer", "max_depth": 64, "hide_emitters": True}, args.spp)
+        if name == "hdri":
+            write(name, hdri_reference(spp))
+            print(f"  {name}: {time.time() - started:.0f} s")
+            continue
+        scene = scenes[name]()
+        total = irradiance(scene, {"type": "ptracer", "max_depth": 64, "hide_emitters": True}, spp)
         # A path tracer cannot reach the sun (a delta light) through glass: it sees exactly the
         # unrefracted light and the glass's shadow.
         direct = irradiance(scene, {"type": "path", "max_depth": 64}, 16)

@@ -328,20 +328,26 @@ fn march_photon(photon: Photon, index: u32) -> u32 {
                 return n_steps + 1u;
             }
             // An interface: reflect with probability R, else refract (tinted) into the media
-            // beyond. Either way the photon is now a caustic photon.
+            // beyond. Either way the photon is now a caustic photon — but for one that passed
+            // a polished thin sheet straight.
             flux = after;
             events++;
             let facet = vec2<f32>(random01(params.seed, index, 96u + 2u * events), random01(params.seed, index, 97u + 2u * events));
-            let c = cross_interface(d, hit, glass_surface_at(hit), media, facet);
+            let surface = glass_surface_at(hit);
+            let c = cross_interface(d, hit, surface, media, facet);
+            // Light straight through a polished thin sheet is the shadow rays' (view.wgsl,
+            // sheet_transmittance): such a photon stays direct light unless it was bent before.
+            var passed_sheet = (interfaces[hit.interface_id].kind & INTERFACE_THIN) != 0u && surface.roughness == 0.0;
             if random01(params.seed, index, 16u + events) < c.reflectance {
                 d = c.reflected;
                 flux *= c.reflected_share;
+                passed_sheet = false;
             } else {
                 d = c.transmitted;
                 flux *= at_wavelength(c.tint) * c.transmitted_share;
             }
             media = media_along(c, d, media);
-            refracted = true;
+            refracted = refracted || !passed_sheet;
             s = ray_start(ior_grid, grid_sampler, grid, leave_surface(p, c.geometric, d, 1e-3 * grid.voxel_size), d);
             ahead_of.valid = false;
             if events >= MAX_EVENTS || path > params.max_path {

@@ -17,6 +17,8 @@
 #import shared/hash.wgsl
 #import shared/lights.wgsl
 #import shared/dda.wgsl
+#import shared/environment.wgsl
+#import shared/env_light.wgsl
 
 @group(0) @binding(0) var<uniform> params: PhotonParams;
 @group(0) @binding(1) var<storage, read> emitters: array<Emitter>;
@@ -28,6 +30,8 @@
 @group(0) @binding(6) var<storage, read_write> photons: array<Photon>;
 // Per level-0 octree cell, the n − 1 of sharp glass near it (octree.wgsl).
 @group(0) @binding(7) var<storage, read> glass_mark: array<f32>;
+// The environment's importance table (shared/env_light.wgsl), for its emitter.
+@group(0) @binding(8) var<storage, read> env_table: array<f32>;
 
 // Raster rays are classified by the octree's level-0 cells, which follow the objects' outline to
 // a voxel (each cell bounds the 4×4×4 voxels around it, so the test stays conservative): few
@@ -38,6 +42,101 @@
 struct EmitterRay {
     origin: vec3<f32>,
     dir: vec3<f32>,
+}
+
+// Emitters whose photons each take a direction of their own within a raster cell: the
+// environment and rect lights. `SpreadRay.weight` is the radiance over the direction's density,
+// L(ω)/p(ω): a photon's flux is that × the cell's `measure` × total/(N·weight).
+//
+// - The environment's emitter (`Emitter.light == ENV_LIGHT`) is a disc across the volume's
+//   bounding sphere (radius `half_width` about `origin`), square to each photon's direction,
+//   which is drawn from the environment (shared/env_light.wgsl); its cells are equal areas of
+//   the disc (the concentric map), `measure` the area of one.
+// - A rect light's cells are equal areas of the rect (`measure` the area of one); its photons
+//   leave uniformly over the cone of directions from their start that holds the volume's
+//   bounding sphere (as a point light's raster does), L cos θ / p = L cos θ × the cone's solid
+//   angle — or, from inside the sphere, cosine-weighted about its normal (`axis`): π L.
+struct SpreadRay {
+    origin: vec3<f32>,
+    dir: vec3<f32>,
+    weight: vec3<f32>,
+}
+
+fn spreads(e: Emitter) -> bool {
+    return e.light == ENV_LIGHT || lights[e.light].kind == LIGHT_RECT;
+}
+
+// The photon ray of raster point u with direction numbers xi.
+fn spread_ray(e: Emitter, u: vec2<f32>, xi: vec2<f32>) -> SpreadRay {
+    if e.light == ENV_LIGHT {
+        // Light from direction ω travels along −ω, from the disc on ω's side.
+        let s = env_light_sample(params.env, xi);
+        let dir = -s.dir;
+        let frame = cone_frame(dir);
+        let q = concentric_disk(u) * e.half_width;
+        let origin = e.origin + frame[0] * q.x + frame[1] * q.y - dir * (e.half_width * 1.01);
+        return SpreadRay(origin, dir, s.radiance / s.pdf);
+    }
+    let origin = rect_point(e, u);
+    let radiance = lights[e.light].radiant;
+    let cone = volume_cone(origin);
+    if cone.w <= -1.0 {
+        return SpreadRay(origin, cosine_direction(e.axis, e.right, e.up, xi), PI * radiance);
+    }
+    let frame = cone_frame(cone.xyz);
+    let dir = cap_direction(cone.xyz, frame[0], frame[1], cone.w, xi);
+    return SpreadRay(origin, dir, radiance * max(dot(dir, e.axis), 0.0) * TAU * (1.0 - cone.w));
+}
+
+fn rect_point(e: Emitter, u: vec2<f32>) -> vec3<f32> {
+    return e.origin + e.right * ((2.0 * u.x - 1.0) * e.half_width) + e.up * ((2.0 * u.y - 1.0) * e.half_height);
+}
+
+// The cone of directions from p that holds the volume's bounding sphere: (axis, cos of its
+// half-angle), or cos −1 (every direction) from inside the sphere.
+fn volume_cone(p: vec3<f32>) -> vec4<f32> {
+    let lo = params.grid.origin;
+    let hi = grid_box_max(params.grid);
+    let radius = 0.5 * length(hi - lo);
+    let to = 0.5 * (lo + hi) - p;
+    let d = length(to);
+    if d <= radius * 1.001 {
+        return vec4<f32>(0.0, 1.0, 0.0, -1.0);
+    }
+    return vec4<f32>(to / d, sqrt(max(0.0, 1.0 - (radius / d) * (radius / d))));
+}
+
+// An orthonormal pair across unit `axis`.
+fn cone_frame(axis: vec3<f32>) -> mat2x3<f32> {
+    let right = normalize(select(vec3<f32>(0.0, -axis.z, axis.y), vec3<f32>(axis.z, 0.0, -axis.x), abs(axis.x) > abs(axis.y)));
+    return mat2x3<f32>(right, cross(axis, right));
+}
+
+// What a spreading emitter's cell is weighted by before its importance, per unit `measure`:
+// ∫ L dω for the environment; for a rect, L × the solid angle of the volume's cone from the
+// cell's centre (an upper bound of its power toward the volume: cos θ ≤ 1).
+fn spread_power(e: Emitter, u: vec2<f32>) -> vec3<f32> {
+    if e.light == ENV_LIGHT {
+        return env_light_integral(params.env);
+    }
+    let cone = volume_cone(rect_point(e, u));
+    return lights[e.light].radiant * select(TAU * (1.0 - cone.w), PI, cone.w <= -1.0);
+}
+
+// A spreading emitter's cell is worth what rays through it along a few of its directions meet
+// (their largest importance), never less than SPREAD_MIN_IMPORTANCE: its photons take other
+// directions, so a cell whose test rays all miss may still reach glass, and a weight kept above
+// zero keeps the estimate unbiased (only noisier there).
+const SPREAD_TEST_DIRECTIONS: u32 = 4u;
+const SPREAD_MIN_IMPORTANCE: f32 = 0.0625;
+
+fn spread_importance(e: Emitter, cell: u32, u: vec2<f32>) -> f32 {
+    var best = SPREAD_MIN_IMPORTANCE;
+    for (var t = 0u; t < SPREAD_TEST_DIRECTIONS; t++) {
+        let ray = spread_ray(e, u, vec2<f32>(random01(params.seed, cell, 300u + 2u * t), random01(params.seed, cell, 301u + 2u * t)));
+        best = max(best, importance(ray.origin, ray.dir));
+    }
+    return best;
 }
 
 fn emitter_ray(e: Emitter, u: vec2<f32>) -> EmitterRay {
@@ -104,6 +203,10 @@ fn importance_raster(@builtin(global_invocation_id) id: vec3<u32>) {
     let e = emitters[cell / per];
     let local = cell % per;
     let u = (vec2<f32>(f32(local % params.cells), f32(local / params.cells)) + 0.5) / f32(params.cells);
+    if spreads(e) {
+        cdf[cell] = luminance(spread_power(e, u) * e.measure) * spread_importance(e, cell, u);
+        return;
+    }
     let ray = emitter_ray(e, u);
     cdf[cell] = luminance(cell_power(e, ray.dir)) * importance(ray.origin, ray.dir);
 }
@@ -195,6 +298,20 @@ fn emit(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) g
     let local = cell % per;
     let sample = cell_sample(i, cell);
     let uc = (vec2<f32>(f32(local % params.cells), f32(local / params.cells)) + sample.xy) / f32(params.cells);
+    // Bit 0: a live photon; bits 1–31: its wavelength sample (0 in an RGB frame).
+    let flags = PHOTON_LIVE | (u32(sample.z * 2147483648.0) << 1u);
+    if spreads(e) {
+        let ray = spread_ray(e, uc, vec2<f32>(random01(seed, i, 5u), random01(seed, i, 6u)));
+        let flux = ray.weight * e.measure * (total / (f32(n) * weight));
+        // The environment's photons start in air: its disc lies outside the volume, which holds
+        // every sharp object.
+        var media = vec2<u32>(0u);
+        if e.light != ENV_LIGHT {
+            media = lights[e.light].media;
+        }
+        photons[i] = Photon(ray.origin, flags, ray.dir, media.x, flux, media.y);
+        return;
+    }
     var ray = emitter_ray(e, uc);
     let light = lights[e.light];
     let flux = cell_power(e, ray.dir) * (total / (f32(n) * weight));
@@ -202,7 +319,5 @@ fn emit(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) g
         // The sun's disc: directions spread over its angular radius (soft caustics).
         ray.dir = cone_direction(e.axis, e.right, e.up, light.half_angle, vec2<f32>(random01(seed, i, 3u), random01(seed, i, 4u)));
     }
-    // Bit 0: a live photon; bits 1–31: its wavelength sample (0 in an RGB frame).
-    let flags = PHOTON_LIVE | (u32(sample.z * 2147483648.0) << 1u);
     photons[i] = Photon(ray.origin, flags, ray.dir, light.media.x, flux, light.media.y);
 }

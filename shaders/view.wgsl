@@ -2,8 +2,9 @@
 // the same integrator as the photons), attenuated per channel by Beer–Lambert, gathering the
 // light scattered toward the camera from the radiance grid (σ_s · phase · fluence, single
 // scattering as in Sun et al. 2008, §4.5), and ending on an opaque receiver — lit by the
-// lights (shadow rays, blocked by refractive media), by the caustic maps, and by the mean
-// environment — or in the environment along the direction they leave in.
+// lights and the environment (shadow rays, blocked by refractive media: light through glass
+// arrives as photons), and by the caustic maps — or in the environment along the direction they
+// leave in.
 //
 // At a sharp interface (shared/interface.wgsl) a ray splits by the Fresnel equations: the
 // transmitted part goes on, the reflected part (weight R) waits on a small stack of branches
@@ -16,7 +17,7 @@
 //   [0] beauty: linear rgb, alpha = coverage by refractive media or receivers
 //   [1] depth of the first medium or surface along the camera axis (x)
 //   [2] caustic: light receivers get from the caustic maps (rgb)
-//   [3] direct: light receivers get from the lights and the ambient environment (rgb)
+//   [3] direct: light receivers get from the lights and the environment (rgb)
 //   [4] volume: light scattered toward the camera in the volume (rgb)
 // beauty = caustic + direct + volume + the environment seen through (and around) the media.
 // Each pixel averages `samples` rays at fixed sub-pixel offsets (the R2 sequence), so edges are
@@ -32,6 +33,7 @@
 #import shared/receivers.wgsl
 #import shared/lights.wgsl
 #import shared/environment.wgsl
+#import shared/env_light.wgsl
 #import shared/hash.wgsl
 #import shared/pbr.wgsl
 #import shared/glass_surface.wgsl
@@ -73,6 +75,8 @@
 // (src/pipeline/specular.rs; read only when VIEW_FLAG_SPECULAR is set).
 @group(0) @binding(23) var env_specular: texture_2d_array<f32>;
 @group(0) @binding(24) var<storage, read> brdf_lut: array<vec2<f32>>;
+// The environment's importance table (shared/env_light.wgsl, src/pipeline/env_light.rs).
+@group(0) @binding(26) var<storage, read> env_table: array<f32>;
 
 const FAR_DEPTH: f32 = 1e10;
 const NO_HIT: f32 = 3.4e38;
@@ -173,11 +177,30 @@ fn shadow_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
 // Cut-outs and see-through receivers a shadow ray looks past, at most.
 const MAX_SEE_THROUGH: u32 = 8u;
 
-// The light that passes the receivers along p + t·w, t < dist, when some are cut-outs or
-// see-through: each hides its coverage; glass surfaces stop it (its light arrives as photons).
-fn receivers_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> f32 {
+// What a polished thin sheet passes of a shadow ray at BVH hit b: its thin-slab transmittance
+// (1 − R_thin, the inner reflections summed per polarization, cross_interface's R) × its tint,
+// straight through — exactly what its photons would carry, so they leave that light to shadow
+// rays (march.wgsl). A solid's surface or a rough sheet passes nothing: its light is photons'.
+fn sheet_transmittance(b: BvhHit, w: vec3<f32>) -> vec3<f32> {
+    let id = bvh_triangles[b.triangle].receiver & ~INTERFACE_BIT;
+    let f = interfaces[id];
+    if (f.kind & INTERFACE_THIN) == 0u {
+        return vec3<f32>(0.0);
+    }
+    let hit = SurfaceHit(b.t, b.triangle, id, shading_normal(b.triangle, b.u, b.v), b.u, b.v);
+    let surface = glass_surface_at(hit);
+    if surface.roughness > 0.0 {
+        return vec3<f32>(0.0);
+    }
+    return surface.tint * (1.0 - thin_sheet_reflectance(abs(dot(w, hit.normal)), interface_ior(f)));
+}
+
+// The light that passes the surfaces along p + t·w, t < dist, when some are cut-outs,
+// see-through or thin glass: each receiver hides its coverage, a thin sheet passes its
+// transmittance; a solid's glass surface stops it (its light arrives as photons).
+fn receivers_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
     var t_min = 1e-4;
-    var passed = 1.0;
+    var passed = vec3<f32>(1.0);
     for (var i = 0u; i < MAX_SEE_THROUGH; i++) {
         let b = bvh_closest_hit(p, w, t_min, dist);
         if b.triangle == 0xffffffffu {
@@ -185,15 +208,16 @@ fn receivers_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> f32 {
         }
         let word = bvh_triangles[b.triangle].receiver;
         if (word & INTERFACE_BIT) != 0u {
-            return 0.0;
+            passed *= sheet_transmittance(b, w);
+        } else {
+            passed *= 1.0 - coverage_of(receivers[word], b.triangle, b.u, b.v);
         }
-        passed *= 1.0 - coverage_of(receivers[word], b.triangle, b.u, b.v);
-        if passed <= 0.0 {
-            return 0.0;
+        if all(passed <= vec3<f32>(0.0)) {
+            return vec3<f32>(0.0);
         }
         t_min = b.t + 1e-4;
     }
-    return 0.0;
+    return vec3<f32>(0.0);
 }
 
 // Visibility of a light from p along w up to dist: opaque receivers and glass surfaces (light
@@ -201,7 +225,7 @@ fn receivers_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> f32 {
 fn visibility(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
     if has(VIEW_FLAG_SEE_THROUGH) {
         let passed = receivers_transmittance(p, w, dist);
-        if passed <= 0.0 || analytic_any_hit(p, w, 1e-4, dist) {
+        if all(passed <= vec3<f32>(0.0)) || analytic_any_hit(p, w, 1e-4, dist) {
             return vec3<f32>(0.0);
         }
         return passed * shadow_transmittance(p, w, dist);
@@ -249,14 +273,73 @@ fn light_arrival(l: LightGpu, p: vec3<f32>, k: u32) -> LightArrival {
     return LightArrival(w, intensity, dist2, dist);
 }
 
-// Irradiance at p (facing normal n) from light l, with one shadow sample (k picks it).
-fn direct_irradiance(l: LightGpu, p: vec3<f32>, n: vec3<f32>, k: u32) -> vec3<f32> {
-    let a = light_arrival(l, p, k);
-    let c = dot(n, a.w);
-    if c <= 0.0 || all(a.intensity <= vec3<f32>(0.0)) {
-        return vec3<f32>(0.0);
+// Four uniform numbers for shadow-ray pair j toward the environment of camera sample k on
+// branch `path` of this pixel: point k·pairs + j of the R2 sequence, rotated per pixel and
+// branch (Cranley–Patterson) once for the table's direction (xy) and once for the cosine one
+// (zw), so a pixel's directions are evenly spread and neighbouring pixels' are independent.
+fn env_numbers(k: u32, path: u32, j: u32) -> vec4<f32> {
+    let key = pcg_hash(pixel_key ^ (path * 0x68bc21ebu));
+    let rotation = vec4<f32>(random01(key, 0u, 40u), random01(key, 0u, 41u), random01(key, 0u, 42u), random01(key, 0u, 43u));
+    let a = r2(k * params.env_pairs + j);
+    return fract(vec4<f32>(a, a) + rotation);
+}
+
+// One shadow ray of a shading point: toward `w`, up to `dist`, and the irradiance `e` it brings
+// if nothing is in the way (already × cos θ about the shading normal).
+struct ShadowRay {
+    w: vec3<f32>,
+    dist: f32,
+    e: vec3<f32>,
+}
+
+// Shadow ray i of the point p with shading normal n: first one per light (light_arrival), then
+// two per environment pair — one direction drawn from the environment's table
+// (shared/env_light.wgsl), one by cos θ, each weighted by the balance heuristic (Veach 1997,
+// §9.2), so a small bright sun and a wide dim sky both converge:
+// E_env ≈ Σ L(ω) cos θ / (p_env(ω) + cos θ / π) over both, divided by the pairs.
+fn shadow_ray(i: u32, p: vec3<f32>, n: vec3<f32>, k: u32, path: u32) -> ShadowRay {
+    if i < params.light_count {
+        let a = light_arrival(lights[i], p, k);
+        return ShadowRay(a.w, a.dist, a.intensity * max(dot(n, a.w), 0.0) / a.dist2);
     }
-    return a.intensity * c / a.dist2 * visibility(p, a.w, a.dist);
+    let j = i - params.light_count;
+    let u = env_numbers(k, path, j / 2u);
+    var l: EnvLightSample;
+    if (j & 1u) == 0u {
+        l = env_light_sample(params.env, u.xy);
+    } else {
+        let frame = basis_around(n);
+        l = env_light_at(params.env, cosine_direction(n, frame[0], frame[1], u.zw));
+    }
+    let c = max(dot(n, l.dir), 0.0);
+    return ShadowRay(l.dir, NO_HIT, l.radiance * c / ((l.pdf + c * INV_PI) * f32(params.env_pairs)));
+}
+
+// The light reaching a shading point directly, with its shadows: every shadow ray through one
+// call of `visibility` (the BVH walks and the march through the volume, which a compiler inlines
+// at each call), the lights' through the surface's response (`pbr`: both lobes; otherwise the
+// irradiance, in `diffuse`), the environment's through the diffuse lobe alone (`env_diffuse`:
+// its share; the glossy lobes take the prefiltered environment, unshadowed).
+fn direct_light(p: vec3<f32>, facing: vec3<f32>, s: PbrSurface, pbr: bool, env_diffuse: vec3<f32>, k: u32, path: u32) -> LightResponse {
+    var out = LightResponse(vec3<f32>(0.0), vec3<f32>(0.0));
+    let count = params.light_count + 2u * params.env_pairs;
+    for (var i = 0u; i < count; i++) {
+        let ray = shadow_ray(i, p, s.n, k, path);
+        if all(ray.e <= vec3<f32>(0.0)) || dot(facing, ray.w) <= 0.0 {
+            continue;
+        }
+        let e = ray.e * visibility(p, ray.w, ray.dist);
+        if i >= params.light_count {
+            out.diffuse += env_diffuse * e;
+        } else if pbr {
+            let response = pbr_response(s, ray.w, dot(s.n, ray.w));
+            out.diffuse += response.diffuse * e;
+            out.specular += response.specular * e;
+        } else {
+            out.diffuse += e;
+        }
+    }
+    return out;
 }
 
 // Bilinear lookup of a chart's filtered caustic irradiance.
@@ -293,7 +376,7 @@ fn caustic_irradiance_at(receiver: u32, p: vec3<f32>, facing: vec3<f32>, back: b
 
 // A receiver of the full metallic-roughness model at a hit: the lights through both lobes,
 // the environment by the split sum, the caustics on the diffuse lobe only.
-fn shade_pbr(r: ReceiverGpu, hit: SurfaceHit, uv: vec2<f32>, base: vec3<f32>, q: vec3<f32>, facing: vec3<f32>, d: vec3<f32>, k: u32, e_caustic: vec3<f32>) -> Shading {
+fn shade_pbr(r: ReceiverGpu, hit: SurfaceHit, uv: vec2<f32>, base: vec3<f32>, q: vec3<f32>, facing: vec3<f32>, d: vec3<f32>, k: u32, path: u32, e_caustic: vec3<f32>) -> Shading {
     // The coat's normal: the surface's own bent by the coat's normal map, not the base's
     // (KHR_materials_clearcoat).
     let coat_n = mapped_normal(r.clearcoat_normal_texture, r.clearcoat_normal_scale, hit.triangle, hit.u, hit.v, uv, facing);
@@ -321,25 +404,16 @@ fn shade_pbr(r: ReceiverGpu, hit: SurfaceHit, uv: vec2<f32>, base: vec3<f32>, q:
     }
     s.n_v = clamp(dot(s.n, s.v), 1e-4, 1.0);
     let env = pbr_environment(s, params.env);
-    var out = LightResponse(env.diffuse * (PI * params.ambient) * s.occlusion, env.specular * s.occlusion);
-    for (var i = 0u; i < params.light_count; i++) {
-        let a = light_arrival(lights[i], q, k);
-        let n_l = dot(s.n, a.w);
-        if n_l <= 0.0 || dot(facing, a.w) <= 0.0 || all(a.intensity <= vec3<f32>(0.0)) {
-            continue;
-        }
-        let e = a.intensity * n_l / a.dist2 * visibility(q, a.w, a.dist);
-        let response = pbr_response(s, a.w, n_l);
-        out.diffuse += response.diffuse * e;
-        out.specular += response.specular * e;
-    }
+    // The occlusion texture darkens the environment's light, not the lights'.
+    let lit = direct_light(q, facing, s, true, env.diffuse * s.occlusion, k, path);
+    let out = LightResponse(lit.diffuse, env.specular * s.occlusion + lit.specular);
     // The caustic light lands on the diffuse lobe, with the share it keeps of the environment's.
     return Shading(env.diffuse * e_caustic, out.diffuse + out.specular);
 }
 
 // Radiance leaving a receiver toward the camera at the hit, split into caustic and direct
 // (direct: the lights, the environment and the surface's own emission).
-fn shade_receiver(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, k: u32) -> Shading {
+fn shade_receiver(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, k: u32, path: u32) -> Shading {
     let n = hit.normal;
     let back = dot(n, d) > 0.0;
     let facing = select(n, -n, back);
@@ -352,14 +426,12 @@ fn shade_receiver(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, k: u32) -> Shadin
     let q = p + facing * (1e-4 + 1e-3 * params.grid.voxel_size);
     let e_caustic = caustic_irradiance_at(receiver, p, facing, back);
     if has(VIEW_FLAG_SPECULAR) && (r.flags & RECEIVER_PBR) != 0u {
-        let sh = shade_pbr(r, hit, uv, base, q, facing, d, k, e_caustic);
+        let sh = shade_pbr(r, hit, uv, base, q, facing, d, k, path, e_caustic);
         return Shading(sh.caustic, sh.direct + emission);
     }
     // Lambertian (metallic 0, specular 0): albedo / π.
-    var e_direct = PI * params.ambient;
-    for (var i = 0u; i < params.light_count; i++) {
-        e_direct += direct_irradiance(lights[i], q, facing, k);
-    }
+    let lambert = PbrSurface(base, 0.0, 1.0, 0.0, 1.0, facing, -d, 1.0, 0.0, 1.0, facing, 1.0, vec3<f32>(0.0), 0.0);
+    let e_direct = direct_light(q, facing, lambert, false, vec3<f32>(1.0), k, path).diffuse;
     return Shading(base * INV_PI * e_caustic, base * INV_PI * e_direct + emission);
 }
 
@@ -459,7 +531,7 @@ fn meet_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, 
         return cover;
     }
     first_depth(out, p);
-    let sh = shade_receiver(hit, p, b.d, k);
+    let sh = shade_receiver(hit, p, b.d, k, b.path);
     let w = b.weight * cover;
     (*out).caustic += w * sh.caustic;
     (*out).direct += w * sh.direct;

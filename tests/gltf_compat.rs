@@ -379,7 +379,7 @@ fn a_file_without_a_camera_is_framed_over_its_whole_animation_in_a_studio() {
     std::fs::write(&script, "local r = require(\"refrakt\")\nreturn r.scene{ environment = r.environment{ color = {1, 0, 0} } }\n").unwrap();
     let (env, _) = environment(&[script.to_str().unwrap(), "--environment", "studio:0.5"]);
     assert_eq!((env["source"].as_str(), env["intensity"].as_f64()), (Some("studio"), Some(0.5)));
-    for (bad, says) in [("nope", "neither a preset (studio, sky, checker) nor an .exr or .hdr file"), ("sky:-1", "must be a number ≥ 0")] {
+    for (bad, says) in [("nope", "neither a preset (studio, sky, sunny, checker) nor an .exr or .hdr file"), ("sky:-1", "must be a number ≥ 0")] {
         let (code, _, err) = dump(&[cam.to_str().unwrap(), "--environment", bad]);
         assert!(code != 0 && err.contains(says), "--environment {bad}: {err}");
     }

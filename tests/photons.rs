@@ -397,3 +397,18 @@ fn photons_trapped_by_total_internal_reflection_are_absorbed() {
     let steps_per_photon = s.steps as f64 / desc.photons as f64;
     assert!(steps_per_photon < 600.0, "{steps_per_photon} steps per photon");
 }
+
+/// A photon budget beyond what one buffer binding holds (48 B a photon: lavapipe binds 128 MiB,
+/// 2.8M photons) is refused before anything is allocated, naming the most the adapter takes —
+/// not wgpu's raw binding error in the middle of a frame. (An adapter that binds the 3 GiB of
+/// `MAX_PHOTONS` photons may render it.)
+#[test]
+fn a_photon_budget_beyond_one_binding_is_refused_by_name() {
+    let mut desc = frame_from_lua(&ball_under_sun(1000, 0.6));
+    desc.photons = refrakt::pipeline::MAX_PHOTONS;
+    if let Err(e) = renderer().frame(&desc) {
+        let message = format!("{e:#}");
+        assert!(message.contains("lower the photon budget (--photons or photons) to at most"), "{message}");
+        assert!(!message.contains("exceeds max"), "{message}");
+    }
+}

@@ -45,6 +45,13 @@ fn cap_direction(axis: vec3<f32>, right: vec3<f32>, up: vec3<f32>, cos_max: f32,
     return cos_theta * axis + sin_theta * (azimuth.x * right + azimuth.y * up);
 }
 
+// A direction about `axis` (with `right`, `up` an orthonormal frame) of density cos θ / π:
+// Malley's method, the concentric disc lifted to the hemisphere.
+fn cosine_direction(axis: vec3<f32>, right: vec3<f32>, up: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
+    let d = concentric_disk(u);
+    return d.x * right + d.y * up + sqrt(max(0.0, 1.0 - dot(d, d))) * axis;
+}
+
 // A direction within half-angle `half_angle` of `axis`, uniform in solid angle.
 fn cone_direction(axis: vec3<f32>, right: vec3<f32>, up: vec3<f32>, half_angle: f32, u: vec2<f32>) -> vec3<f32> {
     return cap_direction(axis, right, up, cos(half_angle), u);

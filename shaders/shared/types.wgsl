@@ -52,7 +52,9 @@ struct ViewParams {
     eps_refract: f32,
     max_path: f32,
     camera_media_lo: u32,
-    ambient: vec3<f32>,
+    env_pairs: u32,
+    _pad_env0: u32,
+    _pad_env1: u32,
     camera_media_hi: u32,
     sample_first: u32,
     sample_count: u32,
@@ -288,6 +290,7 @@ struct PhotonParams {
     // PHOTON_FLAG_* bits.
     flags: u32,
     _pad1: u32,
+    env: EnvParams,
 }
 
 struct MarchParams {
@@ -362,6 +365,8 @@ const LIGHT_POINT: u32 = 0u;
 const LIGHT_SPOT: u32 = 1u;
 const LIGHT_SUN: u32 = 2u;
 const LIGHT_RECT: u32 = 3u;
+// Emitter.light of the environment's emitter (it has no LightGpu).
+const ENV_LIGHT: u32 = 0xffffffffu;
 
 const INTEGRATOR_LEAPFROG: u32 = 0u;
 const INTEGRATOR_EULER: u32 = 1u;

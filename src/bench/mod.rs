@@ -30,6 +30,7 @@ use crate::scene::eval::EvalOptions;
 pub const SCENES: &[(&str, &str, &str)] = &[
     ("seed", include_str!("seed.lua"), "the paper's seed setting: ~5k-triangle glass mesh, 1024×576, 128³, 70k photons, moving object and light"),
     ("seed-dispersion", include_str!("seed.lua"), "seed with dispersive glass (Abbe number 20): every photon and camera sample spectral"),
+    ("seed-sunny", include_str!("seed.lua"), "seed lit by its environment alone (the \"sunny\" sky, turning): the sky's photons and shadow rays"),
     ("heavy", include_str!("heavy.lua"), "1920×1080, 256³, 1M photons, fog, three refractive objects"),
     ("grin", include_str!("grin.lua"), "Luneburg lens and gradient slab under a sun, no mesh"),
 ];
@@ -87,7 +88,7 @@ pub(crate) const SEED_DETAIL: u32 = 16;
 
 /// `seed` and its dispersive twin, which share the mesh and the quality curve.
 fn is_seed(name: &str) -> bool {
-    name == "seed" || name == "seed-dispersion"
+    name == "seed" || name == "seed-dispersion" || name == "seed-sunny"
 }
 
 /// The source of built-in scene `name` with the bench's substitutions (`seed`'s pebble made with
@@ -106,7 +107,7 @@ pub(crate) fn scene_source(name: &str, opts: &BenchOptions, detail: u32) -> Resu
         }
     }
     let glass = if name == "seed-dispersion" { ", abbe = 20" } else { "" };
-    let source = source.replace("@MESH@", &mesh.replace('\\', "\\\\").replace('"', "\\\"")).replace("@DETAIL@", &detail.to_string()).replace("@GLASS@", glass);
+    let source = source.replace("@MESH@", &mesh.replace('\\', "\\\\").replace('"', "\\\"")).replace("@DETAIL@", &detail.to_string()).replace("@GLASS@", glass).replace("@SKY@", if name == "seed-sunny" { "true" } else { "false" });
     Ok((source, allow))
 }
 

@@ -95,8 +95,11 @@ gpu_struct! {
         pub max_path: f32,
         /// The sharp interfaces around the camera, packed (`interfaces::media_at`): low word…
         pub camera_media_lo: u32,
-        /// Mean environment radiance: the receivers' ambient light.
-        pub ambient: [f32; 3],
+        /// Shadow rays toward the environment per receiver hit, in pairs (one drawn from the
+        /// environment's table, one by cos θ): `view::env_pairs`; 0 when the environment is dark.
+        pub env_pairs: u32,
+        pub _pad_env0: u32,
+        pub _pad_env1: u32,
         /// …and high word.
         pub camera_media_hi: u32,
         /// The camera samples this dispatch traces: from `sample_first`, `sample_count` of them
@@ -451,6 +454,8 @@ gpu_struct! {
         /// `photon_flags`.
         pub flags: u32,
         pub _pad1: u32,
+        /// The environment, for its emitter (`ENV_LIGHT`): turn, colour and intensity.
+        pub env: EnvParams,
     }
 }
 
@@ -588,7 +593,8 @@ pub mod view_flags {
     pub const SCATTERING: u32 = 2;
     /// Photons were traced: receivers read their caustic maps.
     pub const CAUSTICS: u32 = 4;
-    /// Some receiver is a cut-out or see-through: shadow rays look past them.
+    /// Some receiver is a cut-out or see-through, or some glass a thin sheet: shadow rays look
+    /// past them.
     pub const SEE_THROUGH: u32 = 8;
     /// Some receiver has a specular lobe: the prefiltered environment is bound.
     pub const SPECULAR: u32 = 16;
@@ -613,6 +619,9 @@ pub mod march_flags {
     /// Some glass disperses: each photon carries one wavelength and XYZ flux.
     pub const SPECTRAL: u32 = 4;
 }
+
+/// `Emitter::light` of the environment's emitter (it has no `LightGpu`).
+pub const ENV_LIGHT: u32 = u32::MAX;
 
 /// Light kinds (`LightGpu::kind`).
 pub mod light_kind {

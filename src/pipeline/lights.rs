@@ -4,7 +4,7 @@
 use glam::Vec3;
 
 use crate::frame::{LightDesc, LightShape, VolumeDesc};
-use crate::gpu::types::{Emitter, LightGpu, light_kind};
+use crate::gpu::types::{ENV_LIGHT, Emitter, LightGpu, light_kind};
 
 /// Cells per side of each light's photon raster (G×G importance cells).
 pub const RASTER_CELLS: u32 = 64;
@@ -50,7 +50,7 @@ pub fn photon_start(l: &LightDesc, volume: &VolumeDesc) -> Vec3 {
 /// Where light `index`'s photons can reach the volume: for the sun, the rectangle across its
 /// direction that the box projects to; for point and spot lights, the cone of directions that
 /// contains the box (the whole sphere from inside it), narrowed to the spot's cone when that is
-/// smaller. Rect lights emit no photons (they light receivers directly only).
+/// smaller; for a rect light, its area (each photon leaves it toward the volume, `spread_ray`).
 pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, first_cell: u32) -> Option<Emitter> {
     let (lo, hi) = (volume.min, volume.max());
     let centre = 0.5 * (lo + hi);
@@ -60,7 +60,18 @@ pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, first_cell: u
         .map(|i| Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z }))
         .collect();
     match l.shape {
-        LightShape::Rect { .. } => None,
+        LightShape::Rect { size } => Some(Emitter {
+            origin: l.position.into(),
+            light: index,
+            axis: l.direction.into(),
+            right: l.right.into(),
+            half_width: 0.5 * size.x,
+            up: l.up.into(),
+            half_height: 0.5 * size.y,
+            measure: size.x * size.y / cells,
+            first_cell,
+            ..Default::default()
+        }),
         LightShape::Sun { .. } => {
             let axis = l.direction;
             let right = axis.any_orthonormal_vector();
@@ -114,11 +125,41 @@ pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, first_cell: u
     }
 }
 
+/// The environment's emitter: a disc across the volume's bounding sphere (just outside it, as
+/// the sun's raster), perpendicular to each photon's direction (`env_disc_origin` in
+/// shaders/photons.wgsl), its cells equal shares of its area. None when the environment is dark.
+/// `integral`: ∫ L dω of the environment, scaled (W/m² through the disc).
+pub fn environment_emitter(integral: Vec3, volume: &VolumeDesc, first_cell: u32) -> Option<Emitter> {
+    if integral.element_sum() <= 0.0 {
+        return None;
+    }
+    let (lo, hi) = (volume.min, volume.max());
+    let radius = 0.5 * (hi - lo).length();
+    Some(Emitter {
+        origin: (0.5 * (lo + hi)).into(),
+        light: ENV_LIGHT,
+        half_width: radius,
+        measure: std::f32::consts::PI * radius * radius / (RASTER_CELLS * RASTER_CELLS) as f32,
+        first_cell,
+        ..Default::default()
+    })
+}
+
 /// Power (W, mean over channels) an emitter's raster covers at most: a scale for the photons'
 /// fixed-point flux, not part of any estimate.
-pub fn raster_power(e: &Emitter, l: &LightDesc) -> f32 {
+pub fn raster_power(e: &Emitter, l: &LightDesc, volume: &VolumeDesc) -> f32 {
     let mean = l.radiant.element_sum() / 3.0;
-    e.measure * (RASTER_CELLS * RASTER_CELLS) as f32 * mean
+    // A rect light sends L × the solid angle of the volume's bounding sphere per unit area
+    // toward it (at most; π·L from inside it), as `spread_power` weighs its cells.
+    let per_measure = if let LightShape::Rect { .. } = l.shape {
+        let (lo, hi) = (volume.min, volume.max());
+        let (radius, distance) = (0.5 * (hi - lo).length(), (0.5 * (lo + hi) - l.position).length());
+        let cone = if distance > radius * 1.001 { std::f32::consts::TAU * (1.0 - (1.0 - (radius / distance).powi(2)).sqrt()) } else { std::f32::consts::PI };
+        cone * mean
+    } else {
+        mean
+    };
+    e.measure * (RASTER_CELLS * RASTER_CELLS) as f32 * per_measure
 }
 
 /// The frame's lights and emitters on the GPU (grown when a frame has more lights).
@@ -159,11 +200,13 @@ impl LightBuffers {
         }
     }
 
-    /// Uploads this frame's lights and their emitters.
-    /// `media[i]`: the sharp interfaces around light i.
-    pub fn update(&mut self, ctx: &crate::gpu::GpuContext, lights: &[LightDesc], media: &[[u32; 2]], volume: &VolumeDesc) {
-        if lights.len() > self.capacity {
-            self.capacity = lights.len().next_power_of_two();
+    /// Uploads this frame's lights and their emitters, the environment's last.
+    /// `media[i]`: the sharp interfaces around light i; `env_integral`: ∫ L dω of the
+    /// environment (`EnvLightTable::integral` × its colour and intensity).
+    pub fn update(&mut self, ctx: &crate::gpu::GpuContext, lights: &[LightDesc], media: &[[u32; 2]], volume: &VolumeDesc, env_integral: Vec3) {
+        // One emitter per light at most, and the environment's.
+        if lights.len() + 1 > self.capacity {
+            self.capacity = (lights.len() + 1).next_power_of_two();
             (self.lights, self.emitters) = Self::buffers(&ctx.device, self.capacity);
             self.generation = super::resources::next_generation();
         }
@@ -173,9 +216,14 @@ impl LightBuffers {
         for (i, l) in lights.iter().enumerate() {
             let first = emitters.len() as u32 * RASTER_CELLS * RASTER_CELLS;
             if let Some(e) = emitter_for(l, i as u32, volume, first) {
-                self.raster_power += raster_power(&e, l);
+                self.raster_power += raster_power(&e, l, volume);
                 emitters.push(e);
             }
+        }
+        let first = emitters.len() as u32 * RASTER_CELLS * RASTER_CELLS;
+        if let Some(e) = environment_emitter(env_integral, volume, first) {
+            self.raster_power += e.measure * (RASTER_CELLS * RASTER_CELLS) as f32 * env_integral.element_sum() / 3.0;
+            emitters.push(e);
         }
         if !gpu.is_empty() {
             ctx.queue.write_buffer(&self.lights, 0, bytemuck::cast_slice(&gpu));

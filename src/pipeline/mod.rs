@@ -7,6 +7,7 @@
 //! changes and reused otherwise, and stages rebind only when a resource they use was reallocated.
 
 pub mod caustics;
+pub mod env_light;
 pub mod gradient;
 pub mod interfaces;
 pub mod lights;
@@ -318,6 +319,18 @@ impl Renderer {
         if desc.photons > MAX_PHOTONS {
             bail!("photons = {} is more than refrakt traces per frame ({MAX_PHOTONS}); lower the photon budget", desc.photons);
         }
+        let photon_bytes = std::mem::size_of::<crate::gpu::types::Photon>() as u64;
+        if desc.photons as u64 * photon_bytes > binding {
+            bail!(
+                "photons = {} need {} MiB in one buffer ({photon_bytes} B each), more than the {} MiB the adapter \"{}\" \
+                 binds at once; lower the photon budget (--photons or photons) to at most {}",
+                desc.photons,
+                (desc.photons as u64 * photon_bytes) >> 20,
+                binding >> 20,
+                self.ctx.info.name,
+                binding / photon_bytes
+            );
+        }
         Ok(())
     }
 
@@ -376,6 +389,7 @@ impl Renderer {
         if self.environment.update(&self.ctx, &desc.environment) {
             self.counters.environment_uploads += 1;
         }
+        self.environment.update_light(&self.ctx, &desc.environment);
         if desc.receivers.iter().any(|r| r.diffuse.is_pbr()) {
             self.environment.update_specular(&self.ctx, &desc.environment);
         }
@@ -384,7 +398,11 @@ impl Renderer {
         }
         let media: Vec<[u32; 2]> =
             desc.lights.iter().map(|l| interfaces::media_at(desc, lights::photon_start(l, &desc.volume))).collect();
-        self.lights.update(&self.ctx, &desc.lights, &media, &desc.volume);
+        // The environment's photons matter only where glass or a medium bends or scatters them
+        // (its direct light is the receivers' shadow rays).
+        let env_emits = !desc.fields.is_empty() || !desc.meshes.is_empty() || desc.fog.is_some();
+        let env_integral = if env_emits { self.environment.light.integral * env_light::scale(&desc.environment) } else { glam::Vec3::ZERO };
+        self.lights.update(&self.ctx, &desc.lights, &media, &desc.volume, env_integral);
         let radiance_dims = if self.deposits(desc) { desc.volume.dims } else { UVec3::ONE };
         if self.radiance.as_ref().is_none_or(|r| r.dims != radiance_dims) {
             self.radiance = Some(RadianceGrid::new(&self.ctx, radiance_dims)?);
@@ -510,7 +528,8 @@ impl Renderer {
         if trace {
             let (seed, scattering) = (self.settings.photon_seed, needs_scattering(desc));
             let spectral = march_params.flags & march_flags::SPECTRAL != 0; // wavelengths, XYZ deposits
-            self.photons.encode(&self.ctx, &mut enc, &mut self.profiler, grids, &self.lights, desc.photons, seed, scattering, spectral); // lights, octree → photons
+            let environment = (&self.environment, view::env_params(desc));
+            self.photons.encode(&self.ctx, &mut enc, &mut self.profiler, grids, &self.lights, environment, desc.photons, seed, scattering, spectral); // lights, environment, octree → photons
             self.march.encode(&self.ctx, &mut enc, &mut self.profiler, &march_params, grids, &self.photons, receivers, radiance); // photons, grids, receivers → radiance, caustic atlas
             let filter_unit = flux_unit / march_params.flux_scale;
             self.caustics.encode(&self.ctx, &mut enc, &mut self.profiler, receivers, self.settings.caustic_filter, filter_unit, spectral); // caustic atlas → caustic irradiance

@@ -5,11 +5,11 @@ use anyhow::Result;
 
 use super::layout;
 use super::lights::{LightBuffers, RASTER_CELLS};
-use super::resources::Grids;
+use super::resources::{EnvironmentTexture, Grids};
 use super::timing::Profiler;
 use crate::gpu::GpuContext;
 use crate::gpu::shaders::ShaderLibrary;
-use crate::gpu::types::{Photon, PhotonParams, photon_flags};
+use crate::gpu::types::{EnvParams, Photon, PhotonParams, photon_flags};
 
 /// How much a raster cell whose ray crosses only a scattering medium (no glass) is worth,
 /// against 1 for one that crosses glass: enough photons for light shafts, most for caustics.
@@ -32,7 +32,7 @@ pub struct Photons {
     pub capacity: u32,
     /// Generation of these buffers (consumers rebind when it changes).
     pub generation: u64,
-    bound: Option<([u64; 3], wgpu::BindGroup)>,
+    bound: Option<([u64; 4], wgpu::BindGroup)>,
 }
 
 impl Photons {
@@ -46,6 +46,7 @@ impl Photons {
             layout::storage(5, false),
             layout::storage(6, false),
             layout::storage(7, true),
+            layout::storage(8, true),
         ];
         let (importance, bgl) = layout::pipeline_entry(device, shaders, "photons", "importance_raster", &entries)?;
         let (scan, _) = layout::pipeline_entry(device, shaders, "photons", "scan", &entries)?;
@@ -86,7 +87,11 @@ impl Photons {
             self.generation = super::resources::next_generation();
         }
         if count > self.capacity {
-            self.capacity = count.next_power_of_two();
+            // The next power of two, within one binding (`check_limits` refused more photons).
+            let limits = device.limits();
+            let binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+            let most = (binding / std::mem::size_of::<Photon>() as u64) as u32;
+            self.capacity = count.next_power_of_two().min(most.max(count));
             self.photons = Self::buffer(device, "photons", std::mem::size_of::<Photon>() as u64, self.capacity);
             self.generation = super::resources::next_generation();
         }
@@ -100,6 +105,7 @@ impl Photons {
         profiler: &mut Profiler,
         grids: &Grids,
         lights: &LightBuffers,
+        environment: (&EnvironmentTexture, EnvParams),
         photon_count: u32,
         seed: u32,
         scattering: bool,
@@ -115,10 +121,12 @@ impl Photons {
             medium_importance: if scattering { MEDIUM_IMPORTANCE } else { 0.0 },
             eps_refract: EPS_REFRACT,
             flags: if spectral { photon_flags::SPECTRAL } else { 0 },
+            env: environment.1,
             ..Default::default()
         };
         ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
-        let generations = [grids.generation, lights.generation, self.generation];
+        let env = environment.0;
+        let generations = [grids.generation, lights.generation, self.generation, env.generation];
         if self.bound.as_ref().is_none_or(|(g, _)| *g != generations) {
             let bg = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("photons"),
@@ -132,6 +140,7 @@ impl Photons {
                     layout::bind(5, &self.cdf),
                     layout::bind(6, &self.photons),
                     layout::bind(7, &grids.glass_mark),
+                    layout::bind(8, &env.light_table),
                 ],
             });
             self.bound = Some((generations, bg));

@@ -13,6 +13,8 @@ use crate::gpu::readback::{Mapped, Staging};
 use crate::output::{Image, Layer, Layers};
 use crate::scene::{EnvImage, Environment};
 
+use super::env_light::EnvLightTable;
+
 static GENERATION: AtomicU64 = AtomicU64::new(1);
 
 pub(crate) fn next_generation() -> u64 {
@@ -159,9 +161,12 @@ pub struct EnvironmentTexture {
     pub generation: u64,
     /// The image now uploaded (compared by identity: images are shared, never mutated).
     uploaded: Option<Arc<EnvImage>>,
-    /// Its mean radiance over the sphere (`EnvImage::mean`, a pass over every texel: taken once
-    /// per image, not per frame).
-    pub mean: glam::Vec3,
+    /// The environment as a light: its importance table (`env_light::EnvLightTable`, built once
+    /// per image; a colour's is the uniform table) and that table on the GPU.
+    pub light: EnvLightTable,
+    pub light_table: wgpu::Buffer,
+    /// The image the table was built from (None: the uniform table).
+    light_of: Option<Arc<EnvImage>>,
     /// The image prefiltered for glossy receivers (`specular::prefilter`: `specular::LEVELS`
     /// layers), computed only once a frame has a specular receiver; 1×1 until then.
     pub specular_view: wgpu::TextureView,
@@ -180,7 +185,38 @@ impl EnvironmentTexture {
             ..Default::default()
         });
         let specular_view = Self::array_view(&Self::layers(ctx, 1, 1, 1, &[[0.0; 4]]));
-        Self { texture, view, sampler, generation: next_generation(), uploaded: None, mean: glam::Vec3::ONE, specular_view, specular_of: None }
+        let light = EnvLightTable::uniform();
+        let light_table = Self::table_buffer(ctx, &light);
+        Self { texture, view, sampler, generation: next_generation(), uploaded: None, light, light_table, light_of: None, specular_view, specular_of: None }
+    }
+
+    fn table_buffer(ctx: &GpuContext, table: &EnvLightTable) -> wgpu::Buffer {
+        wgpu::util::DeviceExt::create_buffer_init(
+            &ctx.device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("environment light table"),
+                contents: bytemuck::cast_slice(&table.gpu_words()),
+                usage: wgpu::BufferUsages::STORAGE,
+            },
+        )
+    }
+
+    /// Builds the environment's light table if the one on the GPU is another's; true if it did.
+    pub fn update_light(&mut self, ctx: &GpuContext, env: &Environment) -> bool {
+        let image = env.image();
+        let same = match (image, &self.light_of) {
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+            (None, None) => true,
+            _ => false,
+        };
+        if same {
+            return false;
+        }
+        self.light = image.map_or_else(EnvLightTable::uniform, |i| EnvLightTable::of_image(i));
+        self.light_table = Self::table_buffer(ctx, &self.light);
+        self.light_of = image.cloned();
+        self.generation = next_generation();
+        true
     }
 
     fn texture(ctx: &GpuContext, width: u32, height: u32, texels: &[[f32; 4]]) -> (wgpu::Texture, wgpu::TextureView) {
@@ -250,7 +286,6 @@ impl EnvironmentTexture {
         };
         (self.texture, self.view) = (texture, view);
         self.uploaded = Some(image.clone());
-        self.mean = image.mean();
         self.generation = next_generation();
         true
     }

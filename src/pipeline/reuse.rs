@@ -2,7 +2,7 @@
 //!
 //! The volume stages (voxelize → gradient → octree) read only the volume box, the index fields,
 //! the refractive meshes and the fog. The photon stages (photons → march → caustics) read, in
-//! addition, the lights, the receivers, the photon budget and the render settings; what they
+//! addition, the lights, the environment, the receivers, the photon budget and the render settings; what they
 //! leave behind — the radiance grid and the caustic maps — does not depend on the camera. That
 //! is the relighting idea of Sun et al. 2008: a new view of a lit scene costs only the view pass.
 //!
@@ -47,6 +47,9 @@ pub struct PhotonKey {
     /// Generations of the receivers' buffers and of the radiance grid, where results land.
     targets_generation: [u64; 2],
     lights: Vec<LightDesc>,
+    /// The environment as a light: which image (by identity: images are shared, never
+    /// mutated), its colour × intensity and its turn.
+    environment: (ImageIdentity, [f32; 3], f32),
     receivers: Vec<Receiver>,
     photons: u32,
     settings: RenderSettings,
@@ -57,9 +60,26 @@ impl PhotonKey {
         Self {
             targets_generation,
             lights: desc.lights.iter().map(|l| LightDesc { name: String::new(), ..l.clone() }).collect(),
+            environment: {
+                let env = &desc.environment;
+                (ImageIdentity(env.image().cloned()), super::env_light::scale(env).into(), env.rotation)
+            },
             receivers: desc.receivers.iter().map(|r| Receiver { name: String::new(), ..r.clone() }).collect(),
             photons: desc.photons,
             settings: settings.clone(),
+        }
+    }
+}
+
+/// An environment image compared by identity (held, so its address cannot be reused).
+#[derive(Clone, Debug)]
+struct ImageIdentity(Option<std::sync::Arc<crate::scene::EnvImage>>);
+
+impl PartialEq for ImageIdentity {
+    fn eq(&self, other: &Self) -> bool {
+        match (&self.0, &other.0) {
+            (Some(a), Some(b)) => std::sync::Arc::ptr_eq(a, b),
+            (a, b) => a.is_none() && b.is_none(),
         }
     }
 }

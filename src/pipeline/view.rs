@@ -93,9 +93,8 @@ pub fn dispatches(params: ViewParams, device_type: wgpu::DeviceType) -> Vec<View
         .collect()
 }
 
-/// The uniforms of one frame.
-pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
-    let v = &desc.volume;
+/// The environment's uniforms: what camera rays see, and (with its table) the light it is.
+pub fn env_params(desc: &FrameDesc) -> EnvParams {
     let env = &desc.environment;
     use crate::gpu::types::env_kind;
     let (color, kind) = match &env.source {
@@ -103,11 +102,25 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
         _ if env.evaluated_per_ray() => (glam::Vec3::ONE, env_kind::STUDIO),
         _ => (glam::Vec3::ONE, env_kind::IMAGE),
     };
-    // (The environment texture holds the image's mean: uploaded before the view pass runs.)
-    let ambient = match env.image() {
-        Some(_) => inputs.environment.mean * env.intensity,
-        None => color * env.intensity,
-    };
+    EnvParams { color: color.into(), intensity: env.intensity, rotation: env.rotation, kind, visible: env.visible as u32, footprint: desc.camera.pixel_angle() }
+}
+
+/// Shadow-ray pairs toward the environment per receiver hit and camera sample: at least
+/// `ENV_PAIRS_PER_PIXEL` pairs per pixel in all, 0 when the environment is dark (then receivers
+/// are shaded as before it was a light, bit for bit).
+pub fn env_pairs(desc: &FrameDesc, env: &EnvironmentTexture) -> u32 {
+    let lit = (env.light.integral * super::env_light::scale(&desc.environment)).max_element() > 0.0;
+    if lit { ENV_PAIRS_PER_PIXEL.div_ceil(desc.samples.max(1)) } else { 0 }
+}
+
+/// Pairs of shadow rays toward the environment a pixel's receiver hits take in all (split over
+/// its camera samples): its soft sky shadows converge with samples, and a pixel of one sample
+/// still takes sixteen.
+pub const ENV_PAIRS_PER_PIXEL: u32 = 16;
+
+/// The uniforms of one frame.
+pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
+    let v = &desc.volume;
     // A curved ray can wander: allow a few box diagonals of steps before giving up.
     let diagonal = (v.max() - v.min).length();
     let max_steps = ((4.0 * diagonal / v.step).ceil() as u32).clamp(16, 1 << 20);
@@ -122,7 +135,8 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
     if inputs.caustics {
         flags |= view_flags::CAUSTICS;
     }
-    if desc.receivers.iter().any(|r| r.diffuse.alpha_mode != crate::scene::AlphaMode::Opaque) {
+    // Shadow rays look past cut-outs, see-through receivers and thin glass sheets.
+    if desc.receivers.iter().any(|r| r.diffuse.alpha_mode != crate::scene::AlphaMode::Opaque) || desc.meshes.iter().any(|m| m.sharp && m.thin) {
         flags |= view_flags::SEE_THROUGH;
     }
     if desc.receivers.iter().any(|r| r.diffuse.is_pbr()) {
@@ -135,7 +149,7 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
     ViewParams {
         camera: desc.camera.to_gpu(),
         grid: v.to_gpu(),
-        env: EnvParams { color: color.into(), intensity: env.intensity, rotation: env.rotation, kind, visible: env.visible as u32, footprint: desc.camera.pixel_angle() },
+        env: env_params(desc),
         width: desc.camera.width,
         height: desc.camera.height,
         max_steps,
@@ -150,11 +164,12 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
         // In a scattering medium the in-scattered light varies voxel to voxel: sample each.
         max_step: if inputs.scattering { v.voxel_size } else { 64.0 * v.voxel_size },
         eps_refract: super::photons::EPS_REFRACT,
-        ambient: ambient.into(),
+        env_pairs: env_pairs(desc, inputs.environment),
         camera_media_lo: camera_media[0],
         camera_media_hi: camera_media[1],
         grid_dispersion: spectrum.grid_dispersion,
         wavelengths_per_sample: wavelengths_per_sample(spectrum.spectral, desc.samples),
+        ..Default::default()
     }
 }
 
@@ -190,6 +205,7 @@ fn bindings() -> Vec<wgpu::BindGroupLayoutEntry> {
         layout::texture(23, wgpu::TextureViewDimension::D2Array),
         layout::storage(24, true),
         layout::storage(25, true),
+        layout::storage(26, true),
         layout::storage(30, false),
         layout::storage(31, false),
         layout::storage(32, false),
@@ -279,6 +295,7 @@ impl View {
                     layout::bind(22, &receivers.triangle_normals.buffer),
                     wgpu::BindGroupEntry { binding: 23, resource: layout::texture_view(&env.specular_view) },
                     layout::bind(24, &self.brdf_lut),
+                    layout::bind(26, &env.light_table),
                 ],
             });
             self.bound = Some((generations, bg));

@@ -71,22 +71,6 @@ impl EnvImage {
         let bottom = texel(x0, y0 + 1).lerp(texel(x0 + 1, y0 + 1), tx);
         top.lerp(bottom, ty)
     }
-
-    /// Mean radiance over the sphere (texels weighted by solid angle).
-    pub fn mean(&self) -> Vec3 {
-        let mut sum = Vec3::ZERO;
-        let mut weight = 0.0;
-        for y in 0..self.height {
-            let lat = PI * (0.5 - (y as f32 + 0.5) / self.height as f32);
-            let w = lat.cos();
-            for x in 0..self.width {
-                let t = self.texels[(y * self.width + x) as usize];
-                sum += Vec3::new(t[0], t[1], t[2]) * w;
-                weight += w;
-            }
-        }
-        sum / weight.max(1e-12)
-    }
 }
 
 /// Texture coordinates → direction (inverse of [`dir_to_uv`]).
@@ -242,7 +226,7 @@ pub fn from_arg(arg: &str) -> Result<Environment> {
 }
 
 /// Names of the built-in environments.
-pub const PRESETS: &[&str] = &["studio", "sky", "checker"];
+pub const PRESETS: &[&str] = &["studio", "sky", "sunny", "checker"];
 
 /// A built-in environment, generated once per process.
 pub fn preset(name: &str) -> Result<Arc<EnvImage>> {
@@ -259,6 +243,7 @@ pub fn preset(name: &str) -> Result<Arc<EnvImage>> {
             EnvImage::from_fn(2048, 1024, |d| studio(d, footprint))
         }
         "sky" => EnvImage::from_fn(2048, 1024, sky),
+        "sunny" => EnvImage::from_fn(2048, 1024, sunny),
         "checker" => EnvImage::from_fn(512, 256, checker),
         _ => bail!("unknown environment preset \"{name}\" (choose one of: {})", PRESETS.join(", ")),
     });
@@ -335,12 +320,24 @@ fn fract(x: Vec2) -> Vec2 {
 
 /// A clear sky: blue zenith, bright hazy horizon, brown ground, and a small warm sun.
 fn sky(d: Vec3) -> Vec3 {
+    sky_with_sun(d, Vec3::new(60.0, 55.0, 45.0))
+}
+
+/// A blue sky over brown ground with a sun disc ~2.3° across, 37° up, of radiance `sun`.
+fn sky_with_sun(d: Vec3, sun: Vec3) -> Vec3 {
     if d.y < 0.0 {
         return Vec3::new(0.25, 0.22, 0.18).lerp(Vec3::new(0.12, 0.1, 0.08), smoothstep(0.0, 0.4, -d.y));
     }
     let base = Vec3::new(0.9, 0.95, 1.05).lerp(Vec3::new(0.18, 0.32, 0.7), smoothstep(0.0, 0.6, d.y));
     let sun_dir = Vec3::new(0.4, 0.6, -0.7).normalize();
-    base + Vec3::new(60.0, 55.0, 45.0) * smoothstep(0.9995, 0.9998, d.dot(sun_dir))
+    base + sun * smoothstep(0.9995, 0.9998, d.dot(sun_dir))
+}
+
+/// The sky with a sun as bright as a clear day's against its sky: on a floor the sun gives
+/// about five times the sky's irradiance, so it casts hard shadows and caustics — an HDRI
+/// as photographed, for scenes lit by their environment alone.
+fn sunny(d: Vec3) -> Vec3 {
+    sky_with_sun(d, Vec3::new(6000.0, 5600.0, 5000.0))
 }
 
 /// A longitude/latitude checkerboard with a tint per octant: every direction is recognisable,

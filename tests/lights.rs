@@ -1,0 +1,240 @@
+//! Lights as artists light: the environment as a light (src/pipeline/env_light.rs,
+//! shaders/shared/env_light.wgsl) — receivers lit by it with shadows, against closed forms, and
+//! its photons' caustic against a sun light's — and rect lights' photons.
+
+mod common;
+
+use std::f32::consts::PI;
+use std::sync::Arc;
+
+use common::{frame_from_lua, shared_renderer};
+use glam::Vec3;
+use refrakt::output::{Image, Layer};
+use refrakt::pipeline::env_light::{EnvLightTable, from_table_frame};
+use refrakt::scene::{EnvImage, Environment, EnvironmentSource};
+
+fn rgb(layer: &Layer, i: usize) -> Vec3 {
+    let c = layer.channels.len();
+    Vec3::new(layer.data[c * i], layer.data[c * i + 1], layer.data[c * i + 2])
+}
+
+fn layer<'a>(image: &'a Image, name: &str) -> &'a Layer {
+    image.layer(name).unwrap_or_else(|| panic!("a {name} layer"))
+}
+
+/// The environment of an image (its table is built from it as it is: ≤ 1024 wide).
+fn image_environment(image: EnvImage, intensity: f32, rotation: f32) -> Environment {
+    Environment { source: EnvironmentSource::Image { path: "test.exr".into(), image: Arc::new(image) }, intensity, rotation, visible: true }
+}
+
+/// The world point an orthographic camera looking straight down (up = −Z) at height 5 sees at
+/// pixel (x, y) of a `size`² image `extent` metres wide: (x, z) on the floor.
+fn floor_point(x: usize, y: usize, size: usize, extent: f32) -> (f32, f32) {
+    let px = extent / size as f32;
+    ((x as f32 + 0.5) * px - 0.5 * extent, (y as f32 + 0.5) * px - 0.5 * extent)
+}
+
+const TOP_VIEW: &str = "camera = r.camera{ position = {0, 5, 0}, target = {0, 0, 0}, up = {0, 0, -1}, orthographic = 3, size = {96, 96} }";
+
+/// A black ball (r = 0.3 m) resting on a white floor (albedo 0.8) under a uniform sky of
+/// radiance 1: the floor sees the sky but for the ball, whose cosine-weighted share of its
+/// hemisphere is (r/d)² cos θ = r³/d³ (d: distance to the ball's centre, which stands r above
+/// the floor), so L = 0.8 (1 − r³/d³). Ring by ring from the contact outwards, within 3 %.
+#[test]
+fn a_ball_on_a_floor_under_a_uniform_sky_shades_it_by_its_form_factor() {
+    let desc = frame_from_lua(&format!(
+        "local r = require('refrakt')
+         local scene = r.scene{{ {TOP_VIEW}, environment = r.environment{{ color = {{1, 1, 1}} }}, samples = 4 }}
+         scene:add(r.node{{ name = 'floor', shape = r.plane{{ size = {{8, 8}} }}, material = r.diffuse{{ color = {{0.8, 0.8, 0.8}} }} }})
+         scene:add(r.node{{ name = 'ball', translation = {{0, 0.3, 0}}, shape = r.sphere{{ radius = 0.3 }}, material = r.diffuse{{ color = {{0, 0, 0}} }} }})
+         return scene"
+    ));
+    let image = shared_renderer().frame(&desc).unwrap();
+    let beauty = layer(&image, "beauty");
+    let r = 0.3f32;
+    let rings = [0.32f32, 0.36, 0.42, 0.5, 0.65, 0.85, 1.1, 1.4];
+    let mut sums = vec![(0.0f64, 0.0f64, 0u32); rings.len() - 1];
+    for y in 0..96 {
+        for x in 0..96 {
+            let (px, pz) = floor_point(x, y, 96, 3.0);
+            let rho = (px * px + pz * pz).sqrt();
+            let Some(ring) = rings.windows(2).position(|w| rho >= w[0] && rho < w[1]) else { continue };
+            let d = (rho * rho + r * r).sqrt();
+            let expected = 0.8 * (1.0 - (r / d).powi(3));
+            let got = rgb(beauty, y * 96 + x);
+            sums[ring].0 += got.x as f64;
+            sums[ring].1 += expected as f64;
+            sums[ring].2 += 1;
+        }
+    }
+    for (i, (got, expected, n)) in sums.iter().enumerate() {
+        let (got, expected) = (got / *n as f64, expected / *n as f64);
+        println!("ring {:.2}–{:.2} m ({n} px): {got:.4} vs {expected:.4} ({:+.2} %)", rings[i], rings[i + 1], 100.0 * (got / expected - 1.0));
+        assert!((got / expected - 1.0).abs() < 0.03, "ring {i}: {got} vs {expected}");
+    }
+    // The occluded inner ring is darker than the outer one by the closed form's margin.
+    assert!(sums[0].0 / sums[0].2 as f64 + 0.15 < sums[6].0 / sums[6].2 as f64);
+}
+
+/// A sky of smooth gradients and a bright patch (a texel grid the table keeps as it is).
+fn patchy_sky() -> EnvImage {
+    let texels = (0..48u32)
+        .flat_map(|y| (0..96u32).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let patch = if (30..38).contains(&x) && (8..13).contains(&y) { 12.0 } else { 0.0 };
+            [0.2 + 0.6 * (y as f32 / 47.0) + patch, 0.4 + 0.3 * (x as f32 / 95.0), 0.9 - 0.5 * (y as f32 / 47.0) + 0.5 * patch, 1.0]
+        })
+        .collect();
+    EnvImage { width: 96, height: 48, texels }
+}
+
+/// An unoccluded plane under an environment image gets E = ∫ L max(n·ω, 0) dω of the image, so
+/// its radiance is albedo/π × E: a floor (any turn of the environment gives the same E) and a
+/// wall facing +X (whose E depends on the turn, so the shadow rays' directions are checked
+/// against the image), within 1 %.
+#[test]
+fn an_open_plane_under_an_image_gets_its_irradiance_exactly() {
+    let (intensity, rotation) = (1.3f32, 0.7f32);
+    let table = EnvLightTable::of_image(&patchy_sky());
+    for (normal, placement) in [(Vec3::Y, "rotation = {0, 0, 0}"), (Vec3::X, "rotation = {0, 0, -90}")] {
+        let mut desc = frame_from_lua(&format!(
+            "local r = require('refrakt')
+             local scene = r.scene{{ camera = r.camera{{ position = {{4 * {nx}, 4 * {ny}, 0}}, target = {{0, 0, 0}}, up = {{0, 0, -1}}, orthographic = 2, size = {{32, 32}} }}, samples = 4 }}
+             scene:add(r.node{{ name = 'plane', {placement}, shape = r.plane{{ size = {{6, 6}} }}, material = r.diffuse{{ color = {{0.5, 0.5, 0.5}} }} }})
+             return scene",
+            nx = normal.x,
+            ny = normal.y
+        ));
+        desc.environment = image_environment(patchy_sky(), intensity, rotation);
+        let image = shared_renderer().frame(&desc).unwrap();
+        let direct = layer(&image, "direct");
+        let n = direct.data.len() / direct.channels.len();
+        let mean = (0..n).map(|i| rgb(direct, i)).sum::<Vec3>() / n as f32;
+        let e = table.irradiance(refrakt::pipeline::env_light::to_table_frame(rotation, normal), 16) * intensity;
+        let expected = e * 0.5 / PI;
+        println!("plane facing {normal}: {mean} vs {expected}");
+        for c in 0..3 {
+            assert!((mean[c] / expected[c] - 1.0).abs() < 0.01, "facing {normal}, channel {c}: {} vs {}", mean[c], expected[c]);
+        }
+    }
+}
+
+/// A glass ball (r = 0.3 m, n = 1.5) 0.5 m over a white floor in a black environment, seen from
+/// straight above (orthographic, 2.4 m across, 64²), lit by the Lua statement `light`.
+fn ball_over_floor(photons: u32, samples: u32, light: &str) -> refrakt::frame::FrameDesc {
+    frame_from_lua(&format!(
+        "local r = require('refrakt')
+         local scene = r.scene{{ camera = r.camera{{ position = {{0, 5, 0}}, target = {{0, 0, 0}}, up = {{0, 0, -1}}, orthographic = 2.4, size = {{64, 64}} }},
+                                environment = r.environment{{ color = {{0, 0, 0}} }}, photons = {photons}, samples = {samples},
+                                volume = {{ resolution = 48 }} }}
+         scene:add(r.node{{ name = 'floor', shape = r.plane{{ size = {{6, 6}} }}, material = r.diffuse{{ color = {{0.8, 0.8, 0.8}} }} }})
+         scene:add(r.node{{ name = 'ball', translation = {{0, 0.5, 0}}, shape = r.sphere{{ radius = 0.3 }}, material = r.glass{{ ior = 1.5 }} }})
+         {light}
+         return scene"
+    ))
+}
+
+/// An environment image holding only a sun (a disc 3° across) lights a glass ball on a floor
+/// as a sun light of the same irradiance and angular size does: its photons make the same
+/// caustic (the flux that passed glass to the floor, and the caustic seen, within 3 %; relative L1
+/// of the two caustic images ≤ 0.15) and its shadow rays
+/// the same direct light and shadow (mean within 2 %). The environment is turned, so photons
+/// and shadow rays must both follow the turn to agree with the light placed where it shows.
+#[test]
+fn an_hdri_sun_throws_the_caustic_and_shadow_of_a_sun_light() {
+    let (rotation, half_angle) = (0.9f32, 1.5f32.to_radians());
+    // The sun in the image's own frame, 60° up.
+    let (elevation, azimuth) = (60f32.to_radians(), 0.6f32);
+    let sun_table = Vec3::new(elevation.cos() * azimuth.cos(), elevation.sin(), elevation.cos() * azimuth.sin());
+    let radiance = 40.0;
+    let sky = EnvImage::from_fn(1024, 512, |d| if d.dot(sun_table) >= half_angle.cos() { Vec3::splat(radiance) } else { Vec3::ZERO });
+    let table = EnvLightTable::of_image(&sky);
+    let toward_sun = from_table_frame(rotation, sun_table);
+    // The irradiance the image's sun gives a plane facing it: the sun light's (lux = W/m² · 683).
+    let e_sun = table.irradiance(sun_table, 2).x;
+    let scene = |light: &str| ball_over_floor(800_000, 2, light);
+    let sun = scene(&format!(
+        "scene:add(r.node{{ name = 'sun', light = r.sun{{ direction = {{{}, {}, {}}}, intensity = {}, angular_diameter = 3 }} }})",
+        -toward_sun.x,
+        -toward_sun.y,
+        -toward_sun.z,
+        e_sun * 683.0
+    ));
+    let mut hdri = scene("");
+    hdri.environment = image_environment(sky, 1.0, rotation);
+    let mut r = shared_renderer();
+    let with_sun = r.frame(&sun).unwrap();
+    let flux_sun = r.photon_stats().expect("photons were traced").caustic[0];
+    let with_hdri = r.frame(&hdri).unwrap();
+    let flux_hdri = r.photon_stats().expect("photons were traced").caustic[0];
+    drop(r);
+    let sum = |image: &Image, name: &str| -> f64 {
+        let l = layer(image, name);
+        (0..l.data.len() / l.channels.len()).map(|i| rgb(l, i).x as f64).sum()
+    };
+    let (caustic_sun, caustic_hdri) = (sum(&with_sun, "caustic"), sum(&with_hdri, "caustic"));
+    let (direct_sun, direct_hdri) = (sum(&with_sun, "direct"), sum(&with_hdri, "direct"));
+    let (a, b) = (layer(&with_sun, "caustic"), layer(&with_hdri, "caustic"));
+    let n = a.data.len() / a.channels.len();
+    let l1: f64 = (0..n).map(|i| (rgb(a, i).x - rgb(b, i).x).abs() as f64).sum::<f64>() / caustic_sun;
+    println!("caustic flux: HDRI {flux_hdri:.5} W vs sun {flux_sun:.5} W ({:+.2} %)", 100.0 * (flux_hdri / flux_sun - 1.0));
+    println!("caustic seen: HDRI {caustic_hdri:.3} vs sun {caustic_sun:.3} ({:+.2} %), relative L1 {l1:.3}", 100.0 * (caustic_hdri / caustic_sun - 1.0));
+    println!("direct light: HDRI {direct_hdri:.3} vs sun {direct_sun:.3} ({:+.2} %)", 100.0 * (direct_hdri / direct_sun - 1.0));
+    assert!(caustic_sun > 0.0, "the sun light makes a caustic");
+    assert!((flux_hdri / flux_sun - 1.0).abs() < 0.03);
+    assert!((caustic_hdri / caustic_sun - 1.0).abs() < 0.03);
+    assert!(l1 < 0.15, "the two caustics differ in shape: relative L1 {l1}");
+    assert!((direct_hdri / direct_sun - 1.0).abs() < 0.02);
+}
+
+/// A dark environment is no light: no photons leave it and receivers are shaded as by the lights
+/// alone, bit for bit whatever its image.
+#[test]
+fn a_dark_environment_changes_nothing() {
+    let source = "local r = require('refrakt')
+         local scene = r.scene{ camera = r.camera{ position = {0, 2, 3}, target = {0, 0, 0}, size = {24, 16} }, photons = 20000, samples = 1, volume = { resolution = 24 } }
+         scene:add(r.node{ name = 'floor', shape = r.plane{ size = {4, 4} }, material = r.diffuse{ color = {0.8, 0.8, 0.8} } })
+         scene:add(r.node{ name = 'ball', translation = {0, 0.5, 0}, shape = r.sphere{ radius = 0.3 }, material = r.glass{ ior = 1.5 } })
+         scene:add(r.node{ name = 'sun', light = r.sun{ direction = {0.2, -1, 0.1}, intensity = 700 } })
+         return scene";
+    let mut black = frame_from_lua(source);
+    black.environment = Environment { source: EnvironmentSource::Color(Vec3::ZERO), ..Environment::default() };
+    let mut dark_image = black.clone();
+    dark_image.environment = image_environment(EnvImage { width: 4, height: 2, texels: vec![[0.0, 0.0, 0.0, 1.0]; 8] }, 1.0, 0.0);
+    let mut r = shared_renderer();
+    let a = r.frame(&black).unwrap();
+    let b = r.frame(&dark_image).unwrap();
+    for name in ["caustic", "direct"] {
+        assert_eq!(layer(&a, name).data, layer(&b, name).data, "{name}");
+    }
+}
+
+/// A small rect light (4 cm square, radiance L) 2.5 m above a glass ball sends photons as a
+/// point light of intensity L·A at its centre does, but for its cos θ falloff (0.9954 on average
+/// over the ball): the caustic flux (the march's sum over the photons that passed glass and
+/// reached the floor) within 1.5 % of 0.9954 × the point light's, and the caustic seen (relative
+/// L1 of the two caustic images, which differ also by the rect's blur of the focus) ≤ 0.15.
+#[test]
+fn a_small_rect_lights_caustic_is_a_point_lights() {
+    let (radiance, side) = (2.0e6f32, 0.04f32);
+    let scene = |light: &str| {
+        let lamp = format!("scene:add(r.node{{ name = 'lamp', translation = {{0.1, 3, 0.05}}, rotation = r.look_at({{0.1, 3, 0.05}}, {{0.1, 0, 0.05}}, {{0, 0, -1}}), light = {light} }})");
+        ball_over_floor(400_000, 1, &lamp)
+    };
+    let rect = scene(&format!("r.rect{{ size = {{{side}, {side}}}, intensity = {radiance} }}"));
+    let point = scene(&format!("r.point{{ intensity = {} }}", radiance * side * side));
+    let mut r = shared_renderer();
+    let with_rect = r.frame(&rect).unwrap();
+    let flux_rect = r.photon_stats().expect("photons were traced").caustic[0];
+    let with_point = r.frame(&point).unwrap();
+    let flux_point = r.photon_stats().expect("photons were traced").caustic[0];
+    let (a, b) = (layer(&with_point, "caustic"), layer(&with_rect, "caustic"));
+    let n = a.data.len() / a.channels.len();
+    let seen = (0..n).map(|i| rgb(a, i).x as f64).sum::<f64>();
+    let l1 = (0..n).map(|i| (rgb(a, i).x - rgb(b, i).x).abs() as f64).sum::<f64>() / seen;
+    let ratio = flux_rect / flux_point / 0.9954;
+    println!("caustic flux: rect {flux_rect:.5} W vs point {flux_point:.5} W × 0.9954 ({:+.2} %); images' relative L1 {l1:.3}", 100.0 * (ratio - 1.0));
+    assert!(flux_point > 0.0 && seen > 0.0);
+    assert!((ratio - 1.0).abs() < 0.015, "caustic flux ratio {ratio}");
+    assert!(l1 < 0.15, "relative L1 {l1}");
+}

@@ -2,7 +2,7 @@
 
 - `scenes[i].extras.refrakt`: photons, samples, volume, fog, environment;
 - `nodes[i].extras.refrakt`: an analytic index field, or `{"role": "ignore"}`, or a point or
-  spot light's `light_radius`;
+  spot light's `light_radius`, or an area light (`light`, a rect: glTF has no area lights);
 - `materials[i].extras.refrakt`: absorption, scattering, g, boundary of the medium inside.
 
 Everything is converted to refrakt's frame (Y up, as the glTF exporter's +Y Up option does) and
@@ -24,6 +24,16 @@ class Warnings(list):
     def add(self, message):
         if message not in self:
             self.append(message)
+
+    def add_about(self, name, message):
+        """`message` once however many objects it concerns, naming each: "message: 'A', 'B'"."""
+        prefix, quoted = message + ": ", f"'{name}'"
+        for i, line in enumerate(self):
+            if line.startswith(prefix):
+                if quoted not in line[len(prefix):].split(", "):
+                    self[i] = f"{line}, {quoted}"
+                return
+        self.append(prefix + quoted)
 
 
 def to_yup(v):
@@ -182,14 +192,62 @@ def _local_half_extents(obj):
     return [(max(c[i] for c in corners) - min(c[i] for c in corners)) / 2.0 for i in range(3)]
 
 
-def node_extras(obj, scene):
+LUMENS_PER_WATT = 683.0
+MIN_SIZE = 1e-4  # metres
+DISC_MESSAGE = ("refrakt has no disc lights yet: these disk or ellipse area lights are exported as rectangles "
+                "of the same area, aspect ratio and power")
+
+
+def area_light(obj, warnings):
+    """A Blender area light as refrakt's rect (`nodes[i].extras.refrakt.light`): its size in the
+    node's local X and Y (the exporter's light nodes keep Blender's local axes, −Z forward) and
+    its radiance in nits.
+
+    Cycles makes an area light of power P W and area A (its size times the object's scale, π/4 of
+    the bounding rectangle for a disk or ellipse) a Lambertian emitter of radiance
+    L = P / (π · A) W/(m²·sr) from its front face (with *Normalize* off, L = P / π), times
+    2^exposure; refrakt's rect takes nits, L · 683 lm/W, as the glTF exporter's standard lighting
+    mode turns point-light watts into candela. The scale is read at the exported frame (refrakt
+    sizes a rect by its extras, not by its node's scale)."""
+    light = obj.data
+    axes = obj.matrix_world.to_3x3()
+    sx, sy = axes.col[0].length, axes.col[1].length
+    # refrakt needs a rect of some size; a vanishing one keeps its power (and so a huge radiance).
+    width = max(light.size * sx, MIN_SIZE)
+    height = max((light.size_y if light.shape in ("RECTANGLE", "ELLIPSE") else light.size) * sy, MIN_SIZE)
+    area = width * height
+    if light.shape in ("DISK", "ELLIPSE"):
+        area *= math.pi / 4.0
+        # The same area and aspect ratio: both sides times √π / 2.
+        width, height = (x * math.sqrt(math.pi) / 2.0 for x in (width, height))
+        warnings.add_about(obj.name, DISC_MESSAGE)
+    power = light.energy * 2.0 ** getattr(light, "exposure", 0.0)
+    normalize = getattr(light, "normalize", True)
+    radiance = power / (math.pi * area) if normalize else power / math.pi
+    spread = getattr(light, "spread", math.pi)
+    if spread < math.pi - 1e-4:
+        warnings.add(f"Area light '{obj.name}': its spread is {math.degrees(spread):.0f}°, but refrakt's rect light "
+                     "emits as a plain diffuse panel (Cycles' 180°): its light falls wider and dimmer than in Cycles")
+    color = list(light.color)
+    if getattr(light, "use_temperature", False):
+        color = [c * t for c, t in zip(color, light.temperature_color)]
+    return {"type": "rect", "size": [width, height], "color": color, "intensity": radiance * LUMENS_PER_WATT}
+
+
+def node_extras(obj, scene, warnings=None):
     """A node's extras: an index field, or 'ignore' (the volume bounds object, or by choice);
-    a point or spot light's radius (glTF's KHR_lights_punctual has none)."""
+    a point or spot light's radius (glTF's KHR_lights_punctual has none); an area light (which
+    KHR_lights_punctual lacks, so Blender's exporter writes none)."""
+    warnings = Warnings() if warnings is None else warnings
     s = obj.refrakt
     if s.role == "IGNORE" or obj == scene.refrakt.volume_bounds:
         return {"role": "ignore"}
     if obj.type == "LIGHT" and obj.data.type in ("POINT", "SPOT"):
         return {"light_radius": obj.data.shadow_soft_size}
+    if obj.type == "LIGHT" and obj.data.type == "AREA":
+        # A Cycles portal only guides the sampling of the World's light: it emits nothing.
+        portal = getattr(getattr(obj.data, "cycles", None), "is_portal", False)
+        return None if portal else {"light": area_light(obj, warnings)}
     if s.role != "FIELD":
         return None
     half = _local_half_extents(obj) if s.use_bounds else None

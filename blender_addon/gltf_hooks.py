@@ -64,7 +64,7 @@ class RefraktGltfExtension:
     @_guarded
     def gather_node_hook(self, gltf2_node, blender_object, export_settings):
         if blender_object is not None:
-            _set_refrakt_extras(gltf2_node, extras.node_extras(blender_object, bpy.context.scene))
+            _set_refrakt_extras(gltf2_node, extras.node_extras(blender_object, bpy.context.scene, warnings))
 
     @_guarded
     def gather_mesh_hook(self, gltf2_mesh, blender_mesh, blender_object, vertex_groups, modifiers, materials, export_settings):

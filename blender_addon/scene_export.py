@@ -76,8 +76,9 @@ def fps(scene):
 
 def gltf_options(scene):
     """Blender glTF exporter settings for refrakt: cameras, punctual lights in the standard
-    photometric units (refrakt divides by 683 lm/W as Blender's importer does), Y up, and one
-    animation baked from the scene's frame range, sampled every frame."""
+    photometric units (refrakt divides by 683 lm/W as Blender's importer does; area lights,
+    which glTF lacks, go out as node extras in the same units), Y up, and one animation baked
+    from the scene's frame range, sampled every frame."""
     return dict(
         export_format="GLB",
         use_active_scene=True,
@@ -108,13 +109,6 @@ def read_glb_json(path):
         return json.loads(f.read(chunk_length))
 
 
-def _skipped_lights(scene):
-    return [
-        o.name for o in scene.objects
-        if o.type == "LIGHT" and o.data.type == "AREA" and o.refrakt.role != "IGNORE"
-    ]
-
-
 def export(context, target=None):
     """Writes the scene to `target` (default: its .glb path) through a temporary file and a
     rename, so `refrakt watch` never reads half a file. Returns the warnings to show."""
@@ -142,9 +136,7 @@ def export(context, target=None):
     finally:
         if os.path.exists(tmp):
             os.remove(tmp)
-    warnings = list(gltf_hooks.warnings)
-    warnings += [f"Area light '{n}' is not exported: glTF has point, spot and sun lights only" for n in _skipped_lights(scene)]
-    return warnings
+    return list(gltf_hooks.warnings)
 
 
 # --- the Lua wrapper -----------------------------------------------------------------------

@@ -268,6 +268,50 @@ fn a_light_radius_in_node_extras_sizes_point_and_spot_bulbs() {
 }
 
 #[test]
+fn a_rect_light_in_node_extras_is_an_area_light_of_that_size_direction_and_radiance() {
+    // As the Blender add-on writes an area light (which KHR_lights_punctual lacks): on a node
+    // whose local −Z is where it shines, with its size in the local XY plane and nits.
+    let mut g = GltfBuilder::new();
+    let turn = Quat::from_rotation_y(0.4) * Quat::from_rotation_x(-1.1);
+    let rect = json!({ "refrakt": { "light": { "type": "rect", "size": [1.5, 0.5], "color": [1.0, 0.5, 0.25], "intensity": 2000.0 } } });
+    let panel = g.push("nodes", json!({ "name": "Panel", "translation": [0.5, 2.0, -1.0], "rotation": turn.to_array(), "extras": rect }));
+    let plain = g.push("nodes", json!({ "name": "Plain", "extras": { "refrakt": { "light": { "type": "rect", "size": [1.0, 1.0], "future": 1 } } } }));
+    g.scene("S", &[panel, plain]);
+    let dir = tempfile::tempdir().unwrap();
+    let path = g.write_glb(&dir.path().join("a.glb"));
+    let s = load(&path).scene;
+    let light = s.find("Panel").unwrap().borrow().light.as_ref().unwrap().borrow().clone();
+    assert_eq!(light.kind, LightKind::Rect { size: glam::Vec2::new(1.5, 0.5) });
+    assert_eq!((light.color, light.intensity), (Vec3::new(1.0, 0.5, 0.25), 2000.0));
+    let desc = evaluate(&s, 0.0, &EvalOptions::default()).unwrap();
+    let l = desc.lights.iter().find(|l| l.name == "Panel").unwrap();
+    assert!((l.position - Vec3::new(0.5, 2.0, -1.0)).length() < 1e-6);
+    assert!((l.direction - turn * Vec3::NEG_Z).length() < 1e-6, "an area light shines down its node's local −Z");
+    assert!((l.right - turn * Vec3::X).length() < 1e-6 && (l.up - turn * Vec3::Y).length() < 1e-6, "its size lies along local X and Y");
+    // Radiance in W/(m²·sr): nits / 683 lm/W, times the colour.
+    assert!((l.radiant - Vec3::new(1.0, 0.5, 0.25) * 2000.0 / 683.0).abs().max_element() < 1e-5);
+    let plain = s.find("Plain").unwrap().borrow().light.as_ref().unwrap().borrow().clone();
+    assert_eq!((plain.color, plain.intensity), (Vec3::ONE, 1.0), "colour and intensity default to 1");
+    let access = refrakt::lua::sandbox::FileAccess::new(dir.path(), &[]).unwrap();
+    let import = refrakt::gltf::import(&path, "a.glb", &access, &ImportOptions::default()).unwrap();
+    let warned = "a.glb: nodes[1]: extras.refrakt.light.future is not a refrakt setting (known: type, size, color, intensity); skipped";
+    assert!(import.warnings.iter().any(|w| w.to_string() == warned), "{:?}", import.warnings.iter().map(|w| w.to_string()).collect::<Vec<_>>());
+
+    for (light, message) in [
+        (json!({ "type": "disk", "size": [1.0, 1.0] }), "nodes[0].extras.refrakt.light.type is \"disk\"; refrakt reads \"rect\""),
+        (json!({ "size": [1.0, 1.0] }), "nodes[0].extras.refrakt.light.type must be \"rect\""),
+        (json!({ "type": "rect", "size": [1.0, 0.0] }), "nodes[0].extras.refrakt.light.size must be two numbers > 0 (metres)"),
+        (json!({ "type": "rect", "size": [1.0, 1.0], "intensity": -1.0 }), "nodes[0].extras.refrakt.light.intensity must be a number ≥ 0 (nits)"),
+    ] {
+        let mut bad = GltfBuilder::new();
+        let node = bad.push("nodes", json!({ "name": "Bad", "extras": { "refrakt": { "light": light } } }));
+        bad.scene("S", &[node]);
+        let err = load_with(&bad.write_glb(&dir.path().join("bad.glb")), &ImportOptions::default()).err().expect("refused");
+        assert!(format!("{err:#}").contains(message), "{err:#}");
+    }
+}
+
+#[test]
 fn perspective_cameras_take_yfov_and_aspect_and_are_picked_by_name() {
     let mut g = GltfBuilder::new();
     g.push("cameras", json!({ "type": "perspective", "perspective": { "yfov": 0.6, "aspectRatio": 2.0, "znear": 0.1 } }));

@@ -3,14 +3,15 @@
 //!
 //! - `scenes[i].extras.refrakt`: photons, samples, volume, environment, fog;
 //! - `nodes[i].extras.refrakt`: an analytic index field instead of the node's mesh, or
-//!   `{"role": "ignore"}`; `light_radius` for the node's point or spot light;
+//!   `{"role": "ignore"}`; `light_radius` for the node's point or spot light; `light`, an area
+//!   light KHR_lights_punctual has no type for (a `rect`: Blender's area lights);
 //! - `materials[i].extras.refrakt`: absorption, scattering, g and boundary of the medium.
 //!
 //! Unknown keys are skipped with a warning (a newer add-on may write more); values out of
 //! range are errors naming the object and key.
 
 use anyhow::{Result, anyhow, bail};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use serde::Deserialize;
 use serde::de::DeserializeOwned;
 
@@ -133,13 +134,42 @@ pub struct NodeExtras {
     pub boundary: Option<f32>,
     /// The bulb radius of the node's point or spot light, metres (Blender's light radius).
     pub light_radius: Option<f32>,
+    /// A light of a kind KHR_lights_punctual lacks.
+    pub light: Option<LightExtras>,
 }
 
-/// What a node's extras say: its role, and its light's radius.
+/// `nodes[i].extras.refrakt.light`: `{"type": "rect", "size": [w, h], "color": [r, g, b],
+/// "intensity": nits}`, as Lua's `refrakt.rect` (in the node's local XY plane, emitting toward
+/// its local −Z; intensity in nits, cd/m², as KHR_lights_punctual's photometric units).
+#[derive(Debug, Default, Deserialize)]
+#[serde(default)]
+pub struct LightExtras {
+    #[serde(rename = "type")]
+    pub kind: Option<String>,
+    pub size: Option<[f32; 2]>,
+    pub color: Option<[f32; 3]>,
+    pub intensity: Option<f32>,
+    /// Keys refrakt does not know (warned about, as at the top level).
+    #[serde(flatten)]
+    pub unknown: std::collections::BTreeMap<String, serde_json::Value>,
+}
+
+/// An area light from a node's extras: a one-sided rectangle (refrakt's `rect`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RectExtras {
+    /// Metres, along the node's local X and Y.
+    pub size: Vec2,
+    pub color: Vec3,
+    /// Nits (cd/m²).
+    pub intensity: f32,
+}
+
+/// What a node's extras say: its role, its light's radius, and an area light.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct NodeSettings {
     pub role: Option<NodeRole>,
     pub light_radius: Option<f32>,
+    pub rect: Option<RectExtras>,
 }
 
 /// What a node's extras make of it.
@@ -169,14 +199,36 @@ pub enum FieldType {
     Slab,
 }
 
-const NODE_KEYS: &[&str] = &["role", "field", "radius", "size", "ior", "gradient", "boundary", "light_radius"];
+const NODE_KEYS: &[&str] = &["role", "field", "radius", "size", "ior", "gradient", "boundary", "light_radius", "light"];
+const LIGHT_KEYS: &[&str] = &["type", "size", "color", "intensity"];
 
 pub fn node_settings(node: &gltf::Node, file: &str, warnings: &mut Collector) -> Result<NodeSettings> {
     let what = format!("nodes[{}]", node.index());
     let Some(n) = refrakt_object::<NodeExtras>(node.extras(), file, &what, NODE_KEYS, warnings)? else { return Ok(NodeSettings::default()) };
     let light_radius = n.light_radius;
     check(light_radius.is_none_or(|r| r.is_finite() && r >= 0.0), file, &what, "light_radius", "a number ≥ 0 (metres)")?;
-    Ok(NodeSettings { role: node_role(n, file, &what)?, light_radius })
+    let rect = match &n.light {
+        Some(l) => Some(rect_light(l, file, &what, warnings)?),
+        None => None,
+    };
+    Ok(NodeSettings { role: node_role(n, file, &what)?, light_radius, rect })
+}
+
+fn rect_light(l: &LightExtras, file: &str, what: &str, warnings: &mut Collector) -> Result<RectExtras> {
+    for key in l.unknown.keys() {
+        warnings.about(what, format!("extras.refrakt.light.{key} is not a refrakt setting (known: {}); skipped", LIGHT_KEYS.join(", ")));
+    }
+    match l.kind.as_deref() {
+        Some("rect") => {}
+        Some(other) => bail!("{file}: {what}.extras.refrakt.light.type is \"{other}\"; refrakt reads \"rect\" (point, spot and sun lights come through KHR_lights_punctual)"),
+        None => bail!("{file}: {what}.extras.refrakt.light.type must be \"rect\""),
+    }
+    let size = Vec2::from(l.size.unwrap_or([0.0; 2]));
+    check(size.is_finite() && size.min_element() > 0.0, file, what, "light.size", "two numbers > 0 (metres)")?;
+    check(non_negative(l.color), file, what, "light.color", "three numbers ≥ 0")?;
+    let intensity = l.intensity.unwrap_or(1.0);
+    check(intensity.is_finite() && intensity >= 0.0, file, what, "light.intensity", "a number ≥ 0 (nits)")?;
+    Ok(RectExtras { size, color: Vec3::from(l.color.unwrap_or([1.0; 3])), intensity })
 }
 
 fn node_role(n: NodeExtras, file: &str, what: &str) -> Result<Option<NodeRole>> {

@@ -122,7 +122,7 @@ impl<'a> Builder<'a, '_> {
         self.graph.nodes[g.index()] = Rc::downgrade(&node);
         if role != Some(NodeRole::Ignore) {
             self.camera(g, &node, &what);
-            self.light(g, &node, settings.light_radius)?;
+            self.light(g, &node, settings.light_radius, settings.rect)?;
             match role {
                 Some(NodeRole::Field(f)) => self.field(g, &node, &f)?,
                 _ => self.mesh(g, &node)?,
@@ -173,12 +173,25 @@ impl<'a> Builder<'a, '_> {
 
     /// KHR_lights_punctual: intensity in candela (point, spot) or lux (directional), which is
     /// what refrakt's lights take; spot cones by their outer and inner half-angles; a point or
-    /// spot light's bulb radius from the node's `extras.refrakt.light_radius`.
-    fn light(&mut self, g: &gltf::Node, node: &Shared<Node>, radius: Option<f32>) -> Result<()> {
+    /// spot light's bulb radius from the node's `extras.refrakt.light_radius`. An area light
+    /// (which KHR_lights_punctual lacks) from the node's `extras.refrakt.light`.
+    fn light(&mut self, g: &gltf::Node, node: &Shared<Node>, radius: Option<f32>, rect: Option<extras::RectExtras>) -> Result<()> {
         let bulb = g.light().is_some_and(|l| !matches!(l.kind(), gltf::khr_lights_punctual::Kind::Directional));
         if radius.is_some() && !bulb {
             let what = format!("nodes[{}]{}", g.index(), mesh::quoted(g.name()));
             self.warnings.about(what, "extras.refrakt.light_radius is for point and spot lights; skipped");
+        }
+        if let Some(r) = rect {
+            if g.light().is_some() {
+                let what = format!("nodes[{}]{}", g.index(), mesh::quoted(g.name()));
+                self.warnings.about(what, "has a KHR_lights_punctual light, which it keeps; extras.refrakt.light skipped");
+            } else {
+                // Not in `animated.lights` (no KHR_animation_pointer reaches it); the node's
+                // transform, animated or not, places and aims it.
+                let light = Light { color: r.color, intensity: r.intensity, ..Light::new(LightKind::Rect { size: r.size }) };
+                node.borrow_mut().light = Some(shared(light));
+                return Ok(());
+            }
         }
         let Some(l) = g.light() else { return Ok(()) };
         let what = format!("KHR_lights_punctual lights[{}]{}", l.index(), mesh::quoted(l.name()));

@@ -311,7 +311,11 @@ fn shadow_ray(i: u32, p: vec3<f32>, n: vec3<f32>, k: u32, path: u32) -> ShadowRa
         let frame = basis_around(n);
         l = env_light_at(params.env, cosine_direction(n, frame[0], frame[1], u.zw));
     }
-    let c = max(dot(n, l.dir), 0.0);
+    let c = dot(n, l.dir);
+    if c <= 0.0 {
+        // Below the surface (and, at c = 0 on a black texel, 0/0 otherwise).
+        return ShadowRay(l.dir, NO_HIT, vec3<f32>(0.0));
+    }
     return ShadowRay(l.dir, NO_HIT, l.radiance * c / ((l.pdf + c * INV_PI) * f32(params.env_pairs)));
 }
 

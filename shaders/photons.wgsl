@@ -48,10 +48,11 @@ struct EmitterRay {
 // environment and rect lights. `SpreadRay.weight` is the radiance over the direction's density,
 // L(ω)/p(ω): a photon's flux is that × the cell's `measure` × total/(N·weight).
 //
-// - The environment's emitter (`Emitter.light == ENV_LIGHT`) is a disc across the volume's
+// - The environment's emitter (`Emitter.light == ENV_LIGHT`) is a disc as wide as the volume's
 //   bounding sphere (radius `half_width` about `origin`), square to each photon's direction,
-//   which is drawn from the environment (shared/env_light.wgsl); its cells are equal areas of
-//   the disc (the concentric map), `measure` the area of one.
+//   which is drawn from the environment (shared/env_light.wgsl), and `start_distance` back
+//   along it, outside every receiver; its cells are equal areas of the disc (the concentric
+//   map), `measure` the area of one.
 // - A rect light's cells are equal areas of the rect (`measure` the area of one); its photons
 //   leave uniformly over the cone of directions from their start that holds the volume's
 //   bounding sphere (as a point light's raster does), L cos θ / p = L cos θ × the cone's solid
@@ -74,7 +75,7 @@ fn spread_ray(e: Emitter, u: vec2<f32>, xi: vec2<f32>) -> SpreadRay {
         let dir = -s.dir;
         let frame = cone_frame(dir);
         let q = concentric_disk(u) * e.half_width;
-        let origin = e.origin + frame[0] * q.x + frame[1] * q.y - dir * (e.half_width * 1.01);
+        let origin = e.origin + frame[0] * q.x + frame[1] * q.y - dir * e.start_distance;
         return SpreadRay(origin, dir, s.radiance / s.pdf);
     }
     let origin = rect_point(e, u);

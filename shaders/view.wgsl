@@ -296,7 +296,8 @@ struct ShadowRay {
 // two per environment pair — one direction drawn from the environment's table
 // (shared/env_light.wgsl), one by cos θ, each weighted by the balance heuristic (Veach 1997,
 // §9.2), so a small bright sun and a wide dim sky both converge:
-// E_env ≈ Σ L(ω) cos θ / (p_env(ω) + cos θ / π) over both, divided by the pairs.
+// E_env ≈ Σ L(ω) cos θ / (p_env(ω) + cos θ / π) over both, divided by the pairs. A colour
+// environment takes both by cos θ.
 fn shadow_ray(i: u32, p: vec3<f32>, n: vec3<f32>, k: u32, path: u32) -> ShadowRay {
     if i < params.light_count {
         let a = light_arrival(lights[i], p, k);
@@ -304,11 +305,18 @@ fn shadow_ray(i: u32, p: vec3<f32>, n: vec3<f32>, k: u32, path: u32) -> ShadowRa
     }
     let j = i - params.light_count;
     let u = env_numbers(k, path, j / 2u);
+    let frame = basis_around(n);
+    let rays = f32(2u * params.env_pairs);
+    if all(env_table_size() == vec2<u32>(1u)) {
+        // A uniform sky: both rays by cos θ, each L·π exactly where nothing is in the way
+        // (an open surface's E = π L has no noise), the table's uniform sphere adding only noise.
+        let w = cosine_direction(n, frame[0], frame[1], select(u.xy, u.zw, (j & 1u) == 1u));
+        return ShadowRay(w, NO_HIT, env_light_at(params.env, w).radiance * (PI / rays));
+    }
     var l: EnvLightSample;
     if (j & 1u) == 0u {
         l = env_light_sample(params.env, u.xy);
     } else {
-        let frame = basis_around(n);
         l = env_light_at(params.env, cosine_direction(n, frame[0], frame[1], u.zw));
     }
     let c = dot(n, l.dir);

@@ -97,7 +97,7 @@ fn an_absorbing_slab_transmits_the_fresnel_and_beer_lambert_closed_form() {
     let desc = frame_from_lua(&format!(
         r#"local r = require("refrakt")
         local scene = r.scene{{ volume = {{ resolution = 48, min = {{-0.5, -0.3, -0.5}}, max = {{0.5, 0.3, 0.5}} }},
-                               photons = 60000, camera = r.camera{{ size = {{8, 8}} }} }}
+                               photons = 60000, camera = r.camera{{ size = {{8, 8}} }}, environment = r.environment{{ color = {{0, 0, 0}} }} }}
         scene:add(r.node{{ name = "slab", shape = r.box{{ size = {{3, {thickness}, 3}} }},
                           material = r.glass{{ ior = 1.5, absorption = {{{}, {}, {}}} }} }})
         scene:add(r.node{{ name = "floor", translation = {{0, -1, 0}}, shape = r.plane{{ size = {{4, 4}} }},
@@ -117,7 +117,7 @@ fn an_absorbing_slab_transmits_the_fresnel_and_beer_lambert_closed_form() {
 }
 
 /// The share of the emitted flux that reached a receiver, per channel, against a closed form
-/// within a relative `tolerance`.
+/// within a relative `tolerance` (in a black environment: the sun's photons alone).
 fn assert_received_per_channel(s: &refrakt::pipeline::march::PhotonStats, what: &str, tolerance: f64, closed_form: impl Fn(usize) -> f64) {
     for c in 0..3 {
         let (ratio, expected) = (s.received[c] / s.emitted[c], closed_form(c));
@@ -222,7 +222,7 @@ fn a_tinted_slab_passes_its_tint_once_per_surface() {
     let desc = frame_from_lua(&format!(
         r#"local r = require("refrakt")
         local scene = r.scene{{ volume = {{ resolution = 32, min = {{-0.5, -0.3, -0.5}}, max = {{0.5, 0.3, 0.5}} }},
-                               photons = 40000, camera = r.camera{{ size = {{8, 8}} }} }}
+                               photons = 40000, camera = r.camera{{ size = {{8, 8}} }}, environment = r.environment{{ color = {{0, 0, 0}} }} }}
         scene:add(r.node{{ name = "pane", shape = r.box{{ size = {{3, 0.05, 3}} }},
                           material = r.glass{{ ior = 1.5, tint = {{{}, {}, {}}} }} }})
         scene:add(r.node{{ name = "floor", translation = {{0, -1, 0}}, shape = r.plane{{ size = {{4, 4}} }},

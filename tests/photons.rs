@@ -55,7 +55,7 @@ fn lens_under_sun(resolution: u32, photons: u32, screen: f32) -> String {
     format!(
         r#"local r = require("refrakt")
         local scene = r.scene{{ volume = {{ resolution = {resolution}, margin = 0.1 }}, photons = {photons},
-                               camera = r.camera{{ size = {{8, 8}} }} }}
+                               camera = r.camera{{ size = {{8, 8}} }}, environment = r.environment{{ color = {{0, 0, 0}} }} }}
         scene:add(r.node{{ name = "lens", shape = r.luneburg{{ radius = 0.5 }} }})
         scene:add(r.node{{ name = "screen", translation = {{0, {}, 0}}, shape = r.plane{{ size = {{4, 4}} }},
                           material = r.diffuse{{ color = {{1, 1, 1}} }} }})
@@ -153,7 +153,7 @@ fn ball_under_sun(photons: u32, floor: f32) -> String {
     format!(
         r#"local r = require("refrakt")
         local scene = r.scene{{ volume = {{ resolution = 64, margin = 0.05 }}, photons = {photons},
-                               camera = r.camera{{ size = {{8, 8}} }} }}
+                               camera = r.camera{{ size = {{8, 8}} }}, environment = r.environment{{ color = {{0, 0, 0}} }} }}
         scene:add(r.node{{ name = "ball", shape = r.sphere{{ radius = 0.3 }}, material = r.glass{{ ior = 1.5 }} }})
         scene:add(r.node{{ name = "floor", translation = {{0, {}, 0}}, shape = r.plane{{ size = {{3, 3}} }},
                           material = r.diffuse{{ color = {{1, 1, 1}} }} }})
@@ -204,9 +204,11 @@ fn glass_ball_caustic_is_brightest_at_the_paraxial_focus() {
 #[test]
 fn a_closed_room_receives_all_the_emitted_flux() {
     // A point light and a glass ball inside a closed diffuse box: every photon ends on a wall.
+    // (A black environment: the room would keep the sky's photons out, on its outer walls.)
     let desc = frame_from_lua(
         r#"local r = require("refrakt")
-        local scene = r.scene{ volume = { resolution = 48 }, photons = 40000, camera = r.camera{ size = {8, 8} } }
+        local scene = r.scene{ volume = { resolution = 48 }, photons = 40000, camera = r.camera{ size = {8, 8} },
+                               environment = r.environment{ color = {0, 0, 0} } }
         scene:add(r.node{ name = "ball", shape = r.sphere{ radius = 0.3 }, material = r.glass{ ior = 1.5 } })
         scene:add(r.node{ name = "room", shape = r.box{ size = {3, 3, 3} }, material = r.diffuse{ color = {0.5, 0.5, 0.5} } })
         scene:add(r.node{ name = "bulb", translation = {0.2, 1.0, 0.3}, light = r.point{ intensity = 1000 } })
@@ -375,7 +377,7 @@ fn photons_trapped_by_total_internal_reflection_are_absorbed() {
     let desc = frame_from_lua(&format!(
         r#"local r = require("refrakt")
         local scene = r.scene{{ volume = {{ resolution = {resolution}, min = {{-0.5, -0.5, -0.5}}, max = {{0.5, 0.5, 0.5}} }},
-                               photons = 60000, camera = r.camera{{ size = {{8, 8}} }} }}
+                               photons = 60000, camera = r.camera{{ size = {{8, 8}} }}, environment = r.environment{{ color = {{0, 0, 0}} }} }}
         scene:add(r.node{{ name = "ball", shape = r.sphere{{ radius = {radius} }}, material = r.glass{{ ior = {n} }} }})
         scene:add(r.node{{ name = "room", shape = r.box{{ size = {{3, 3, 3}} }}, material = r.diffuse{{ color = {{0.5, 0.5, 0.5}} }} }})
         scene:add(r.node{{ name = "bulb", translation = {{{b}, 0, 0}}, light = r.point{{ intensity = 1000 }} }})

@@ -257,7 +257,7 @@ struct Emitter {
     half_height: f32,
     measure: f32,
     first_cell: u32,
-    _pad0: u32,
+    start_distance: f32,
     _pad1: u32,
 }
 

@@ -400,7 +400,10 @@ gpu_struct! {
         pub half_height: f32,
         pub measure: f32,
         pub first_cell: u32,
-        pub _pad0: u32,
+        /// The environment's emitter: how far from `origin` its photons start, back along their
+        /// direction (`lights::scene_reach`: outside every receiver, so a closed room keeps the
+        /// sky out).
+        pub start_distance: f32,
         pub _pad1: u32,
     }
 }

@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use crate::frame::{LightDesc, LightShape, VolumeDesc};
+use crate::frame::{FrameDesc, LightDesc, LightShape, VolumeDesc};
 use crate::gpu::types::{ENV_LIGHT, Emitter, LightGpu, light_kind};
 
 /// Cells per side of each light's photon raster (G×G importance cells).
@@ -35,13 +35,33 @@ pub fn light_gpu(l: &LightDesc, media: [u32; 2]) -> LightGpu {
     }
 }
 
+/// How far from the volume's centre the scene reaches: its bounding sphere's radius and the
+/// farthest corner of any receiver's box. Light from afar (the sun, the environment) starts
+/// beyond it, so whatever stands between the sky and the glass — a room's walls, a ceiling —
+/// stops it as it stops the shadow rays.
+pub fn scene_reach(desc: &FrameDesc) -> f32 {
+    let (lo, hi) = (desc.volume.min, desc.volume.max());
+    let centre = 0.5 * (lo + hi);
+    let mut reach = 0.5 * (hi - lo).length();
+    for r in &desc.receivers {
+        if let Some((a, b)) = r.mesh.bounds() {
+            for i in 0..8 {
+                let corner = Vec3::new(if i & 1 == 0 { a.x } else { b.x }, if i & 2 == 0 { a.y } else { b.y }, if i & 4 == 0 { a.z } else { b.z });
+                reach = reach.max((r.world.transform_point3(corner) - centre).length());
+            }
+        }
+    }
+    reach
+}
+
 /// Where a light's photons start: its position, or for the sun the plane across its direction
-/// just outside the volume's bounding sphere (where its emitter raster lies, `emitter_for`).
-pub fn photon_start(l: &LightDesc, volume: &VolumeDesc) -> Vec3 {
+/// beyond everything in the scene (`reach`, [`scene_reach`]), where its emitter raster lies
+/// (`emitter_for`).
+pub fn photon_start(l: &LightDesc, volume: &VolumeDesc, reach: f32) -> Vec3 {
     match l.shape {
         LightShape::Sun { .. } => {
             let (lo, hi) = (volume.min, volume.max());
-            0.5 * (lo + hi) - l.direction * (0.5 * (hi - lo).length() * 1.01)
+            0.5 * (lo + hi) - l.direction * (reach * 1.01)
         }
         _ => l.position,
     }
@@ -51,7 +71,7 @@ pub fn photon_start(l: &LightDesc, volume: &VolumeDesc) -> Vec3 {
 /// direction that the box projects to; for point and spot lights, the cone of directions that
 /// contains the box (the whole sphere from inside it), narrowed to the spot's cone when that is
 /// smaller; for a rect light, its area (each photon leaves it toward the volume, `spread_ray`).
-pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, first_cell: u32) -> Option<Emitter> {
+pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, reach: f32, first_cell: u32) -> Option<Emitter> {
     let (lo, hi) = (volume.min, volume.max());
     let centre = 0.5 * (lo + hi);
     let radius = 0.5 * (hi - lo).length();
@@ -82,7 +102,7 @@ pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, first_cell: u
                 uy = uy.max((*c - centre).dot(up).abs());
             }
             Some(Emitter {
-                origin: photon_start(l, volume).into(),
+                origin: photon_start(l, volume, reach).into(),
                 light: index,
                 axis: axis.into(),
                 cos_max: 1.0,
@@ -125,11 +145,12 @@ pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, first_cell: u
     }
 }
 
-/// The environment's emitter: a disc across the volume's bounding sphere (just outside it, as
-/// the sun's raster), perpendicular to each photon's direction (`env_disc_origin` in
-/// shaders/photons.wgsl), its cells equal shares of its area. None when the environment is dark.
-/// `integral`: ∫ L dω of the environment, scaled (W/m² through the disc).
-pub fn environment_emitter(integral: Vec3, volume: &VolumeDesc, first_cell: u32) -> Option<Emitter> {
+/// The environment's emitter: a disc of the volume's bounding-sphere radius, perpendicular to
+/// each photon's direction and `reach` ([`scene_reach`]) back from the volume's centre, as the
+/// sun's raster (`spread_ray` in shaders/photons.wgsl), its cells equal shares of its area.
+/// None when the environment is dark. `integral`: ∫ L dω of the environment, scaled (W/m²
+/// through the disc).
+pub fn environment_emitter(integral: Vec3, volume: &VolumeDesc, reach: f32, first_cell: u32) -> Option<Emitter> {
     if integral.element_sum() <= 0.0 {
         return None;
     }
@@ -139,6 +160,7 @@ pub fn environment_emitter(integral: Vec3, volume: &VolumeDesc, first_cell: u32)
         origin: (0.5 * (lo + hi)).into(),
         light: ENV_LIGHT,
         half_width: radius,
+        start_distance: reach * 1.01,
         measure: std::f32::consts::PI * radius * radius / (RASTER_CELLS * RASTER_CELLS) as f32,
         first_cell,
         ..Default::default()
@@ -202,8 +224,9 @@ impl LightBuffers {
 
     /// Uploads this frame's lights and their emitters, the environment's last.
     /// `media[i]`: the sharp interfaces around light i; `env_integral`: ∫ L dω of the
-    /// environment (`EnvLightTable::integral` × its colour and intensity).
-    pub fn update(&mut self, ctx: &crate::gpu::GpuContext, lights: &[LightDesc], media: &[[u32; 2]], volume: &VolumeDesc, env_integral: Vec3) {
+    /// environment (`EnvLightTable::integral` × its colour and intensity); `reach`:
+    /// [`scene_reach`].
+    pub fn update(&mut self, ctx: &crate::gpu::GpuContext, lights: &[LightDesc], media: &[[u32; 2]], volume: &VolumeDesc, env_integral: Vec3, reach: f32) {
         // One emitter per light at most, and the environment's.
         if lights.len() + 1 > self.capacity {
             self.capacity = (lights.len() + 1).next_power_of_two();
@@ -215,13 +238,13 @@ impl LightBuffers {
         self.raster_power = 0.0;
         for (i, l) in lights.iter().enumerate() {
             let first = emitters.len() as u32 * RASTER_CELLS * RASTER_CELLS;
-            if let Some(e) = emitter_for(l, i as u32, volume, first) {
+            if let Some(e) = emitter_for(l, i as u32, volume, reach, first) {
                 self.raster_power += raster_power(&e, l, volume);
                 emitters.push(e);
             }
         }
         let first = emitters.len() as u32 * RASTER_CELLS * RASTER_CELLS;
-        if let Some(e) = environment_emitter(env_integral, volume, first) {
+        if let Some(e) = environment_emitter(env_integral, volume, reach, first) {
             self.raster_power += e.measure * (RASTER_CELLS * RASTER_CELLS) as f32 * env_integral.element_sum() / 3.0;
             emitters.push(e);
         }

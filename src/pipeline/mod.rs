@@ -396,13 +396,14 @@ impl Renderer {
         if self.receivers.update(&self.ctx, desc) {
             self.counters.receiver_uploads += 1;
         }
+        let reach = lights::scene_reach(desc);
         let media: Vec<[u32; 2]> =
-            desc.lights.iter().map(|l| interfaces::media_at(desc, lights::photon_start(l, &desc.volume))).collect();
+            desc.lights.iter().map(|l| interfaces::media_at(desc, lights::photon_start(l, &desc.volume, reach))).collect();
         // The environment's photons matter only where glass or a medium bends or scatters them
         // (its direct light is the receivers' shadow rays).
         let env_emits = !desc.fields.is_empty() || !desc.meshes.is_empty() || desc.fog.is_some();
         let env_integral = if env_emits { self.environment.light.integral * env_light::scale(&desc.environment) } else { glam::Vec3::ZERO };
-        self.lights.update(&self.ctx, &desc.lights, &media, &desc.volume, env_integral);
+        self.lights.update(&self.ctx, &desc.lights, &media, &desc.volume, env_integral, reach);
         let radiance_dims = if self.deposits(desc) { desc.volume.dims } else { UVec3::ONE };
         if self.radiance.as_ref().is_none_or(|r| r.dims != radiance_dims) {
             self.radiance = Some(RadianceGrid::new(&self.ctx, radiance_dims)?);

@@ -105,18 +105,18 @@ pub fn env_params(desc: &FrameDesc) -> EnvParams {
     EnvParams { color: color.into(), intensity: env.intensity, rotation: env.rotation, kind, visible: env.visible as u32, footprint: desc.camera.pixel_angle() }
 }
 
-/// Shadow-ray pairs toward the environment per receiver hit and camera sample: at least
-/// `ENV_PAIRS_PER_PIXEL` pairs per pixel in all, 0 when the environment is dark (then receivers
-/// are shaded as before it was a light, bit for bit).
+/// Shadow-ray pairs toward the environment per receiver hit and camera sample
+/// (`ENV_PAIRS_PER_SAMPLE`), 0 when the environment is dark (then receivers are shaded as before
+/// it was a light, bit for bit).
 pub fn env_pairs(desc: &FrameDesc, env: &EnvironmentTexture) -> u32 {
     let lit = (env.light.integral * super::env_light::scale(&desc.environment)).max_element() > 0.0;
-    if lit { ENV_PAIRS_PER_PIXEL.div_ceil(desc.samples.max(1)) } else { 0 }
+    if lit { ENV_PAIRS_PER_SAMPLE } else { 0 }
 }
 
-/// Pairs of shadow rays toward the environment a pixel's receiver hits take in all (split over
-/// its camera samples): its soft sky shadows converge with samples, and a pixel of one sample
-/// still takes sixteen.
-pub const ENV_PAIRS_PER_PIXEL: u32 = 16;
+/// Pairs of shadow rays toward the environment a camera sample takes at a receiver: soft sky
+/// shadows converge with samples, and a frame refined pass by pass (`serve`) takes exactly the
+/// rays a frame of all those samples takes.
+pub const ENV_PAIRS_PER_SAMPLE: u32 = 4;
 
 /// The uniforms of one frame.
 pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {

@@ -55,8 +55,8 @@ pub fn scene_reach(desc: &FrameDesc) -> f32 {
 }
 
 /// Where a light's photons start: its position, or for the sun the plane across its direction
-/// beyond everything in the scene (`reach`, [`scene_reach`]), where its emitter raster lies
-/// (`emitter_for`).
+/// beyond everything in the scene (`reach`, [`scene_reach`]; its raster lies nearer, each photon
+/// backing off from it, `emitter_for`) — where the media around its photons are looked up.
 pub fn photon_start(l: &LightDesc, volume: &VolumeDesc, reach: f32) -> Vec3 {
     match l.shape {
         LightShape::Sun { .. } => {
@@ -101,8 +101,12 @@ pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, reach: f32, f
                 rx = rx.max((*c - centre).dot(right).abs());
                 uy = uy.max((*c - centre).dot(up).abs());
             }
+            // The raster lies just outside the volume's bounding sphere; each photon backs off
+            // from its raster point along its own direction (the sun's disc spreads them) to
+            // start beyond every receiver, so it still crosses the volume where its cell says.
             Some(Emitter {
-                origin: photon_start(l, volume, reach).into(),
+                origin: (centre - axis * (radius * 1.01)).into(),
+                start_distance: (reach - radius).max(0.0) * 1.01,
                 light: index,
                 axis: axis.into(),
                 cos_max: 1.0,

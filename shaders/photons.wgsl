@@ -316,13 +316,9 @@ fn emit(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) g
     var ray = emitter_ray(e, uc);
     let light = lights[e.light];
     let flux = cell_power(e, ray.dir) * (total / (f32(n) * weight));
-    if light.kind == LIGHT_SUN {
-        if light.half_angle > 0.0 {
-            // The sun's disc: directions spread over its angular radius (soft caustics).
-            ray.dir = cone_direction(e.axis, e.right, e.up, light.half_angle, vec2<f32>(random01(seed, i, 3u), random01(seed, i, 4u)));
-        }
-        // Back from the raster along its own direction, beyond every receiver (lights.rs).
-        ray.origin -= ray.dir * e.start_distance;
+    if light.kind == LIGHT_SUN && light.half_angle > 0.0 {
+        // The sun's disc: directions spread over its angular radius (soft caustics).
+        ray.dir = cone_direction(e.axis, e.right, e.up, light.half_angle, vec2<f32>(random01(seed, i, 3u), random01(seed, i, 4u)));
     }
     photons[i] = Photon(ray.origin, flags, ray.dir, light.media.x, flux, light.media.y);
 }

@@ -400,9 +400,9 @@ gpu_struct! {
         pub half_height: f32,
         pub measure: f32,
         pub first_cell: u32,
-        /// The environment's and the sun's emitters: how far back along its direction a photon
-        /// starts from `origin` (the environment) or from its raster point (the sun), so that it
-        /// starts outside every receiver (`lights::scene_reach`) and a closed room keeps it out.
+        /// The environment's emitter: how far from `origin` its photons start, back along their
+        /// direction (`lights::scene_reach`: outside every receiver, so a closed room keeps the
+        /// sky out).
         pub start_distance: f32,
         pub _pad1: u32,
     }

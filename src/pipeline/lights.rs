@@ -36,9 +36,9 @@ pub fn light_gpu(l: &LightDesc, media: [u32; 2]) -> LightGpu {
 }
 
 /// How far from the volume's centre the scene reaches: its bounding sphere's radius and the
-/// farthest corner of any receiver's box. Light from afar (the sun, the environment) starts
-/// beyond it, so whatever stands between the sky and the glass — a room's walls, a ceiling —
-/// stops it as it stops the shadow rays.
+/// farthest corner of any receiver's box. The environment's photons start beyond it, so
+/// whatever stands between the sky and the glass — a room's walls, a ceiling — stops them as it
+/// stops the shadow rays.
 pub fn scene_reach(desc: &FrameDesc) -> f32 {
     let (lo, hi) = (desc.volume.min, desc.volume.max());
     let centre = 0.5 * (lo + hi);
@@ -55,13 +55,15 @@ pub fn scene_reach(desc: &FrameDesc) -> f32 {
 }
 
 /// Where a light's photons start: its position, or for the sun the plane across its direction
-/// beyond everything in the scene (`reach`, [`scene_reach`]; its raster lies nearer, each photon
-/// backing off from it, `emitter_for`) — where the media around its photons are looked up.
-pub fn photon_start(l: &LightDesc, volume: &VolumeDesc, reach: f32) -> Vec3 {
+/// just outside the volume's bounding sphere (where its emitter raster lies, `emitter_for`).
+/// (Unlike the environment's, the sun's photons start there, inside any room around the
+/// volume: a room's walls do not stop them. Starting them beyond every receiver moves every sun
+/// caustic by float rounding, and `tests/dispersion_off.rs` holds them to the bit.)
+pub fn photon_start(l: &LightDesc, volume: &VolumeDesc) -> Vec3 {
     match l.shape {
         LightShape::Sun { .. } => {
             let (lo, hi) = (volume.min, volume.max());
-            0.5 * (lo + hi) - l.direction * (reach * 1.01)
+            0.5 * (lo + hi) - l.direction * (0.5 * (hi - lo).length() * 1.01)
         }
         _ => l.position,
     }
@@ -71,7 +73,7 @@ pub fn photon_start(l: &LightDesc, volume: &VolumeDesc, reach: f32) -> Vec3 {
 /// direction that the box projects to; for point and spot lights, the cone of directions that
 /// contains the box (the whole sphere from inside it), narrowed to the spot's cone when that is
 /// smaller; for a rect light, its area (each photon leaves it toward the volume, `spread_ray`).
-pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, reach: f32, first_cell: u32) -> Option<Emitter> {
+pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, first_cell: u32) -> Option<Emitter> {
     let (lo, hi) = (volume.min, volume.max());
     let centre = 0.5 * (lo + hi);
     let radius = 0.5 * (hi - lo).length();
@@ -101,12 +103,8 @@ pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, reach: f32, f
                 rx = rx.max((*c - centre).dot(right).abs());
                 uy = uy.max((*c - centre).dot(up).abs());
             }
-            // The raster lies just outside the volume's bounding sphere; each photon backs off
-            // from its raster point along its own direction (the sun's disc spreads them) to
-            // start beyond every receiver, so it still crosses the volume where its cell says.
             Some(Emitter {
-                origin: (centre - axis * (radius * 1.01)).into(),
-                start_distance: (reach - radius).max(0.0) * 1.01,
+                origin: photon_start(l, volume).into(),
                 light: index,
                 axis: axis.into(),
                 cos_max: 1.0,
@@ -242,7 +240,7 @@ impl LightBuffers {
         self.raster_power = 0.0;
         for (i, l) in lights.iter().enumerate() {
             let first = emitters.len() as u32 * RASTER_CELLS * RASTER_CELLS;
-            if let Some(e) = emitter_for(l, i as u32, volume, reach, first) {
+            if let Some(e) = emitter_for(l, i as u32, volume, first) {
                 self.raster_power += raster_power(&e, l, volume);
                 emitters.push(e);
             }

@@ -398,7 +398,7 @@ impl Renderer {
         }
         let reach = lights::scene_reach(desc);
         let media: Vec<[u32; 2]> =
-            desc.lights.iter().map(|l| interfaces::media_at(desc, lights::photon_start(l, &desc.volume, reach))).collect();
+            desc.lights.iter().map(|l| interfaces::media_at(desc, lights::photon_start(l, &desc.volume))).collect();
         // The environment's photons matter only where glass or a medium bends or scatters them
         // (its direct light is the receivers' shadow rays).
         let env_emits = !desc.fields.is_empty() || !desc.meshes.is_empty() || desc.fog.is_some();

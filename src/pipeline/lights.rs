@@ -45,13 +45,17 @@ pub fn scene_reach(desc: &FrameDesc) -> f32 {
     let mut reach = 0.5 * (hi - lo).length();
     for r in &desc.receivers {
         if let Some((a, b)) = r.mesh.bounds() {
-            for i in 0..8 {
-                let corner = Vec3::new(if i & 1 == 0 { a.x } else { b.x }, if i & 2 == 0 { a.y } else { b.y }, if i & 4 == 0 { a.z } else { b.z });
+            for corner in box_corners(a, b) {
                 reach = reach.max((r.world.transform_point3(corner) - centre).length());
             }
         }
     }
     reach
+}
+
+/// The eight corners of the box (lo, hi).
+fn box_corners(lo: Vec3, hi: Vec3) -> [Vec3; 8] {
+    std::array::from_fn(|i| Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z }))
 }
 
 /// Where a light's photons start: its position, or for the sun the plane across its direction
@@ -78,9 +82,7 @@ pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, first_cell: u
     let centre = 0.5 * (lo + hi);
     let radius = 0.5 * (hi - lo).length();
     let cells = (RASTER_CELLS * RASTER_CELLS) as f32;
-    let corners: Vec<Vec3> = (0..8)
-        .map(|i| Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z }))
-        .collect();
+    let corners = box_corners(lo, hi);
     match l.shape {
         LightShape::Rect { size } => Some(Emitter {
             origin: l.position.into(),

@@ -2,7 +2,7 @@
 
 - F12 / Ctrl+F12: `render` (final_render.py) exports the scene, runs one `refrakt render` for
   the frames asked and copies each frame into the Render Result: Combined, Depth and refrakt's
-  caustic, direct and volume passes (registered in `update_render_passes`). Blender then writes
+  caustic, direct, indirect and volume passes (registered in `update_render_passes`). Blender then writes
   its own output files with its own settings, and its compositor sees the passes.
 - The viewport's Rendered mode: `view_update` and `view_draw` drive a ViewportSession
   (viewport.py), one `refrakt watch` per viewport, and draw its latest frame with `gpu`.

@@ -1,6 +1,6 @@
 """Blender data → the `extras.refrakt` objects refrakt's glTF importer reads (docs/gltf.md):
 
-- `scenes[i].extras.refrakt`: photons, samples, volume, fog, environment;
+- `scenes[i].extras.refrakt`: photons, bounces, samples, volume, fog, environment;
 - `nodes[i].extras.refrakt`: an analytic index field, or `{"role": "ignore"}`, or a point or
   spot light's `light_radius`, or an area light (`light`, a rect: glTF has no area lights);
 - `materials[i].extras.refrakt`: absorption, scattering, g, boundary of the medium inside.
@@ -357,6 +357,7 @@ def scene_extras(scene, directory, warnings):
         volume["min"], volume["max"] = _world_box(s.volume_bounds)
     out = {
         "photons": s.photons,
+        "bounces": s.bounces,
         "samples": s.samples,
         "volume": volume,
         "environment": environment(scene, directory, warnings),

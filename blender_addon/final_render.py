@@ -18,7 +18,7 @@ import numpy as np
 from . import binary, cli, exr, job, preferences, scene_export
 
 # refrakt's passes beside Combined and Depth, named as its EXR layers (properties.py describes them).
-PASSES = ("caustic", "direct", "volume")
+PASSES = ("caustic", "direct", "indirect", "volume")
 
 # Render Result pass → refrakt's EXR channels.
 CHANNELS = {

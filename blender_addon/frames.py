@@ -4,7 +4,7 @@ Image node; compositor.py wires the passes over Blender's own render).
 refrakt writes one-part EXRs with the beauty as plain `R G B A` and the other layers as
 `<pass>.<channel>` (`depth.Z`, `caustic.R`, `volume.R`, …). Blender reads such a file as a
 multilayer image whose one (unnamed) layer has the passes Combined, depth, caustic, direct,
-volume: the compositor's Image node shows each as its own socket.
+indirect, volume: the compositor's Image node shows each as its own socket.
 """
 
 import os

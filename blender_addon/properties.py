@@ -23,6 +23,14 @@ class RefraktSceneSettings(bpy.types.PropertyGroup):
         max=1 << 30,
         soft_max=10_000_000,
     )
+    bounces: IntProperty(
+        name="Bounces",
+        description="Diffuse bounces of light between surfaces (as Cycles' Light Paths ▸ Diffuse); 0 for none",
+        default=4,
+        min=0,
+        max=1024,
+        soft_max=16,
+    )
     samples: IntProperty(
         name="Samples",
         description="Camera rays per pixel (antialiasing)",
@@ -297,6 +305,9 @@ class RefraktViewLayerSettings(bpy.types.PropertyGroup):
     )
     use_pass_direct: BoolProperty(
         name="Direct", description="Light that reached a receiver straight from the lights", default=True
+    )
+    use_pass_indirect: BoolProperty(
+        name="Indirect", description="Light that reached a receiver after bouncing off other surfaces", default=True
     )
     use_pass_volume: BoolProperty(
         name="Volume", description="Light scattered toward the camera by fog and media", default=True

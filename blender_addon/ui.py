@@ -4,7 +4,7 @@ fields), Material Properties ▸ refrakt (its reading of the material, the mediu
 
 import bpy
 
-from . import extras, material_reading
+from . import extras, final_render, material_reading
 
 
 class PropertiesPanel:
@@ -78,6 +78,7 @@ class RENDER_PT_refrakt_light(RefraktSubPanel, bpy.types.Panel):
 
     def draw_settings(self, context, layout, s):
         layout.prop(s, "photons")
+        layout.prop(s, "bounces")
         layout.prop(s, "samples")
 
 
@@ -172,7 +173,7 @@ class VIEWLAYER_PT_refrakt_passes(PropertiesPanel, bpy.types.Panel):
         view_layer = context.view_layer
         col = layout.column(heading="Include", align=True)
         col.prop(view_layer, "use_pass_z")
-        for name in ("caustic", "direct", "volume"):
+        for name in final_render.PASSES:
             col.prop(view_layer.refrakt, f"use_pass_{name}")
 
 

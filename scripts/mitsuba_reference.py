@@ -32,6 +32,13 @@ give the open floor that irradiance (within 1 %), and after, that the ball's sha
 where the image's sun puts them. 65536 light paths per pixel (with control variates, see
 `hdri_reference`); 632 s on a 2-core machine shared with a build (565 s of it the
 particle tracer, twice; 54 s the direct light, 8192 spp, twice).
+
+`white_room` (`white_room_reference`): a closed white room (4 × 3 × 4 m, albedo 0.75) with a glass
+ball (r = 0.4 m, 0.2 m above the floor) under a spot of 300 cd pointing down past it, seen by a
+pinhole camera from a corner: the radiance of every pixel that sees a receiver directly (Mitsuba's
+particle tracer, 64 bounces: direct, caustic and bounced light), in W/m²/sr, 64² pixels; alpha
+marks the pixels to compare (0 where the camera's ray meets the ball or its edge, which a
+particle tracer cannot see through).
 """
 
 import argparse
@@ -502,7 +509,91 @@ def write(name, caustic):
     print(f"wrote {path}: caustic power {green.sum() * (2 * HALF / PIXELS) ** 2:.5f} W, peak {green.max():.3f} W/m² (green)")
 
 
-SPP = {"ball": 16384, "facets": 16384, "bunny": 16384, "hdri": 65536}
+# Shared with tests/mitsuba_caustics.rs (`white_room_scene`).
+ROOM = dict(lo=[-2.0, 0.0, -2.0], hi=[2.0, 3.0, 2.0], albedo=0.75)
+ROOM_BALL = dict(centre=[0.3, 0.6, 0.0], radius=0.4)
+ROOM_SPOT = dict(position=[0.0, 2.9, 0.0], target=[0.3, 0.0, 0.0], candela=300.0, angle=30.0, blend=0.02)
+ROOM_CAMERA = dict(position=[-1.7, 2.4, 1.8], target=[0.3, 0.5, 0.0], fov=70.0, pixels=64)
+
+
+def camera_rays(cam):
+    """refrakt's pinhole rays through pixel centres (vertical fov, image rows downward), as
+    unit directions [row, column, xyz]."""
+    eye, target = np.array(cam["position"]), np.array(cam["target"])
+    forward = (target - eye) / np.linalg.norm(target - eye)
+    right = np.cross(forward, [0.0, 1.0, 0.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    n = cam["pixels"]
+    half = math.tan(math.radians(cam["fov"]) / 2)
+    s = (np.arange(n) + 0.5) / n * 2 - 1
+    x, y = np.meshgrid(s * half, -s * half)
+    d = forward + x[..., None] * right + y[..., None] * up
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def ball_mask(cam, ball, margin):
+    """1 where the ray through a pixel's centre passes the ball (radius × margin) by, 0 where
+    it meets it."""
+    d = camera_rays(cam)
+    oc = np.array(cam["position"]) - np.array(ball["centre"])
+    b = d @ oc
+    disc = b * b - (oc @ oc - (ball["radius"] * margin) ** 2)
+    return (disc < 0).astype(np.float32)
+
+
+def white_room_scene():
+    lo, hi = np.array(ROOM["lo"]), np.array(ROOM["hi"])
+    spot, cam = ROOM_SPOT, ROOM_CAMERA
+    radiant = spot["candela"] / 683.0  # refrakt: cd / 683 lm/W = W/sr
+    return {
+        "type": "scene",
+        # Seen from inside: normals flipped inward (Mitsuba's diffuse reflects on its front).
+        "room": {
+            "type": "cube",
+            "flip_normals": True,
+            "to_world": mi.ScalarTransform4f.translate(((lo + hi) / 2).tolist()).scale(((hi - lo) / 2).tolist()),
+            "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [ROOM["albedo"]] * 3}},
+        },
+        "ball": {"type": "sphere", "center": ROOM_BALL["centre"], "radius": ROOM_BALL["radius"], "bsdf": glass()},
+        "spot": {
+            "type": "spot",
+            "to_world": mi.ScalarTransform4f.look_at(origin=spot["position"], target=spot["target"], up=[0, 0, 1]),
+            "intensity": {"type": "rgb", "value": [radiant] * 3},
+            "cutoff_angle": spot["angle"],
+            "beam_width": spot["angle"] * (1 - spot["blend"]),
+        },
+        "sensor": {
+            "type": "perspective",
+            "fov": cam["fov"],
+            "fov_axis": "y",
+            "to_world": mi.ScalarTransform4f.look_at(origin=cam["position"], target=cam["target"], up=[0, 1, 0]),
+            "film": {"type": "hdrfilm", "width": cam["pixels"], "height": cam["pixels"], "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+            "sampler": {"type": "independent"},
+        },
+        "integrator": {"type": "ptracer", "max_depth": 66, "hide_emitters": True, "samples_per_pass": 256},
+    }
+
+
+def white_room_reference(spp):
+    """The room's radiance image with alpha = the pixels to compare (`ball_mask`, the ball grown
+    by a pixel's width at its distance so edge pixels are left out too). Checks that the particle
+    tracer sees nothing through the ball (it cannot), which fixes the image's orientation."""
+    started = time.time()
+    img = np.array(mi.render(mi.load_dict(white_room_scene()), spp=spp), dtype=np.float32)
+    print(f"  particle tracer, {spp} spp: {time.time() - started:.0f} s")
+    cam = ROOM_CAMERA
+    distance = np.linalg.norm(np.array(cam["position"]) - np.array(ROOM_BALL["centre"]))
+    pixel = 2 * math.tan(math.radians(cam["fov"]) / 2) / cam["pixels"] * distance
+    mask = ball_mask(cam, ROOM_BALL, 1 + 2 * pixel / ROOM_BALL["radius"])
+    inner = ball_mask(cam, ROOM_BALL, 0.9)
+    through, room = img[inner == 0].mean(), img[mask == 1].mean()
+    print(f"  mean radiance: seen through the ball {through:.5f}, the room {room:.5f} W/m²/sr; {int(mask.sum())} pixels compared")
+    assert through < 0.1 * room, "the ball should be dark to a particle tracer: is the image mirrored?"
+    return np.concatenate([img, mask[..., None]], axis=-1)
+
+
+SPP = {"ball": 16384, "facets": 16384, "bunny": 16384, "hdri": 65536, "white_room": 16384}
 
 
 def main():
@@ -517,6 +608,12 @@ def main():
         if name == "hdri":
             write(name, hdri_reference(spp))
             print(f"  {name}: {time.time() - started:.0f} s")
+            continue
+        if name == "white_room":
+            rgba = white_room_reference(spp)
+            path = os.path.join(OUT, name + ".exr")
+            mi.Bitmap(rgba, pixel_format=mi.Bitmap.PixelFormat.RGBA).write(path)
+            print(f"wrote {path}  {name}: {time.time() - started:.0f} s")
             continue
         scene = scenes[name]()
         total = irradiance(scene, {"type": "ptracer", "max_depth": 64, "hide_emitters": True}, spp)

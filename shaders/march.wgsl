@@ -15,6 +15,15 @@
 //   that did not is dropped there, because the direct light — whose shadow rays stop at the
 //   same glass — already accounts for it.
 //
+// - Bounce photons (index ≥ bounce_first; photons.wgsl's second population, from every light's
+//   whole emission) deposit nothing on their first receiver (direct light and caustics are
+//   counted elsewhere) and then leave each receiver they reach by Russian roulette on its
+//   albedo: with probability q = max(albedo) in a cosine-weighted direction, flux × albedo/q
+//   (energy-exact in expectation), up to `bounces` times. Every landing after the first
+//   deposits into the indirect maps (`indirect_atlas`, the same charts): light that reached the
+//   receiver over at least one diffuse bounce. They fill no radiance grid (fog lit by bounced
+//   light is left out) and no statistics.
+//
 // Fixed point: deposits are (photon flux / flux_unit) · scale, flux_unit the mean photon flux.
 // The scales are chosen on the CPU (src/pipeline/march.rs) so that even every photon landing on
 // one texel or voxel stays below 2³¹; beyond that an accumulator saturates (the add is undone
@@ -36,6 +45,7 @@
 #import shared/dda.wgsl
 #import shared/receivers.wgsl
 #import shared/glass_surface.wgsl
+#import shared/lights.wgsl
 
 @group(0) @binding(0) var<uniform> params: MarchParams;
 @group(0) @binding(1) var<storage, read> photons: array<Photon>;
@@ -66,6 +76,8 @@
 // (shared/glass_surface.wgsl: a photon meets a textured glass where it is clear or frosted).
 @group(0) @binding(20) var<storage, read> triangle_uvs: array<vec4<f32>>;
 @group(0) @binding(21) var<storage, read> albedo_texels: array<u32>;
+// The indirect maps' deposits, laid out as `caustic_atlas` (bounce photons, see above).
+@group(0) @binding(22) var<storage, read_write> indirect_atlas: array<atomic<u32>>;
 
 // Statistics, each an rgb triple of 64-bit fixed-point flux sums (flux_scale units).
 const STAT_EMITTED: u32 = 0u;
@@ -144,11 +156,18 @@ fn add_radiance(i: u32, v: u32) {
     }
 }
 
-fn add_caustic(i: u32, v: u32) {
+// (Into the caustic maps' deposits, or the indirect maps'.)
+fn add_to_chart(i: u32, v: u32, indirect: bool) {
     if v == 0u {
         return;
     }
-    if atomicAdd(&caustic_atlas[i], v) >= FIXED_SATURATION {
+    // (Both sides of a `select` would run: each atomic has a branch of its own.)
+    if indirect {
+        if atomicAdd(&indirect_atlas[i], v) >= FIXED_SATURATION {
+            atomicSub(&indirect_atlas[i], v);
+            stat_add(STAT_SATURATED, 1u);
+        }
+    } else if atomicAdd(&caustic_atlas[i], v) >= FIXED_SATURATION {
         atomicSub(&caustic_atlas[i], v);
         stat_add(STAT_SATURATED, 1u);
     }
@@ -221,8 +240,9 @@ fn flush_pending() {
     pending.index = NO_VOXEL;
 }
 
-// A refracted photon lands on a receiver: its flux goes to the texel under the hit point.
-fn deposit_caustic(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, flux: vec3<f32>) {
+// A photon lands on a receiver: its flux goes to the texel under the hit point, of the caustic
+// maps (a refracted photon) or the indirect maps (a bounced one).
+fn deposit_on_chart(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, flux: vec3<f32>, indirect: bool) {
     let n = hit.normal;
     let back = dot(n, d) > 0.0;
     let facing = select(n, -n, back);
@@ -235,23 +255,33 @@ fn deposit_caustic(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, flux: vec3<f32>)
     let texel = 4u * (chart.offset + u32(t.x) + chart.width * u32(t.y));
     // Irradiance is flux per surface area; the chart's texel is the surface's projection, so
     // the projected share of the flux is what divides by the texel area.
-    let rel = flux / params.flux_unit * abs(facing[chart.axis / 2u]);
-    atomicAdd(&caustic_atlas[texel], 1u);
+    let projected = abs(facing[chart.axis / 2u]);
+    let unit = select(params.flux_unit, params.bounce_flux_unit, indirect);
+    let scale = select(params.flux_scale, params.bounce_flux_scale, indirect);
+    let rel = flux / unit * projected;
+    if indirect {
+        atomicAdd(&indirect_atlas[texel], 1u);
+    } else {
+        atomicAdd(&caustic_atlas[texel], 1u);
+    }
     for (var k = 0u; k < 3u; k++) {
-        add_caustic(texel + 1u + k, to_fixed(rel[k], params.flux_scale));
+        add_to_chart(texel + 1u + k, to_fixed(rel[k], scale), indirect);
     }
 }
 
-// Where a straight photon ends: on a receiver (deposit if refracted) or escaping.
-fn land(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, flux: vec3<f32>, refracted: bool) {
-    if !is_receiver_hit(hit) {
-        stat_flux(STAT_ESCAPED, flux);
+// Where a caustic photon's path ends: on a receiver (deposit if refracted) or escaping.
+fn land(end: PathEnd) {
+    if !end.landed {
         return;
     }
-    stat_flux(STAT_RECEIVED, flux);
-    if refracted {
-        stat_flux(STAT_CAUSTIC, flux);
-        deposit_caustic(hit, p, d, flux);
+    if !is_receiver_hit(end.hit) {
+        stat_flux(STAT_ESCAPED, end.flux);
+        return;
+    }
+    stat_flux(STAT_RECEIVED, end.flux);
+    if end.refracted {
+        stat_flux(STAT_CAUSTIC, end.flux);
+        deposit_on_chart(end.hit, end.p, end.d, end.flux, false);
     }
 }
 
@@ -287,18 +317,37 @@ fn spectral_flux(flux: vec3<f32>, photon_flags: u32) -> vec3<f32> {
     return cmf(lambda) * (uplift(flux, lambda) / (pdf * Y_INTEGRAL));
 }
 
-// One photon (the index-th of the frame) from its light to where it ends; returns the steps it
-// took.
-fn march_photon(photon: Photon, index: u32) -> u32 {
-    var flux = spectral_flux(photon.flux, photon.flags);
-    stat_flux(STAT_EMITTED, flux);
+// Where a path ended: `landed` on a surface that is no interface (a receiver, or nothing: an
+// escape), at p going along d with `flux`, after `steps` integration steps. A path that was
+// absorbed or trapped did not land.
+struct PathEnd {
+    landed: bool,
+    hit: SurfaceHit,
+    p: vec3<f32>,
+    d: vec3<f32>,
+    flux: vec3<f32>,
+    refracted: bool,
+    steps: u32,
+}
+
+fn absorbed(steps: u32) -> PathEnd {
+    var end: PathEnd;
+    end.landed = false;
+    end.steps = steps;
+    return end;
+}
+
+// A photon's path from where it starts (its light, or a receiver it left) to where it ends.
+// `key` seeds its interface choices; `deposit_radiance`: fill the radiance grid on the way.
+fn march_path(photon: Photon, start_flux: vec3<f32>, key: u32, deposit_radiance: bool) -> PathEnd {
+    var flux = start_flux;
+    let index = key;
     let grid = params.grid;
     var d = photon.dir;
     var ahead_of = look_from(photon.origin, d);
     let span = ray_box(photon.origin, d, grid.origin, grid_box_max(grid));
     if span.x > span.y || span.y <= 0.0 || ahead_of.hit.t < span.x {
-        land(ahead_of.hit, photon.origin + d * ahead_of.hit.t, d, flux, false);
-        return 0u;
+        return PathEnd(true, ahead_of.hit, photon.origin + d * ahead_of.hit.t, d, flux, false, 0u);
     }
     var s = ray_start(ior_grid, grid_sampler, grid, photon.origin + d * max(span.x, 0.0), d);
     var refracted = false;
@@ -318,14 +367,13 @@ fn march_photon(photon: Photon, index: u32) -> u32 {
             let p = x0 + d * ahead;
             let extinction = segment_extinction(x0, p, media);
             let after = flux * exp(-extinction * ahead);
-            if (params.flags & MARCH_FLAG_DEPOSIT_RADIANCE) != 0u {
+            if deposit_radiance {
                 deposit_segment(x0, p, flux, extinction);
             }
             path += ahead;
             let hit = ahead_of.hit;
             if hit.interface_id == NO_INTERFACE {
-                land(hit, p, d, after, refracted);
-                return n_steps + 1u;
+                return PathEnd(true, hit, p, d, after, refracted, n_steps + 1u);
             }
             // An interface: reflect with probability R, else refract (tinted) into the media
             // beyond. Either way the photon is now a caustic photon — but for one that passed
@@ -351,7 +399,7 @@ fn march_photon(photon: Photon, index: u32) -> u32 {
             s = ray_start(ior_grid, grid_sampler, grid, leave_surface(p, c.geometric, d, 1e-3 * grid.voxel_size), d);
             ahead_of.valid = false;
             if events >= MAX_EVENTS || path > params.max_path {
-                return n_steps + 1u; // trapped by total internal reflection: absorbed (march.rs)
+                return absorbed(n_steps + 1u); // trapped by total internal reflection (march.rs)
             }
             continue;
         }
@@ -365,11 +413,11 @@ fn march_photon(photon: Photon, index: u32) -> u32 {
         let length = distance(x0, s.x);
         path += length;
         if path > params.max_path {
-            return n_steps + 1u; // trapped by total internal reflection: absorbed (march.rs)
+            return absorbed(n_steps + 1u); // trapped by total internal reflection (march.rs)
         }
         let extinction = segment_extinction(x0, s.x, media);
         let after = flux * exp(-extinction * length);
-        if (params.flags & MARCH_FLAG_DEPOSIT_RADIANCE) != 0u {
+        if deposit_radiance {
             deposit_segment(x0, s.x, flux, extinction);
         }
         flux = after;
@@ -383,7 +431,7 @@ fn march_photon(photon: Photon, index: u32) -> u32 {
             ahead_of.valid = false;
         }
         if max(flux.r, max(flux.g, flux.b)) < 1e-6 * params.flux_unit {
-            return n_steps + 1u;
+            return absorbed(n_steps + 1u);
         }
         // (Checked after the step: the entry point itself may round to just outside.)
         if !in_grid(grid, s.x) {
@@ -392,8 +440,64 @@ fn march_photon(photon: Photon, index: u32) -> u32 {
         }
     }
     let hit = surface_after(&ahead_of, s.x, d);
-    land(hit, s.x + d * hit.t, d, flux, refracted);
-    return n_steps;
+    return PathEnd(true, hit, s.x + d * hit.t, d, flux, refracted, n_steps);
+}
+
+// A caustic photon (the index-th of the frame) from its light to where it ends; returns the
+// steps it took.
+fn march_photon(photon: Photon, index: u32) -> u32 {
+    let flux = spectral_flux(photon.flux, photon.flags);
+    stat_flux(STAT_EMITTED, flux);
+    let end = march_path(photon, flux, index, (params.flags & MARCH_FLAG_DEPOSIT_RADIANCE) != 0u);
+    land(end);
+    return end.steps;
+}
+
+// A bounce photon from its light over up to `bounces` diffuse bounces (see the top); returns
+// the steps it took.
+fn march_bounces(photon: Photon, index: u32) -> u32 {
+    var leg = photon;
+    var flux = spectral_flux(photon.flux, photon.flags);
+    var steps = 0u;
+    for (var bounce = 0u; ; bounce++) {
+        // Each leg draws its own interface choices.
+        let key = index ^ (bounce * 0x9e3779b9u);
+        let end = march_path(leg, flux, key, false);
+        steps += end.steps;
+        if !end.landed || !is_receiver_hit(end.hit) {
+            break;
+        }
+        if bounce > 0u {
+            deposit_on_chart(end.hit, end.p, end.d, end.flux, true);
+        }
+        if bounce >= params.bounces {
+            break;
+        }
+        // Russian roulette on the albedo: leave with probability q, carrying albedo/q.
+        let r = receivers[bvh_triangles[end.hit.triangle].receiver];
+        // (At the photon's wavelength when it has one: its flux is then that wavelength's XYZ.)
+        let albedo = at_wavelength(diffuse_albedo(r, end.hit));
+        let q = max(albedo.r, max(albedo.g, albedo.b));
+        if random01(params.seed, index, 400u + 3u * bounce) >= q {
+            break;
+        }
+        flux = end.flux * albedo / q;
+        let facing = select(end.hit.normal, -end.hit.normal, dot(end.hit.normal, end.d) > 0.0);
+        let frame = cone_frame(facing);
+        let u = vec2<f32>(random01(params.seed, index, 401u + 3u * bounce), random01(params.seed, index, 402u + 3u * bounce));
+        let dir = cosine_direction(facing, frame[0], frame[1], u);
+        // Off the surface so its own triangle is not hit again; it leaves into air.
+        let origin = end.p + facing * (1e-4 + 1e-3 * params.grid.voxel_size);
+        leg = Photon(origin, leg.flags, dir, 0u, flux, 0u);
+    }
+    return steps;
+}
+
+// The share of light a receiver scatters diffusely at a hit: its base colour (with its texture),
+// less what a metal reflects specularly. (Glossy lobes do not bounce light here.)
+fn diffuse_albedo(r: ReceiverGpu, hit: SurfaceHit) -> vec3<f32> {
+    let base = base_color_at(r, hit_uv(hit.triangle, hit.u, hit.v)).rgb;
+    return clamp(base * (1.0 - r.metallic), vec3<f32>(0.0), vec3<f32>(1.0));
 }
 
 @compute @workgroup_size(64)
@@ -408,8 +512,12 @@ fn main(
         let photon = photons[i];
         if (photon.flags & PHOTON_LIVE) != 0u {
             photon_key = i;
-            stat_add(STAT_STEPS, march_photon(photon, i));
-            flush_pending(); // the photon's last voxel
+            if i >= params.bounce_first {
+                stat_add(STAT_STEPS, march_bounces(photon, i));
+            } else {
+                stat_add(STAT_STEPS, march_photon(photon, i));
+                flush_pending(); // the photon's last voxel
+            }
         }
     }
     workgroupBarrier();

@@ -11,6 +11,11 @@
 //
 // Entry points, in order: `importance` (one thread per cell), `scan` (one workgroup: the CDF),
 // `emit` (one thread per photon).
+//
+// They run twice a frame. First for the caustic photons, as above. Then, where the frame
+// traces bounced light, for the bounce photons (PHOTON_FLAG_BOUNCE): each light's whole
+// emission (`lights::bounce_emitter_for`), every cell of importance 1, written after the caustic
+// photons (`photon_offset`); march.wgsl follows them over diffuse bounces.
 
 #import shared/types.wgsl
 #import shared/grid.wgsl
@@ -96,6 +101,9 @@ fn rect_point(e: Emitter, u: vec2<f32>) -> vec3<f32> {
 // The cone of directions from p that holds the volume's bounding sphere: (axis, cos of its
 // half-angle), or cos −1 (every direction) from inside the sphere.
 fn volume_cone(p: vec3<f32>) -> vec4<f32> {
+    if (params.flags & PHOTON_FLAG_BOUNCE) != 0u {
+        return vec4<f32>(0.0, 1.0, 0.0, -1.0); // bounced light goes everywhere
+    }
     let lo = params.grid.origin;
     let hi = grid_box_max(params.grid);
     let radius = 0.5 * length(hi - lo);
@@ -105,12 +113,6 @@ fn volume_cone(p: vec3<f32>) -> vec4<f32> {
         return vec4<f32>(0.0, 1.0, 0.0, -1.0);
     }
     return vec4<f32>(to / d, sqrt(max(0.0, 1.0 - (radius / d) * (radius / d))));
-}
-
-// An orthonormal pair across unit `axis`.
-fn cone_frame(axis: vec3<f32>) -> mat2x3<f32> {
-    let right = normalize(select(vec3<f32>(0.0, -axis.z, axis.y), vec3<f32>(axis.z, 0.0, -axis.x), abs(axis.x) > abs(axis.y)));
-    return mat2x3<f32>(right, cross(axis, right));
 }
 
 // What a spreading emitter's cell is weighted by before its importance, per unit `measure`:
@@ -201,15 +203,18 @@ fn importance_raster(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let per = params.cells * params.cells;
-    let e = emitters[cell / per];
+    let e = emitters[params.first_emitter + cell / per];
     let local = cell % per;
     let u = (vec2<f32>(f32(local % params.cells), f32(local / params.cells)) + 0.5) / f32(params.cells);
+    // Bounced light matters wherever it lands: every cell is worth its power.
+    let bounce = (params.flags & PHOTON_FLAG_BOUNCE) != 0u;
     if spreads(e) {
-        cdf[cell] = luminance(spread_power(e, u) * e.measure) * spread_importance(e, cell, u);
+        let worth = select(spread_importance(e, cell, u), 1.0, bounce);
+        cdf[cell] = luminance(spread_power(e, u) * e.measure) * worth;
         return;
     }
     let ray = emitter_ray(e, u);
-    cdf[cell] = luminance(cell_power(e, ray.dir)) * importance(ray.origin, ray.dir);
+    cdf[cell] = luminance(cell_power(e, ray.dir)) * select(importance(ray.origin, ray.dir), 1.0, bounce);
 }
 
 var<workgroup> chunk_sums: array<f32, 256>;
@@ -284,9 +289,10 @@ fn emit(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) g
     if i >= n {
         return;
     }
+    let slot = params.photon_offset + i;
     let total = cdf[cell_count() - 1u];
     if total <= 0.0 {
-        photons[i] = Photon(vec3<f32>(0.0), 0u, vec3<f32>(0.0, 0.0, 1.0), 0u, vec3<f32>(0.0), 0u);
+        photons[slot] = Photon(vec3<f32>(0.0), 0u, vec3<f32>(0.0, 0.0, 1.0), 0u, vec3<f32>(0.0), 0u);
         return;
     }
     let seed = params.seed;
@@ -295,7 +301,7 @@ fn emit(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) g
     let cell = find_cell(u);
     let weight = cdf[cell] - select(0.0, cdf[cell - 1u], cell > 0u);
     let per = params.cells * params.cells;
-    let e = emitters[cell / per];
+    let e = emitters[params.first_emitter + cell / per];
     let local = cell % per;
     let sample = cell_sample(i, cell);
     let uc = (vec2<f32>(f32(local % params.cells), f32(local / params.cells)) + sample.xy) / f32(params.cells);
@@ -310,7 +316,7 @@ fn emit(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) g
         if e.light != ENV_LIGHT {
             media = lights[e.light].media;
         }
-        photons[i] = Photon(ray.origin, flags, ray.dir, media.x, flux, media.y);
+        photons[slot] = Photon(ray.origin, flags, ray.dir, media.x, flux, media.y);
         return;
     }
     var ray = emitter_ray(e, uc);
@@ -320,5 +326,5 @@ fn emit(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) g
         // The sun's disc: directions spread over its angular radius (soft caustics).
         ray.dir = cone_direction(e.axis, e.right, e.up, light.half_angle, vec2<f32>(random01(seed, i, 3u), random01(seed, i, 4u)));
     }
-    photons[i] = Photon(ray.origin, flags, ray.dir, light.media.x, flux, light.media.y);
+    photons[slot] = Photon(ray.origin, flags, ray.dir, light.media.x, flux, light.media.y);
 }

@@ -3,7 +3,7 @@
 // light scattered toward the camera from the radiance grid (σ_s · phase · fluence, single
 // scattering as in Sun et al. 2008, §4.5), and ending on an opaque receiver — lit by the
 // lights and the environment (shadow rays, blocked by refractive media: light through glass
-// arrives as photons), and by the caustic maps — or in the environment along the direction they
+// arrives as photons), and by the caustic and indirect maps — or in the environment along the direction they
 // leave in.
 //
 // At a sharp interface (shared/interface.wgsl) a ray splits by the Fresnel equations: the
@@ -13,13 +13,15 @@
 // weight falls below MIN_WEIGHT (a reflection of a reflection inside glass is 0.16% of the
 // light); the deterministic split keeps frames free of noise.
 //
-// Writes five planes of vec4 per pixel into `frame`:
+// Writes six planes of vec4 per pixel into `frame`:
 //   [0] beauty: linear rgb, alpha = coverage by refractive media or receivers
 //   [1] depth of the first medium or surface along the camera axis (x)
 //   [2] caustic: light receivers get from the caustic maps (rgb)
 //   [3] direct: light receivers get from the lights and the environment (rgb)
 //   [4] volume: light scattered toward the camera in the volume (rgb)
-// beauty = caustic + direct + volume + the environment seen through (and around) the media.
+//   [5] indirect: light receivers get from the indirect maps, bounced off other receivers (rgb)
+// beauty = caustic + direct + indirect + volume + the environment seen through (and around) the
+// media.
 // Each pixel averages `samples` rays at fixed sub-pixel offsets (the R2 sequence), so edges are
 // antialiased, soft shadows are sampled, and an unchanged pixel renders identically every frame.
 // With dispersion in the frame, each sample also carries a wavelength (`sample_wavelength_of`).
@@ -52,6 +54,7 @@
 @group(0) @binding(31) var<storage, read_write> frame_caustic: array<vec4<f32>>;
 @group(0) @binding(32) var<storage, read_write> frame_direct: array<vec4<f32>>;
 @group(0) @binding(33) var<storage, read_write> frame_volume: array<vec4<f32>>;
+@group(0) @binding(34) var<storage, read_write> frame_indirect: array<vec4<f32>>;
 @group(0) @binding(8) var<uniform> octree_params: OctreeParams;
 @group(0) @binding(9) var<storage, read> octree: array<vec4<f32>>;
 @group(0) @binding(25) var<storage, read> octree_leaves: array<vec4<f32>>;
@@ -60,6 +63,8 @@
 @group(0) @binding(12) var<storage, read> receivers: array<ReceiverGpu>;
 @group(0) @binding(13) var<storage, read> charts: array<Chart>;
 @group(0) @binding(14) var<storage, read> caustic_irradiance: array<vec4<f32>>;
+// The indirect maps' filtered irradiance (bounced light), laid out as the caustic maps.
+@group(0) @binding(27) var<storage, read> indirect_irradiance: array<vec4<f32>>;
 @group(0) @binding(15) var<storage, read> lights: array<LightGpu>;
 @group(0) @binding(16) var fluence_grid: texture_3d<f32>;
 @group(0) @binding(17) var direction_grid: texture_3d<f32>;
@@ -177,22 +182,40 @@ fn shadow_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
 // Cut-outs and see-through receivers a shadow ray looks past, at most.
 const MAX_SEE_THROUGH: u32 = 8u;
 
-// What a polished thin sheet passes of a shadow ray at BVH hit b: its thin-slab transmittance
+// What a polished thin sheet passes of a shadow ray at a hit on it: its thin-slab transmittance
 // (1 − R_thin, the inner reflections summed per polarization, cross_interface's R) × its tint,
 // straight through — exactly what its photons would carry, so they leave that light to shadow
 // rays (march.wgsl). A solid's surface or a rough sheet passes nothing: its light is photons'.
-fn sheet_transmittance(b: BvhHit, w: vec3<f32>) -> vec3<f32> {
-    let id = bvh_triangles[b.triangle].receiver & ~INTERFACE_BIT;
-    let f = interfaces[id];
+fn sheet_transmittance(hit: SurfaceHit, w: vec3<f32>) -> vec3<f32> {
+    let f = interfaces[hit.interface_id];
     if (f.kind & INTERFACE_THIN) == 0u {
         return vec3<f32>(0.0);
     }
-    let hit = SurfaceHit(b.t, b.triangle, id, shading_normal(b.triangle, b.u, b.v), b.u, b.v);
     let surface = glass_surface_at(hit);
     if surface.roughness > 0.0 {
         return vec3<f32>(0.0);
     }
     return surface.tint * (1.0 - thin_sheet_reflectance(abs(dot(w, hit.normal)), interface_ior(f)));
+}
+
+// The light that passes the analytic interfaces along p + t·w, t < dist: each crossing of a
+// polished thin shell (a bubble, a lamp's globe) passes its `sheet_transmittance`; a solid's
+// surface stops it.
+fn analytic_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
+    var passed = vec3<f32>(1.0);
+    var t_min = 1e-4;
+    for (var i = 0u; i < MAX_SEE_THROUGH; i++) {
+        let hit = analytic_hit(p, w, t_min, no_surface(dist));
+        if hit.t >= dist {
+            return passed;
+        }
+        passed *= sheet_transmittance(hit, w);
+        if all(passed <= vec3<f32>(0.0)) {
+            return passed;
+        }
+        t_min = hit.t + 1e-4;
+    }
+    return vec3<f32>(0.0);
 }
 
 // The light that passes the surfaces along p + t·w, t < dist, when some are cut-outs,
@@ -208,7 +231,8 @@ fn receivers_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
         }
         let word = bvh_triangles[b.triangle].receiver;
         if (word & INTERFACE_BIT) != 0u {
-            passed *= sheet_transmittance(b, w);
+            let id = word & ~INTERFACE_BIT;
+            passed *= sheet_transmittance(SurfaceHit(b.t, b.triangle, id, shading_normal(b.triangle, b.u, b.v), b.u, b.v), w);
         } else {
             passed *= 1.0 - coverage_of(receivers[word], b.triangle, b.u, b.v);
         }
@@ -224,8 +248,8 @@ fn receivers_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
 // through glass arrives as caustic photons), then media.
 fn visibility(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
     if has(VIEW_FLAG_SEE_THROUGH) {
-        let passed = receivers_transmittance(p, w, dist);
-        if all(passed <= vec3<f32>(0.0)) || analytic_any_hit(p, w, 1e-4, dist) {
+        let passed = receivers_transmittance(p, w, dist) * analytic_transmittance(p, w, dist);
+        if all(passed <= vec3<f32>(0.0)) {
             return vec3<f32>(0.0);
         }
         return passed * shadow_transmittance(p, w, dist);
@@ -354,8 +378,8 @@ fn direct_light(p: vec3<f32>, facing: vec3<f32>, s: PbrSurface, pbr: bool, env_d
     return out;
 }
 
-// Bilinear lookup of a chart's filtered caustic irradiance.
-fn caustic_at(chart: Chart, p: vec3<f32>) -> vec3<f32> {
+// Bilinear lookup of a chart's filtered caustic (or indirect) irradiance.
+fn chart_irradiance(chart: Chart, p: vec3<f32>, indirect: bool) -> vec3<f32> {
     let f = chart_coords(chart, p) - 0.5;
     let size = vec2<i32>(i32(chart.width), i32(chart.height));
     let i0 = vec2<i32>(floor(f));
@@ -365,7 +389,8 @@ fn caustic_at(chart: Chart, p: vec3<f32>) -> vec3<f32> {
         let o = vec2<i32>(i32(k & 1u), i32(k >> 1u));
         let c = clamp(i0 + o, vec2<i32>(0), size - 1);
         let w = select(1.0 - t.x, t.x, o.x == 1) * select(1.0 - t.y, t.y, o.y == 1);
-        e += w * caustic_irradiance[chart.offset + u32(c.x) + chart.width * u32(c.y)].rgb;
+        let texel = chart.offset + u32(c.x) + chart.width * u32(c.y);
+        e += w * select(caustic_irradiance[texel].rgb, indirect_irradiance[texel].rgb, indirect);
     }
     return e;
 }
@@ -373,22 +398,24 @@ fn caustic_at(chart: Chart, p: vec3<f32>) -> vec3<f32> {
 struct Shading {
     caustic: vec3<f32>,
     direct: vec3<f32>,
+    indirect: vec3<f32>,
 }
 
-// The caustic irradiance at p on the side `facing` of receiver `receiver`, 0 without photons.
-fn caustic_irradiance_at(receiver: u32, p: vec3<f32>, facing: vec3<f32>, back: bool) -> vec3<f32> {
-    if has(VIEW_FLAG_CAUSTICS) {
+// The caustic (or, `indirect`, the bounced) irradiance at p on the side `facing` of receiver
+// `receiver`, 0 without the photons that make it.
+fn map_irradiance_at(receiver: u32, p: vec3<f32>, facing: vec3<f32>, back: bool, indirect: bool) -> vec3<f32> {
+    if has(select(VIEW_FLAG_CAUSTICS, VIEW_FLAG_INDIRECT, indirect)) {
         let c = chart_for(receiver, facing, back);
         if c >= 0 {
-            return caustic_at(charts[u32(c)], p);
+            return chart_irradiance(charts[u32(c)], p, indirect);
         }
     }
     return vec3<f32>(0.0);
 }
 
 // A receiver of the full metallic-roughness model at a hit: the lights through both lobes,
-// the environment by the split sum, the caustics on the diffuse lobe only.
-fn shade_pbr(r: ReceiverGpu, hit: SurfaceHit, uv: vec2<f32>, base: vec3<f32>, q: vec3<f32>, facing: vec3<f32>, d: vec3<f32>, k: u32, path: u32, e_caustic: vec3<f32>) -> Shading {
+// the environment by the split sum, the caustic and bounced light on the diffuse lobe only.
+fn shade_pbr(r: ReceiverGpu, hit: SurfaceHit, uv: vec2<f32>, base: vec3<f32>, q: vec3<f32>, facing: vec3<f32>, d: vec3<f32>, k: u32, path: u32, e_caustic: vec3<f32>, e_indirect: vec3<f32>) -> Shading {
     // The coat's normal: the surface's own bent by the coat's normal map, not the base's
     // (KHR_materials_clearcoat).
     let coat_n = mapped_normal(r.clearcoat_normal_texture, r.clearcoat_normal_scale, hit.triangle, hit.u, hit.v, uv, facing);
@@ -419,12 +446,13 @@ fn shade_pbr(r: ReceiverGpu, hit: SurfaceHit, uv: vec2<f32>, base: vec3<f32>, q:
     // The occlusion texture darkens the environment's light, not the lights'.
     let lit = direct_light(q, facing, s, true, env.diffuse * s.occlusion, k, path);
     let out = LightResponse(lit.diffuse, env.specular * s.occlusion + lit.specular);
-    // The caustic light lands on the diffuse lobe, with the share it keeps of the environment's.
-    return Shading(env.diffuse * e_caustic, out.diffuse + out.specular);
+    // The caustic and bounced light land on the diffuse lobe, with the share it keeps of the
+    // environment's.
+    return Shading(env.diffuse * e_caustic, out.diffuse + out.specular, env.diffuse * e_indirect);
 }
 
-// Radiance leaving a receiver toward the camera at the hit, split into caustic and direct
-// (direct: the lights, the environment and the surface's own emission).
+// Radiance leaving a receiver toward the camera at the hit, split into caustic, direct (the
+// lights, the environment and the surface's own emission) and indirect (bounced) light.
 fn shade_receiver(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, k: u32, path: u32) -> Shading {
     let n = hit.normal;
     let back = dot(n, d) > 0.0;
@@ -436,15 +464,16 @@ fn shade_receiver(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, k: u32, path: u32
     let emission = emission_at(r, uv);
     // Lift the shading point off the surface so its own triangle does not shadow it.
     let q = p + facing * (1e-4 + 1e-3 * params.grid.voxel_size);
-    let e_caustic = caustic_irradiance_at(receiver, p, facing, back);
+    let e_caustic = map_irradiance_at(receiver, p, facing, back, false);
+    let e_indirect = map_irradiance_at(receiver, p, facing, back, true);
     if has(VIEW_FLAG_SPECULAR) && (r.flags & RECEIVER_PBR) != 0u {
-        let sh = shade_pbr(r, hit, uv, base, q, facing, d, k, path, e_caustic);
-        return Shading(sh.caustic, sh.direct + emission);
+        let sh = shade_pbr(r, hit, uv, base, q, facing, d, k, path, e_caustic, e_indirect);
+        return Shading(sh.caustic, sh.direct + emission, sh.indirect);
     }
     // Lambertian (metallic 0, specular 0): albedo / π.
     let lambert = PbrSurface(base, 0.0, 1.0, 0.0, 1.0, facing, -d, 1.0, 0.0, 1.0, facing, 1.0, vec3<f32>(0.0), 0.0);
     let e_direct = direct_light(q, facing, lambert, false, vec3<f32>(1.0), k, path).diffuse;
-    return Shading(base * INV_PI * e_caustic, base * INV_PI * e_direct + emission);
+    return Shading(base * INV_PI * e_caustic, base * INV_PI * e_direct + emission, base * INV_PI * e_indirect);
 }
 
 struct ViewSample {
@@ -452,9 +481,14 @@ struct ViewSample {
     caustic: vec3<f32>,
     direct: vec3<f32>,
     volume: vec3<f32>,
+    indirect: vec3<f32>,
     covered: bool,
     depth: f32,
     steps: u32,
+}
+
+fn no_light() -> ViewSample {
+    return ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
 }
 
 fn first_depth(s: ptr<function, ViewSample>, p: vec3<f32>) {
@@ -547,7 +581,8 @@ fn meet_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, 
     let w = b.weight * cover;
     (*out).caustic += w * sh.caustic;
     (*out).direct += w * sh.direct;
-    (*out).radiance += w * (sh.caustic + sh.direct);
+    (*out).indirect += w * sh.indirect;
+    (*out).radiance += w * (sh.caustic + sh.direct + sh.indirect);
     return cover;
 }
 
@@ -711,13 +746,14 @@ fn spectral_sample(s: ViewSample) -> ViewSample {
     out.caustic = xyz_to_rgb(sample_xyz(s.caustic, path_wavelength));
     out.direct = xyz_to_rgb(sample_xyz(s.direct, path_wavelength));
     out.volume = xyz_to_rgb(sample_xyz(s.volume, path_wavelength));
+    out.indirect = xyz_to_rgb(sample_xyz(s.indirect, path_wavelength));
     return out;
 }
 
 fn trace_view(pixel: vec2<f32>, k: u32, j: u32) -> ViewSample {
     let dir0 = camera_ray(pixel);
     sample_wavelength_of(k, j);
-    var out = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
+    var out = no_light();
     var stack: array<Branch, BRANCH_STACK>;
     var top = 0u;
     var branch = Branch(camera_origin(pixel), dir0, vec3<f32>(1.0), media_unpacked(vec2<u32>(params.camera_media_lo, params.camera_media_hi)), 0u, 1u);
@@ -775,12 +811,12 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
 var<private> pixel_key: u32;
 
 // Traces this dispatch's camera rays of pixel `p` (samples sample_first… of `samples`) and
-// writes its five planes — or, after the first dispatch of a pixel's samples, adds to them;
+// writes its six planes — or, after the first dispatch of a pixel's samples, adds to them;
 // returns the steps they took. (Splitting the samples keeps each invocation under lavapipe's
 // 65 535 loop iterations per shader, past which it silently ends every loop.)
 fn shade_pixel(p: vec2<u32>) -> u32 {
     pixel_key = p.x + p.y * params.width;
-    var sum = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
+    var sum = no_light();
     var coverage = 0.0;
     for (var k = params.sample_first; k < params.sample_first + params.sample_count; k++) {
         let s = trace_view(vec2<f32>(p) + r2(k), k, 0u);
@@ -796,6 +832,7 @@ fn add_sample(sum: ptr<function, ViewSample>, s: ViewSample, share: f32) {
     (*sum).caustic += s.caustic * share;
     (*sum).direct += s.direct * share;
     (*sum).volume += s.volume * share;
+    (*sum).indirect += s.indirect * share;
     (*sum).steps += s.steps;
     (*sum).depth = min((*sum).depth, s.depth);
 }
@@ -810,18 +847,21 @@ fn write_pixel(p: vec2<u32>, sum: ViewSample, coverage: f32) {
     var caustic = vec4<f32>(sum.caustic * inv, 0.0);
     var direct = vec4<f32>(sum.direct * inv, 0.0);
     var volume = vec4<f32>(sum.volume * inv, 0.0);
+    var indirect = vec4<f32>(sum.indirect * inv, 0.0);
     if params.sample_first > 0u {
         beauty += frame_beauty[pixel];
         depth = min(depth, frame_depth[pixel].x);
         caustic += frame_caustic[pixel];
         direct += frame_direct[pixel];
         volume += frame_volume[pixel];
+        indirect += frame_indirect[pixel];
     }
     frame_beauty[pixel] = beauty;
     frame_depth[pixel] = vec4<f32>(depth, 0.0, 0.0, 0.0);
     frame_caustic[pixel] = caustic;
     frame_direct[pixel] = direct;
     frame_volume[pixel] = volume;
+    frame_indirect[pixel] = indirect;
 }
 
 // Companions in threads of their own (a spectral frame of one sample per pixel): the
@@ -833,8 +873,9 @@ fn write_pixel(p: vec2<u32>, sum: ViewSample, coverage: f32) {
 // wavelength), so on the rest of the frame its thread costs little.
 var<private> tracing_companion: bool = false;
 var<private> companion_gave_up: bool = false;
-// The companions' samples (radiance, caustic, direct, volume), w = 1 where one met dispersion.
-var<workgroup> companion_light: array<array<vec4<f32>, 4>, 64>;
+// The companions' samples (radiance, caustic, direct, volume, indirect), w = 1 where one met
+// dispersion.
+var<workgroup> companion_light: array<array<vec4<f32>, 5>, 64>;
 
 // Whether a branch ending here ends a companion's trace: one not yet dispersed is its hero's.
 fn companion_ends_here() -> bool {
@@ -848,7 +889,7 @@ fn companion_ends_here() -> bool {
 fn main_companions(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_id) local: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
     let inside = id.x < params.width && id.y < params.height;
     let slot = local.x + 8u * local.y;
-    var s = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
+    var s = no_light();
     let j = local.z;
     let k = params.sample_first;
     if inside {
@@ -859,11 +900,11 @@ fn main_companions(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_
     }
     if j == 1u {
         let met = select(0.0, 1.0, inside && path_dispersed && !companion_gave_up);
-        companion_light[slot] = array<vec4<f32>, 4>(vec4<f32>(s.radiance, met), vec4<f32>(s.caustic, 0.0), vec4<f32>(s.direct, 0.0), vec4<f32>(s.volume, 0.0));
+        companion_light[slot] = array<vec4<f32>, 5>(vec4<f32>(s.radiance, met), vec4<f32>(s.caustic, 0.0), vec4<f32>(s.direct, 0.0), vec4<f32>(s.volume, 0.0), vec4<f32>(s.indirect, 0.0));
     }
     workgroupBarrier();
     if inside && j == 0u {
-        var sum = ViewSample(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false, FAR_DEPTH, 0u);
+        var sum = no_light();
         let c = companion_light[slot];
         // The hero alone where its path met no dispersion, or where the companion gave up at a
         // branch that ended before (then the hero's one wavelength is the sample: unbiased, as
@@ -871,7 +912,7 @@ fn main_companions(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_
         let share = select(1.0, 0.5, path_dispersed && c[0].w > 0.0);
         add_sample(&sum, s, share);
         if share < 1.0 {
-            add_sample(&sum, ViewSample(c[0].rgb, c[1].rgb, c[2].rgb, c[3].rgb, false, FAR_DEPTH, 0u), share);
+            add_sample(&sum, ViewSample(c[0].rgb, c[1].rgb, c[2].rgb, c[3].rgb, c[4].rgb, false, FAR_DEPTH, 0u), share);
         }
         write_pixel(id.xy, sum, select(0.0, 1.0, s.covered));
     }

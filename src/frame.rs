@@ -335,11 +335,21 @@ pub struct FrameDesc {
     pub fog: Option<FogDesc>,
     /// Photon budget of the frame, split over the lights.
     pub photons: u32,
+    /// Diffuse bounces of bounced (indirect) light; 0 leaves it out.
+    pub bounces: u32,
+    /// Photons for bounced light, split over the lights by power.
+    pub bounce_photons: u32,
     /// Camera rays per pixel.
     pub samples: u32,
 }
 
 impl FrameDesc {
+    /// Whether the frame traces bounced light: bounces and a budget for them, and receivers to
+    /// bounce off.
+    pub fn traces_bounces(&self) -> bool {
+        self.bounces > 0 && self.bounce_photons > 0 && !self.receivers.is_empty()
+    }
+
     /// Things about the frame a user should hear of even though it renders: lights that cannot
     /// light anything they probably meant, photons switched off.
     pub fn warnings(&self) -> Vec<String> {

@@ -138,9 +138,13 @@ struct SceneArgs {
     #[arg(long, value_name = "N", value_parser = |s: &str| parse_whole(s, 8, 2048), allow_hyphen_values = true)]
     volume: Option<u32>,
     /// Photons per frame (0 to 2^30; 1e6 is read as 1000000), overriding the scene's budget;
-    /// 0 renders without caustics or light shafts.
+    /// 0 renders without caustics or light shafts. The bounce photons scale by the same factor.
     #[arg(long, value_name = "N", value_parser = |s: &str| parse_whole(s, 0, 1 << 30), allow_hyphen_values = true)]
     photons: Option<u32>,
+    /// Diffuse bounces of bounced light (0 to 1024), overriding the scene's (default 4, as
+    /// Cycles); 0 renders without bounced light.
+    #[arg(long, value_name = "N", value_parser = |s: &str| parse_whole(s, 0, 1024), allow_hyphen_values = true)]
+    bounces: Option<u32>,
     /// Camera rays per pixel (1 to 256), overriding the scene's (antialiasing).
     #[arg(long, value_name = "N", value_parser = |s: &str| parse_whole(s, 1, 256), allow_hyphen_values = true)]
     samples: Option<u32>,
@@ -367,6 +371,7 @@ impl SceneArgs {
                 camera: self.camera.clone(),
                 samples: self.samples,
                 photons: self.photons,
+                bounces: self.bounces,
                 environment: self.environment.as_deref().map(refrakt::scene::environment::from_arg).transpose()?,
             },
             allow_read: self.allow_read.clone(),

@@ -102,8 +102,10 @@ fn a_floor_under_fog_is_lit_through_the_fog_in_absolute_terms() {
 /// a volume that would not fit as one buffer of each renders, and exactly as without the limit.
 #[test]
 fn fog_deposits_and_the_octree_larger_than_one_binding_render_the_same() {
-    // (10 000 photons, 480 kB, fit one such binding: a larger budget is refused by name.)
-    let desc = frame_from_lua(&fog_box(0.8, 32, 10_000, 0.2));
+    // (10 000 photons, 480 kB, fit one such binding: a larger budget — bounce photons too — is
+    // refused by name.)
+    let mut desc = frame_from_lua(&fog_box(0.8, 32, 10_000, 0.2));
+    desc.bounces = 0;
     let voxels = desc.volume.voxel_count();
     let octree = refrakt::pipeline::octree::layout_for(refrakt::gpu::types::GridParams { dims: desc.volume.dims.into(), ..Default::default() });
     // Room for half the deposits and level 0 of the octree, but not for either whole.

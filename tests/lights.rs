@@ -238,3 +238,41 @@ fn a_small_rect_lights_caustic_is_a_point_lights() {
     assert!((ratio - 1.0).abs() < 0.015, "caustic flux ratio {ratio}");
     assert!(l1 < 0.15, "relative L1 {l1}");
 }
+
+/// The integrating sphere: a point light at the centre of a closed diffuse sphere (r = 1 m) of
+/// albedo a. Every bounce spreads the light evenly over the inside, so the irradiance there is
+/// E = Φ/(A(1 − a)) — the direct Φ/A times 1/(1 − a) once the bounces are summed. Seen from the
+/// centre: the indirect layer over the direct one is a/(1 − a) (±2 %, at a = 0.5 and 0.8, with
+/// the bounces that needs), and the beauty is a/π · E.
+#[test]
+fn an_integrating_sphere_holds_its_light_over_the_bounces() {
+    for albedo in [0.5f32, 0.8] {
+        let desc = frame_from_lua(&format!(
+            "local r = require('refrakt')
+             local scene = r.scene{{ camera = r.camera{{ position = {{0, 0, 0}}, target = {{0.3, -0.2, -1}}, fov = 50, size = {{24, 24}} }},
+                                    environment = r.environment{{ color = {{0, 0, 0}} }}, photons = 0, bounce_photons = 400000, bounces = 64,
+                                    samples = 1, volume = {{ resolution = 32 }} }}
+             scene:add(r.node{{ name = 'sphere', shape = r.sphere{{ radius = 1 }}, material = r.diffuse{{ color = {{{albedo}, {albedo}, {albedo}}} }} }})
+             scene:add(r.node{{ name = 'bulb', light = r.point{{ intensity = 683 }} }})
+             return scene"
+        ));
+        let image = shared_renderer().frame(&desc).unwrap();
+        let mean_of = |name: &str| {
+            let l = layer(&image, name);
+            let n = l.data.len() / l.channels.len();
+            (0..n).map(|i| rgb(l, i).x as f64).sum::<f64>() / n as f64
+        };
+        let (direct, indirect, beauty) = (mean_of("direct"), mean_of("indirect"), mean_of("beauty"));
+        let expected_ratio = (albedo / (1.0 - albedo)) as f64;
+        // 683 cd is 1 W/sr: Φ = 4π W over A = 4π m², so E = 1/(1 − a) W/m².
+        let expected_beauty = (albedo / PI / (1.0 - albedo)) as f64;
+        println!(
+            "a = {albedo}: indirect / direct {:.4} vs {expected_ratio:.4} ({:+.2} %); beauty {beauty:.5} vs {expected_beauty:.5} ({:+.2} %)",
+            indirect / direct,
+            100.0 * (indirect / direct / expected_ratio - 1.0),
+            100.0 * (beauty / expected_beauty - 1.0)
+        );
+        assert!((indirect / direct / expected_ratio - 1.0).abs() < 0.02, "a = {albedo}: indirect/direct {}", indirect / direct);
+        assert!((beauty / expected_beauty - 1.0).abs() < 0.02, "a = {albedo}: beauty {beauty}");
+    }
+}

@@ -289,3 +289,57 @@ fn glass_outside_a_fixed_volume_box_is_warned_about() {
     assert_eq!(named.len(), 1, "{named:?}");
     assert!(named[0].starts_with("glass \"slab\" reaches outside the volume box"), "{}", named[0]);
 }
+
+/// A lamp in a thin glass shade: a point light (1 W/sr) at the centre of a thin, tinted glass
+/// sphere (r = 0.25 m) 1 m over a white floor, the floor seen from under the shade. Each shadow
+/// ray leaves the shade square to it, so the floor's direct light is the unshaded irradiance
+/// h/d³ × the thin slab's transmittance at normal incidence (1 − 2R/(1 + R), R = 0.04) × the
+/// tint (±2 %, per channel). What the shade reflects inside bounces across it and leaves
+/// through the far side, tinted on its way out: photons, the caustic layer. Tinting only what
+/// passes, the shade lets out t of the light in all (T·t/(1 − R_thin) = t), so direct +
+/// caustic = t × the unshaded irradiance (±3 %).
+#[test]
+fn a_lamp_in_a_thin_tinted_shade_lights_the_floor_through_it() {
+    let tint = Vec3::new(0.9, 0.6, 0.3);
+    let desc = frame_from_lua(&format!(
+        r#"local r = require("refrakt")
+        local scene = r.scene{{ volume = {{ resolution = 32 }}, photons = 400000, samples = 4, bounces = 0,
+                                environment = r.environment{{ color = {{0, 0, 0}} }},
+                                camera = r.camera{{ position = {{0, 0.5, 0}}, target = {{0, 0, 0}}, up = {{0, 0, -1}}, orthographic = 1, size = {{8, 8}} }} }}
+        scene:add(r.node{{ name = "floor", shape = r.plane{{ size = {{6, 6}} }}, material = r.diffuse{{ color = {{1, 1, 1}} }} }})
+        scene:add(r.node{{ name = "shade", translation = {{0, 1, 0}}, shape = r.sphere{{ radius = 0.25 }},
+                          material = r.glass{{ ior = 1.5, thin = true, tint = {{{}, {}, {}}} }} }})
+        scene:add(r.node{{ name = "lamp", translation = {{0, 1, 0}}, light = r.point{{ intensity = 683 }} }})
+        return scene"#,
+        tint.x, tint.y, tint.z
+    ));
+    let image = renderer().frame(&desc).unwrap();
+    let layer_mean = |name: &str| {
+        let l = image.layer(name).unwrap();
+        let n = l.data.len() / l.channels.len();
+        (0..n).map(|i| rgb(l, i)).sum::<Vec3>() / n as f32
+    };
+    // The unshaded irradiance h/d³ over the 1 m square the camera sees, 64 points a pixel.
+    let unshaded = (0..64 * 64)
+        .map(|k| {
+            let (x, z) = (((k % 64) as f32 + 0.5) / 64.0 - 0.5, ((k / 64) as f32 + 0.5) / 64.0 - 0.5);
+            1.0 / (1.0 + x * x + z * z).powf(1.5)
+        })
+        .sum::<f32>()
+        / (64.0 * 64.0);
+    // A white floor shows E/π.
+    let (direct, caustic) = (layer_mean("direct") * std::f32::consts::PI, layer_mean("caustic") * std::f32::consts::PI);
+    let passed = 1.0 - thin_slab_reflectance(0.0);
+    for k in 0..3 {
+        let (expected_direct, expected_all) = (unshaded * passed * tint[k], unshaded * tint[k]);
+        eprintln!(
+            "lamp in a thin shade, channel {k}: direct {:.4} vs {expected_direct:.4} W/m² ({:+.2} %); direct + caustic {:.4} vs {expected_all:.4} ({:+.2} %)",
+            direct[k],
+            100.0 * (direct[k] / expected_direct - 1.0),
+            direct[k] + caustic[k],
+            100.0 * ((direct[k] + caustic[k]) / expected_all - 1.0)
+        );
+        assert!((direct[k] / expected_direct - 1.0).abs() < 0.02, "channel {k}: direct {} vs {expected_direct}", direct[k]);
+        assert!(((direct[k] + caustic[k]) / expected_all - 1.0).abs() < 0.03, "channel {k}: all {} vs {expected_all}", direct[k] + caustic[k]);
+    }
+}

@@ -56,3 +56,9 @@ fn cosine_direction(axis: vec3<f32>, right: vec3<f32>, up: vec3<f32>, u: vec2<f3
 fn cone_direction(axis: vec3<f32>, right: vec3<f32>, up: vec3<f32>, half_angle: f32, u: vec2<f32>) -> vec3<f32> {
     return cap_direction(axis, right, up, cos(half_angle), u);
 }
+
+// An orthonormal pair across unit `axis`.
+fn cone_frame(axis: vec3<f32>) -> mat2x3<f32> {
+    let right = normalize(select(vec3<f32>(0.0, -axis.z, axis.y), vec3<f32>(axis.z, 0.0, -axis.x), abs(axis.x) > abs(axis.y)));
+    return mat2x3<f32>(right, cross(axis, right));
+}

@@ -26,15 +26,6 @@ const BRDF_LUT_SIZE: u32 = 32u;
 // light never meets (its highlight would vanish, not sharpen).
 const MIN_LIGHT_ROUGHNESS: f32 = 0.03;
 
-// Base colour (rgb) and alpha at a hit: the factors times the base colour texture.
-fn base_color_at(r: ReceiverGpu, uv: vec2<f32>) -> vec4<f32> {
-    if !has_texture(r.base_texture) {
-        return vec4<f32>(r.albedo, r.alpha);
-    }
-    let t = texture_at(r.base_texture, uv);
-    return vec4<f32>(r.albedo * t.rgb, r.alpha * t.a);
-}
-
 // The fraction of what is behind a receiver that it hides at a hit: 1 when opaque, 0 or 1 for
 // a cut-out (MASK), alpha when see-through (BLEND).
 fn coverage_of(r: ReceiverGpu, triangle: u32, u: f32, v: f32) -> f32 {

@@ -289,8 +289,12 @@ struct PhotonParams {
     eps_refract: f32,
     // PHOTON_FLAG_* bits.
     flags: u32,
-    _pad1: u32,
+    photon_offset: u32,
     env: EnvParams,
+    first_emitter: u32,
+    _pad2: u32,
+    _pad3: u32,
+    _pad4: u32,
 }
 
 struct MarchParams {
@@ -310,6 +314,10 @@ struct MarchParams {
     grid_dispersion: f32,
     band_min: f32,
     band_max: f32,
+    bounce_first: u32,
+    bounces: u32,
+    bounce_flux_unit: f32,
+    bounce_flux_scale: f32,
     _pad0: u32,
 }
 
@@ -351,12 +359,14 @@ const VIEW_FLAG_CAUSTICS: u32 = 4u;
 const VIEW_FLAG_SEE_THROUGH: u32 = 8u;
 const VIEW_FLAG_SPECULAR: u32 = 16u;
 const VIEW_FLAG_SPECTRAL: u32 = 32u;
+const VIEW_FLAG_INDIRECT: u32 = 64u;
 
 const MARCH_FLAG_DEPOSIT_RADIANCE: u32 = 1u;
 const MARCH_FLAG_DEPOSIT_DIRECTION: u32 = 2u;
 const MARCH_FLAG_SPECTRAL: u32 = 4u;
 
 const PHOTON_FLAG_SPECTRAL: u32 = 1u;
+const PHOTON_FLAG_BOUNCE: u32 = 2u;
 
 // Photon.flags: bit 0 marks a live photon; bits 1–31 hold a spectral photon's wavelength sample.
 const PHOTON_LIVE: u32 = 1u;

@@ -85,18 +85,22 @@ pub struct FogExtras {
 #[serde(default)]
 pub struct SceneExtras {
     pub photons: Option<u32>,
+    pub bounces: Option<u32>,
+    pub bounce_photons: Option<u32>,
     pub samples: Option<u32>,
     pub volume: Option<VolumeExtras>,
     pub environment: Option<EnvironmentExtras>,
     pub fog: Option<FogExtras>,
 }
 
-const SCENE_KEYS: &[&str] = &["photons", "samples", "volume", "environment", "fog"];
+const SCENE_KEYS: &[&str] = &["photons", "bounces", "bounce_photons", "samples", "volume", "environment", "fog"];
 
 pub fn scene_extras(scene: &gltf::Scene, file: &str, warnings: &mut Collector) -> Result<Option<SceneExtras>> {
     let what = format!("scenes[{}]", scene.index());
     let Some(s) = refrakt_object::<SceneExtras>(scene.extras(), file, &what, SCENE_KEYS, warnings)? else { return Ok(None) };
     check(s.photons.is_none_or(|p| p <= 1 << 30), file, &what, "photons", "from 0 to 2³⁰")?;
+    check(s.bounce_photons.is_none_or(|p| p <= 1 << 30), file, &what, "bounce_photons", "from 0 to 2³⁰")?;
+    check(s.bounces.is_none_or(|b| b <= crate::scene::MAX_BOUNCES), file, &what, "bounces", "from 0 to 1024")?;
     check(s.samples.is_none_or(|n| (1..=256).contains(&n)), file, &what, "samples", "from 1 to 256")?;
     if let Some(v) = &s.volume {
         check(v.resolution.is_none_or(|r| (8..=2048).contains(&r)), file, &what, "volume.resolution", "from 8 to 2048")?;

@@ -83,6 +83,8 @@ pub struct Import {
 #[derive(Default)]
 pub struct Settings {
     pub photons: Option<u32>,
+    pub bounces: Option<u32>,
+    pub bounce_photons: Option<u32>,
     pub samples: Option<u32>,
     pub volume: Option<extras::VolumeExtras>,
     pub environment: Option<Environment>,
@@ -94,6 +96,12 @@ impl Settings {
     pub fn apply(&self, scene: &mut Scene) {
         if let Some(p) = self.photons {
             scene.photons = p;
+        }
+        if let Some(b) = self.bounces {
+            scene.bounces = b;
+        }
+        if self.bounce_photons.is_some() {
+            scene.bounce_photons = self.bounce_photons;
         }
         if let Some(s) = self.samples {
             scene.samples = s;
@@ -288,7 +296,7 @@ fn settings(scene: &gltf::Scene, at: &buffers::Location, warnings: &mut Collecto
         absorption: f.absorption.map_or(Vec3::ZERO, Vec3::from),
         g: f.g.unwrap_or(0.0),
     });
-    Ok(Settings { photons: x.photons, samples: x.samples, volume: x.volume, environment, fog })
+    Ok(Settings { photons: x.photons, bounces: x.bounces, bounce_photons: x.bounce_photons, samples: x.samples, volume: x.volume, environment, fog })
 }
 
 fn environment_of(e: &extras::EnvironmentExtras, at: &buffers::Location) -> Result<Environment> {

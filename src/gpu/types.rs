@@ -456,9 +456,16 @@ gpu_struct! {
         pub eps_refract: f32,
         /// `photon_flags`.
         pub flags: u32,
-        pub _pad1: u32,
+        /// Where this population's photons go in the photon buffer (the bounce photons follow
+        /// the caustic photons).
+        pub photon_offset: u32,
         /// The environment, for its emitter (`ENV_LIGHT`): turn, colour and intensity.
         pub env: EnvParams,
+        /// This population's first emitter in the emitter buffer.
+        pub first_emitter: u32,
+        pub _pad2: u32,
+        pub _pad3: u32,
+        pub _pad4: u32,
     }
 }
 
@@ -492,6 +499,15 @@ gpu_struct! {
         /// (narrow-band tests), else over the visible spectrum (`cpu::spectrum`).
         pub band_min: f32,
         pub band_max: f32,
+        /// Index of the first bounce photon (`photon_count` when there are none): photons from
+        /// it on follow light over diffuse bounces into the indirect maps (march.wgsl).
+        pub bounce_first: u32,
+        /// Diffuse bounces a bounce photon may take.
+        pub bounces: u32,
+        /// W per unit of bounce-photon flux / their mean flux (the indirect maps' unit).
+        pub bounce_flux_unit: f32,
+        /// Fixed-point units per (bounce-photon flux / their mean flux), indirect maps.
+        pub bounce_flux_scale: f32,
         pub _pad0: u32,
     }
 }
@@ -603,6 +619,8 @@ pub mod view_flags {
     pub const SPECULAR: u32 = 16;
     /// Some glass disperses: each camera sample carries a wavelength (`shaders/view.wgsl`).
     pub const SPECTRAL: u32 = 32;
+    /// Bounce photons were traced: receivers read their indirect maps.
+    pub const INDIRECT: u32 = 64;
 }
 
 /// `PhotonParams::flags` bits.
@@ -610,6 +628,9 @@ pub mod photon_flags {
     /// The frame's photons carry wavelengths: their in-cell position and their wavelength are
     /// drawn together (photons.wgsl's `cell_sample`, march.wgsl's `spectral_flux`).
     pub const SPECTRAL: u32 = 1;
+    /// The bounce population: every light's whole emission (not only toward the volume), each
+    /// cell of importance 1 (photons.wgsl).
+    pub const BOUNCE: u32 = 2;
 }
 
 /// `MarchParams::flags` bits.

@@ -172,7 +172,7 @@ impl UserData for LQuat {
 // ---------------------------------------------------------------------------------------------
 // Scene.
 
-const SCENE_FIELDS: &[&str] = &["camera", "environment", "volume", "photons", "samples", "duration", "fog", "children"];
+const SCENE_FIELDS: &[&str] = &["camera", "environment", "volume", "photons", "bounces", "bounce_photons", "samples", "duration", "fog", "children"];
 
 impl LuaObject for Scene {
     fn kind(&self) -> &'static str {
@@ -187,6 +187,8 @@ impl LuaObject for Scene {
             "environment" => Obj(self.environment.clone()).into_lua(lua),
             "volume" => Obj(self.volume.clone()).into_lua(lua),
             "photons" => Ok(Value::Integer(self.photons as i64)),
+            "bounces" => Ok(Value::Integer(self.bounces as i64)),
+            "bounce_photons" => Ok(Value::Integer(self.bounce_photons.unwrap_or(self.photons) as i64)),
             "samples" => Ok(Value::Integer(self.samples as i64)),
             "duration" => Ok(self.duration.map_or(Value::Nil, Value::Number)),
             "fog" => obj_value(lua, &self.fog),
@@ -221,6 +223,13 @@ impl LuaObject for Scene {
                 }
             }
             "photons" => self.photons = cv::integer(lua, name, &value, 0, 1 << 30)? as u32,
+            "bounces" => self.bounces = cv::integer(lua, name, &value, 0, crate::scene::MAX_BOUNCES as i64)? as u32,
+            "bounce_photons" => {
+                self.bounce_photons = match value {
+                    Value::Nil => None,
+                    _ => Some(cv::integer(lua, name, &value, 0, 1 << 30)? as u32),
+                }
+            }
             "samples" => self.samples = cv::integer(lua, name, &value, 1, 256)? as u32,
             "duration" => {
                 self.duration = match value {

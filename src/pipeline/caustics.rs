@@ -20,6 +20,21 @@ pub enum CausticFilter {
     Fixed { radius: u32 },
 }
 
+impl CausticFilter {
+    /// The filter of the indirect maps: bounced light is smooth, so the adaptive footprint
+    /// gathers `INDIRECT_TARGET_SCALE` times the photons (less noise, the same sharpness where
+    /// photons are dense); a fixed one stays as it is.
+    pub fn for_indirect(self) -> Self {
+        match self {
+            CausticFilter::Adaptive { target } => CausticFilter::Adaptive { target: target * INDIRECT_TARGET_SCALE },
+            fixed => fixed,
+        }
+    }
+}
+
+/// How many times the caustic maps' photon target the indirect maps' footprints hold.
+pub const INDIRECT_TARGET_SCALE: u32 = 4;
+
 impl Default for CausticFilter {
     fn default() -> Self {
         CausticFilter::Adaptive { target: 32 }
@@ -57,6 +72,23 @@ pub fn level_radii(filter: CausticFilter) -> Vec<u32> {
     }
 }
 
+/// Which of the receivers' maps a pass filters: the caustic maps (photons through glass) or the
+/// indirect maps (bounced light).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ChartMap {
+    Caustic = 0,
+    Indirect = 1,
+}
+
+impl ChartMap {
+    fn label(self) -> &'static str {
+        match self {
+            ChartMap::Caustic => "caustics",
+            ChartMap::Indirect => "indirect",
+        }
+    }
+}
+
 pub struct Caustics {
     load: wgpu::ComputePipeline,
     rows: wgpu::ComputePipeline,
@@ -68,8 +100,9 @@ pub struct Caustics {
     gather_direct: wgpu::ComputePipeline,
     bgl: wgpu::BindGroupLayout,
     level_bgl: wgpu::BindGroupLayout,
-    params: wgpu::Buffer,
-    bound: Option<(u64, wgpu::BindGroup)>,
+    /// Per map (caustic, indirect): its uniforms and bind group.
+    params: [wgpu::Buffer; 2],
+    bound: [Option<(u64, wgpu::BindGroup)>; 2],
     /// One uniform and bind group per (level index, radius), made once.
     levels: Vec<(CausticLevel, wgpu::Buffer, wgpu::BindGroup)>,
 }
@@ -92,8 +125,8 @@ impl Caustics {
             <[_; 8]>::try_from(pipelines).map_err(|_| anyhow::anyhow!("eight caustics pipelines"))?;
         let level_bgl = layouts.pop().expect("two layouts");
         let bgl = layouts.pop().expect("two layouts");
-        let params = layout::uniform_buffer::<CausticParams>(device, "caustic params");
-        Ok(Self { load, rows, columns, choose, spread, spread_wide, gather, gather_direct, bgl, level_bgl, params, bound: None, levels: Vec::new() })
+        let params = [layout::uniform_buffer::<CausticParams>(device, "caustic params"), layout::uniform_buffer::<CausticParams>(device, "indirect params")];
+        Ok(Self { load, rows, columns, choose, spread, spread_wide, gather, gather_direct, bgl, level_bgl, params, bound: [None, None], levels: Vec::new() })
     }
 
     /// The bind group of level `index` with half-size `radius`, made the first time it is asked.
@@ -118,8 +151,11 @@ impl Caustics {
         self.levels.len() - 1
     }
 
-    /// `flux_unit`: watts per fixed-point unit of deposited flux.
-    pub fn encode(&mut self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder, profiler: &mut Profiler, receivers: &Receivers, filter: CausticFilter, flux_unit: f32, spectral: bool) {
+    /// Filters one of the receivers' maps: `map`'s deposits to its irradiance. `flux_unit`:
+    /// watts per fixed-point unit of deposited flux. The two maps share the scratch tables, so
+    /// the indirect maps are filtered after the caustic maps, in the same encoder.
+    #[allow(clippy::too_many_arguments)]
+    pub fn encode(&mut self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder, profiler: &mut Profiler, receivers: &Receivers, map: ChartMap, filter: CausticFilter, flux_unit: f32, spectral: bool) {
         let charts = &receivers.layout.charts;
         if charts.is_empty() {
             return;
@@ -138,32 +174,37 @@ impl Caustics {
             direct_radius: DIRECT_RADIUS,
             ..Default::default()
         };
-        ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
-        if self.bound.as_ref().is_none_or(|(g, _)| *g != receivers.generation) {
+        let k = map as usize;
+        ctx.queue.write_buffer(&self.params[k], 0, bytemuck::bytes_of(&params));
+        if self.bound[k].as_ref().is_none_or(|(g, _)| *g != receivers.generation) {
+            let (atlas, irradiance) = match map {
+                ChartMap::Caustic => (&receivers.caustic_atlas, &receivers.caustic_irradiance),
+                ChartMap::Indirect => (&receivers.indirect_atlas, &receivers.indirect_irradiance),
+            };
             let bg = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("caustics"),
                 layout: &self.bgl,
                 entries: &[
-                    layout::bind(0, &self.params),
+                    layout::bind(0, &self.params[k]),
                     layout::bind(1, &receivers.charts.buffer),
-                    layout::bind(2, &receivers.caustic_atlas.buffer),
+                    layout::bind(2, &atlas.buffer),
                     layout::bind(3, &receivers.caustic_sat.buffer),
-                    layout::bind(4, &receivers.caustic_irradiance.buffer),
+                    layout::bind(4, &irradiance.buffer),
                     layout::bind(5, &receivers.caustic_layer.buffer),
                     layout::bind(6, &receivers.caustic_footprint.buffer),
                     layout::bind(7, &receivers.chart_photons.buffer),
                 ],
             });
-            self.bound = Some((receivers.generation, bg));
+            self.bound[k] = Some((receivers.generation, bg));
         }
         let levels: Vec<usize> = level_radii(filter).into_iter().enumerate().map(|(k, r)| self.level(&ctx.device, k as u32, r)).collect();
         // The photon counts are tabulated on the chart itself (a level of half-size 0).
         let texel_level = self.level(&ctx.device, 0, 0);
-        let (_, bg) = self.bound.as_ref().expect("bound above");
+        let (_, bg) = self.bound[k].as_ref().expect("bound above");
         let max_w = charts.iter().map(|c| c.width).max().unwrap_or(1);
         let max_h = charts.iter().map(|c| c.height).max().unwrap_or(1);
         let n = charts.len() as u32;
-        let mut pass = profiler.pass(enc, "caustics");
+        let mut pass = profiler.pass(enc, map.label());
         pass.set_bind_group(0, bg, &[]);
         pass.set_bind_group(1, &self.levels[texel_level].2, &[]);
         let per_texel = |pass: &mut wgpu::ComputePass, pipeline: &wgpu::ComputePipeline| {

@@ -84,18 +84,7 @@ pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, first_cell: u
     let cells = (RASTER_CELLS * RASTER_CELLS) as f32;
     let corners = box_corners(lo, hi);
     match l.shape {
-        LightShape::Rect { size } => Some(Emitter {
-            origin: l.position.into(),
-            light: index,
-            axis: l.direction.into(),
-            right: l.right.into(),
-            half_width: 0.5 * size.x,
-            up: l.up.into(),
-            half_height: 0.5 * size.y,
-            measure: size.x * size.y / cells,
-            first_cell,
-            ..Default::default()
-        }),
+        LightShape::Rect { size } => Some(rect_emitter(l, index, size, first_cell)),
         LightShape::Sun { .. } => {
             let axis = l.direction;
             let right = axis.any_orthonormal_vector();
@@ -149,19 +138,34 @@ pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, first_cell: u
     }
 }
 
-/// The environment's emitter: a disc of the volume's bounding-sphere radius, perpendicular to
-/// each photon's direction and `reach` ([`scene_reach`]) back from the volume's centre, as the
-/// sun's raster (`spread_ray` in shaders/photons.wgsl), its cells equal shares of its area.
-/// None when the environment is dark. `integral`: ∫ L dω of the environment, scaled (W/m²
-/// through the disc).
-pub fn environment_emitter(integral: Vec3, volume: &VolumeDesc, reach: f32, first_cell: u32) -> Option<Emitter> {
+/// A rect light's emitter: its area, in equal cells (its photons' directions are drawn per
+/// photon, `spread_ray` in shaders/photons.wgsl).
+fn rect_emitter(l: &LightDesc, index: u32, size: glam::Vec2, first_cell: u32) -> Emitter {
+    Emitter {
+        origin: l.position.into(),
+        light: index,
+        axis: l.direction.into(),
+        right: l.right.into(),
+        half_width: 0.5 * size.x,
+        up: l.up.into(),
+        half_height: 0.5 * size.y,
+        measure: size.x * size.y / (RASTER_CELLS * RASTER_CELLS) as f32,
+        first_cell,
+        ..Default::default()
+    }
+}
+
+/// The environment's emitter: a disc of radius `radius` about `centre` (the volume's bounding
+/// sphere for caustics, the scene's for bounced light), perpendicular to each photon's
+/// direction and `reach` ([`scene_reach`]) back from `centre`, as the sun's raster
+/// (`spread_ray` in shaders/photons.wgsl), its cells equal shares of its area. None when the
+/// environment is dark. `integral`: ∫ L dω of the environment, scaled (W/m² through the disc).
+pub fn environment_emitter(integral: Vec3, centre: Vec3, radius: f32, reach: f32, first_cell: u32) -> Option<Emitter> {
     if integral.element_sum() <= 0.0 {
         return None;
     }
-    let (lo, hi) = (volume.min, volume.max());
-    let radius = 0.5 * (hi - lo).length();
     Some(Emitter {
-        origin: (0.5 * (lo + hi)).into(),
+        origin: centre.into(),
         light: ENV_LIGHT,
         half_width: radius,
         start_distance: reach * 1.01,
@@ -169,6 +173,55 @@ pub fn environment_emitter(integral: Vec3, volume: &VolumeDesc, reach: f32, firs
         first_cell,
         ..Default::default()
     })
+}
+
+/// Where light `index`'s photons go for bounced light: everywhere it shines, not only toward
+/// the volume. A point light's whole sphere (a spot's cone); the sun's square across its
+/// direction as wide as the scene (`reach` about `centre`), starting outside it; a rect light's
+/// area, its photons cosine-weighted over its hemisphere (photons.wgsl, `PHOTON_FLAG_BOUNCE`).
+pub fn bounce_emitter_for(l: &LightDesc, index: u32, centre: Vec3, reach: f32, first_cell: u32) -> Emitter {
+    let cells = (RASTER_CELLS * RASTER_CELLS) as f32;
+    let frame = |axis: Vec3| {
+        let right = axis.any_orthonormal_vector();
+        (right, axis.cross(right))
+    };
+    match l.shape {
+        LightShape::Rect { size } => rect_emitter(l, index, size, first_cell),
+        LightShape::Sun { .. } => {
+            let (right, up) = frame(l.direction);
+            Emitter {
+                origin: (centre - l.direction * reach * 1.01).into(),
+                light: index,
+                axis: l.direction.into(),
+                cos_max: 1.0,
+                right: right.into(),
+                half_width: reach,
+                up: up.into(),
+                half_height: reach,
+                measure: 4.0 * reach * reach / cells,
+                first_cell,
+                ..Default::default()
+            }
+        }
+        LightShape::Point | LightShape::Spot { .. } => {
+            let (axis, cos_max) = match l.shape {
+                LightShape::Spot { cos_outer, .. } => (l.direction, cos_outer),
+                _ => (Vec3::Y, -1.0),
+            };
+            let (right, up) = frame(axis);
+            Emitter {
+                origin: l.position.into(),
+                light: index,
+                axis: axis.into(),
+                cos_max,
+                right: right.into(),
+                up: up.into(),
+                measure: std::f32::consts::TAU * (1.0 - cos_max) / cells,
+                first_cell,
+                ..Default::default()
+            }
+        }
+    }
 }
 
 /// Power (W, mean over channels) an emitter's raster covers at most: a scale for the photons'
@@ -188,16 +241,43 @@ pub fn raster_power(e: &Emitter, l: &LightDesc, volume: &VolumeDesc) -> f32 {
     e.measure * (RASTER_CELLS * RASTER_CELLS) as f32 * per_measure
 }
 
-/// The frame's lights and emitters on the GPU (grown when a frame has more lights).
+/// Power (W, mean over channels) a bounce emitter's raster covers at most (`bounce_emitter_for`):
+/// a rect light's π·L per unit area, the others' power per unit measure as for caustics.
+pub fn bounce_raster_power(e: &Emitter, l: &LightDesc) -> f32 {
+    let per_measure = l.radiant.element_sum() / 3.0 * if let LightShape::Rect { .. } = l.shape { std::f32::consts::PI } else { 1.0 };
+    e.measure * (RASTER_CELLS * RASTER_CELLS) as f32 * per_measure
+}
+
+/// Power (W, mean over channels) the environment's raster covers: its disc's area × ∫ L dω.
+fn environment_raster_power(e: &Emitter, integral: Vec3) -> f32 {
+    e.measure * (RASTER_CELLS * RASTER_CELLS) as f32 * integral.element_sum() / 3.0
+}
+
+/// The frame's lights and emitters on the GPU (grown when a frame has more lights): the
+/// caustic emitters (toward the volume) first, then the bounce emitters (everywhere).
 pub struct LightBuffers {
     pub lights: wgpu::Buffer,
     pub emitters: wgpu::Buffer,
     capacity: usize,
     pub light_count: u32,
+    /// Caustic emitters: `emitters[0..emitter_count]`.
     pub emitter_count: u32,
-    /// Sum of the emitters' raster powers (W): the scale of the photons' flux.
+    /// Bounce emitters: `emitters[emitter_count..emitter_count + bounce_emitter_count]`.
+    pub bounce_emitter_count: u32,
+    /// Sum of the caustic emitters' raster powers (W): the scale of the photons' flux.
     pub raster_power: f32,
+    /// The same for the bounce emitters.
+    pub bounce_raster_power: f32,
     pub generation: u64,
+}
+
+/// What the environment gives the emitters: ∫ L dω (`EnvLightTable::integral` × its colour
+/// and intensity), and whether it sends caustic photons too (only where glass, fields or fog can
+/// bend or scatter them; its direct light is the receivers' shadow rays).
+#[derive(Clone, Copy, Debug)]
+pub struct EnvEmission {
+    pub integral: Vec3,
+    pub caustics: bool,
 }
 
 impl LightBuffers {
@@ -210,7 +290,7 @@ impl LightBuffers {
                 mapped_at_creation: false,
             })
         };
-        (make("lights", std::mem::size_of::<LightGpu>()), make("emitters", std::mem::size_of::<Emitter>()))
+        (make("lights", std::mem::size_of::<LightGpu>()), make("emitters", 2 * std::mem::size_of::<Emitter>()))
     }
 
     pub fn new(device: &wgpu::Device) -> Self {
@@ -221,37 +301,56 @@ impl LightBuffers {
             capacity: 4,
             light_count: 0,
             emitter_count: 0,
+            bounce_emitter_count: 0,
             raster_power: 0.0,
+            bounce_raster_power: 0.0,
             generation: super::resources::next_generation(),
         }
     }
 
-    /// Uploads this frame's lights and their emitters, the environment's last.
-    /// `media[i]`: the sharp interfaces around light i; `env_integral`: ∫ L dω of the
-    /// environment (`EnvLightTable::integral` × its colour and intensity); `reach`:
-    /// [`scene_reach`].
-    pub fn update(&mut self, ctx: &crate::gpu::GpuContext, lights: &[LightDesc], media: &[[u32; 2]], volume: &VolumeDesc, env_integral: Vec3, reach: f32) {
-        // One emitter per light at most, and the environment's.
+    /// Uploads this frame's lights and their emitters, the environment's last in each set.
+    /// `media[i]`: the sharp interfaces around light i; `reach`: [`scene_reach`]; `bounce`:
+    /// whether the frame traces bounced light (else no bounce emitters).
+    pub fn update(&mut self, ctx: &crate::gpu::GpuContext, lights: &[LightDesc], media: &[[u32; 2]], volume: &VolumeDesc, env: EnvEmission, reach: f32, bounce: bool) {
+        // One emitter per light at most, and the environment's, in each set.
         if lights.len() + 1 > self.capacity {
             self.capacity = (lights.len() + 1).next_power_of_two();
             (self.lights, self.emitters) = Self::buffers(&ctx.device, self.capacity);
             self.generation = super::resources::next_generation();
         }
         let gpu: Vec<LightGpu> = lights.iter().zip(media).map(|(l, m)| light_gpu(l, *m)).collect();
+        let cells = RASTER_CELLS * RASTER_CELLS;
+        let (lo, hi) = (volume.min, volume.max());
+        let centre = 0.5 * (lo + hi);
         let mut emitters = Vec::new();
         self.raster_power = 0.0;
         for (i, l) in lights.iter().enumerate() {
-            let first = emitters.len() as u32 * RASTER_CELLS * RASTER_CELLS;
-            if let Some(e) = emitter_for(l, i as u32, volume, first) {
+            if let Some(e) = emitter_for(l, i as u32, volume, emitters.len() as u32 * cells) {
                 self.raster_power += raster_power(&e, l, volume);
                 emitters.push(e);
             }
         }
-        let first = emitters.len() as u32 * RASTER_CELLS * RASTER_CELLS;
-        if let Some(e) = environment_emitter(env_integral, volume, reach, first) {
-            self.raster_power += e.measure * (RASTER_CELLS * RASTER_CELLS) as f32 * env_integral.element_sum() / 3.0;
+        let env_integral = if env.caustics { env.integral } else { Vec3::ZERO };
+        if let Some(e) = environment_emitter(env_integral, centre, 0.5 * (hi - lo).length(), reach, emitters.len() as u32 * cells) {
+            self.raster_power += environment_raster_power(&e, env_integral);
             emitters.push(e);
         }
+        self.emitter_count = emitters.len() as u32;
+        // The bounce set's cells are numbered from 0: its raster is scanned on its own.
+        self.bounce_raster_power = 0.0;
+        if bounce {
+            let first = emitters.len();
+            for (i, l) in lights.iter().enumerate() {
+                let e = bounce_emitter_for(l, i as u32, centre, reach, (emitters.len() - first) as u32 * cells);
+                self.bounce_raster_power += bounce_raster_power(&e, l);
+                emitters.push(e);
+            }
+            if let Some(e) = environment_emitter(env.integral, centre, reach, reach, (emitters.len() - first) as u32 * cells) {
+                self.bounce_raster_power += environment_raster_power(&e, env.integral);
+                emitters.push(e);
+            }
+        }
+        self.bounce_emitter_count = emitters.len() as u32 - self.emitter_count;
         if !gpu.is_empty() {
             ctx.queue.write_buffer(&self.lights, 0, bytemuck::cast_slice(&gpu));
         }
@@ -259,6 +358,5 @@ impl LightBuffers {
             ctx.queue.write_buffer(&self.emitters, 0, bytemuck::cast_slice(&emitters));
         }
         self.light_count = gpu.len() as u32;
-        self.emitter_count = emitters.len() as u32;
     }
 }

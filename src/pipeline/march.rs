@@ -5,7 +5,7 @@
 use anyhow::Result;
 
 use super::layout;
-use super::photons::{EPS_REFRACT, Photons};
+use super::photons::{Budget, EPS_REFRACT, Photons};
 use super::receivers::Receivers;
 use super::resources::{GRID_FORMAT, Grids, RadianceGrid};
 use super::timing::Profiler;
@@ -101,6 +101,7 @@ impl March {
             layout::storage(19, true),
             layout::storage(20, true),
             layout::storage(21, true),
+            layout::storage(22, false),
         ];
         let (main, bgl) = layout::pipeline_entry(device, shaders, "march", "main", &entries)?;
         let (resolve, _) = layout::pipeline_entry(device, shaders, "march", "resolve", &entries)?;
@@ -116,15 +117,22 @@ impl March {
     }
 
     /// The march's uniforms for a frame. `deposit`: fill the radiance grid; `directional`: with the photons'
-    /// mean direction too (an anisotropic medium needs it).
+    /// mean direction too (an anisotropic medium needs it). `flux_unit`: the caustic photons'
+    /// mean flux (W); `bounce`: the bounce photons' mean flux and how many bounces they take.
     #[allow(clippy::too_many_arguments)]
-    pub fn params(grids: &Grids, photons: u32, flux_unit: f32, deposit: bool, directional: bool, receiver_count: u32, headroom: f32) -> MarchParams {
+    pub fn params(grids: &Grids, budget: Budget, flux_unit: f32, bounce: (f32, u32), deposit: bool, directional: bool, receiver_count: u32, headroom: f32) -> MarchParams {
+        let photons = budget.caustic;
         let grid = grids.octree_layout.grid;
         let diagonal = (glam::UVec3::from(grid.dims).as_vec3().length() + 1.0) * grid.voxel_size;
         let min_step = 0.5 * grid.voxel_size;
         MarchParams {
             grid,
-            photon_count: photons,
+            photon_count: budget.total(),
+            bounce_first: budget.caustic,
+            bounces: bounce.1,
+            bounce_flux_unit: bounce.0,
+            // Each bounce photon deposits once per bounce at most, and never gains flux.
+            bounce_flux_scale: flux_scale(budget.bounce.saturating_mul(bounce.1.max(1)), headroom),
             // A safety net: paths end by length first (`max_path`), but a path of many short
             // bending steps is bounded here.
             max_steps: ((8.0 * diagonal / min_step) as u32).max(64),
@@ -186,12 +194,16 @@ impl March {
                     layout::bind(19, &grids.octree_leaves),
                     layout::bind(20, &receivers.triangle_uvs.buffer),
                     layout::bind(21, &receivers.albedo_texels.buffer),
+                    layout::bind(22, &receivers.indirect_atlas.buffer),
                 ],
             });
             self.bound = Some((generations, bg));
         }
         let (_, bg) = self.bound.as_ref().expect("bound above");
         enc.clear_buffer(&receivers.caustic_atlas.buffer, 0, None);
+        if params.bounce_first < params.photon_count {
+            enc.clear_buffer(&receivers.indirect_atlas.buffer, 0, None);
+        }
         enc.clear_buffer(&self.stats, 0, None);
         let deposit = params.flags & march_flags::DEPOSIT_RADIANCE != 0;
         if deposit {

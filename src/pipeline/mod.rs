@@ -33,7 +33,7 @@ use crate::gpu::GpuContext;
 use crate::gpu::shaders::ShaderLibrary;
 use crate::gpu::types::{MarchParams, march_flags};
 use crate::output::{Image, Layers};
-use caustics::CausticFilter;
+use caustics::{CausticFilter, ChartMap};
 use lights::LightBuffers;
 use march::PhotonStats;
 use parts::{FrameProgress, Part};
@@ -304,7 +304,7 @@ impl Renderer {
         let deposits = if needs_scattering(desc) { RadianceGrid::deposit_binding_bytes(desc.volume.dims) } else { 0 };
         self.check_volume_binding(desc, Grids::largest_binding(desc.volume.dims).max(deposits))?;
         let (w, h) = (desc.camera.width, desc.camera.height);
-        // Each of the frame's planes is bound on its own; the five share one buffer.
+        // Each of the frame's planes is bound on its own; the six share one buffer.
         let (plane, frame) = (FrameTarget::plane_bytes(w, h), FrameTarget::bytes(&self.ctx, w, h));
         if plane > binding || frame > self.ctx.limits.max_buffer_size {
             bail!(
@@ -316,16 +316,21 @@ impl Renderer {
                 binding >> 20
             );
         }
-        if desc.photons > MAX_PHOTONS {
-            bail!("photons = {} is more than refrakt traces per frame ({MAX_PHOTONS}); lower the photon budget", desc.photons);
+        // Caustic and bounce photons share one buffer.
+        let photons = desc.photons as u64 + if desc.traces_bounces() { desc.bounce_photons as u64 } else { 0 };
+        if photons > MAX_PHOTONS as u64 {
+            bail!(
+                "photons = {} and bounce_photons = {} are more than refrakt traces per frame ({MAX_PHOTONS} together); lower the photon budget",
+                desc.photons,
+                desc.bounce_photons
+            );
         }
         let photon_bytes = std::mem::size_of::<crate::gpu::types::Photon>() as u64;
-        if desc.photons as u64 * photon_bytes > binding {
+        if photons * photon_bytes > binding {
             bail!(
-                "photons = {} need {} MiB in one buffer ({photon_bytes} B each), more than the {} MiB the adapter \"{}\" \
-                 binds at once; lower the photon budget (--photons or photons) to at most {}",
-                desc.photons,
-                (desc.photons as u64 * photon_bytes) >> 20,
+                "{photons} photons (photons and bounce_photons) need {} MiB in one buffer ({photon_bytes} B each), more than the {} MiB the adapter \"{}\" \
+                 binds at once; lower the photon budget (--photons, photons or bounce_photons) to at most {} in all",
+                (photons * photon_bytes) >> 20,
                 binding >> 20,
                 self.ctx.info.name,
                 binding / photon_bytes
@@ -399,11 +404,13 @@ impl Renderer {
         let reach = lights::scene_reach(desc);
         let media: Vec<[u32; 2]> =
             desc.lights.iter().map(|l| interfaces::media_at(desc, lights::photon_start(l, &desc.volume))).collect();
-        // The environment's photons matter only where glass or a medium bends or scatters them
-        // (its direct light is the receivers' shadow rays).
-        let env_emits = !desc.fields.is_empty() || !desc.meshes.is_empty() || desc.fog.is_some();
-        let env_integral = if env_emits { self.environment.light.integral * env_light::scale(&desc.environment) } else { glam::Vec3::ZERO };
-        self.lights.update(&self.ctx, &desc.lights, &media, &desc.volume, env_integral, reach);
+        // The environment's caustic photons matter only where glass or a medium bends or
+        // scatters them (its direct light is the receivers' shadow rays).
+        let env = lights::EnvEmission {
+            integral: self.environment.light.integral * env_light::scale(&desc.environment),
+            caustics: !desc.fields.is_empty() || !desc.meshes.is_empty() || desc.fog.is_some(),
+        };
+        self.lights.update(&self.ctx, &desc.lights, &media, &desc.volume, env, reach, desc.traces_bounces());
         let radiance_dims = if self.deposits(desc) { desc.volume.dims } else { UVec3::ONE };
         if self.radiance.as_ref().is_none_or(|r| r.dims != radiance_dims) {
             self.radiance = Some(RadianceGrid::new(&self.ctx, radiance_dims)?);
@@ -418,9 +425,19 @@ impl Renderer {
     /// Whether photons have anything to do this frame: a budget, a light that emits them, and
     /// something they can show (caustics on receivers, or light in a scattering medium).
     fn traces_photons(&self, desc: &FrameDesc) -> bool {
-        desc.photons > 0
-            && self.lights.emitter_count > 0
+        let budget = self.photon_budget(desc);
+        budget.total() > 0
+            && self.lights.emitter_count + self.lights.bounce_emitter_count > 0
             && (!desc.receivers.is_empty() || needs_scattering(desc) || self.settings.always_deposit)
+    }
+
+    /// The frame's photons: the caustic budget where a light has a caustic emitter, the bounce
+    /// budget where one has a bounce emitter.
+    fn photon_budget(&self, desc: &FrameDesc) -> photons::Budget {
+        photons::Budget {
+            caustic: if self.lights.emitter_count > 0 { desc.photons } else { 0 },
+            bounce: if self.lights.bounce_emitter_count > 0 { desc.bounce_photons } else { 0 },
+        }
     }
 
     fn deposits(&self, desc: &FrameDesc) -> bool {
@@ -500,15 +517,17 @@ impl Renderer {
         let photons = self.traces_photons(desc);
         let deposit = photons && self.deposits(desc);
         // Photon flux is kept relative to the mean photon flux (fixed point): the lights' power
-        // toward the volume over the budget.
-        let flux_unit = (self.lights.raster_power / desc.photons.max(1) as f32).max(1e-30);
+        // toward the volume over the budget (and for bounced light, their whole power over its).
+        let budget = self.photon_budget(desc);
+        let flux_unit = (self.lights.raster_power / budget.caustic.max(1) as f32).max(1e-30);
+        let bounce_flux_unit = (self.lights.bounce_raster_power / budget.bounce.max(1) as f32).max(1e-30);
         let (grids, receivers, radiance, target) = (
             self.grids.as_ref().expect("prepared"),
             &self.receivers,
             self.radiance.as_ref().expect("prepared"),
             self.target.as_ref().expect("prepared"),
         );
-        let base = MarchParams { seed: self.settings.photon_seed, ..march::March::params(grids, desc.photons, flux_unit, deposit, anisotropic_scattering(desc), desc.receivers.len() as u32, self.settings.fixed_point_headroom) };
+        let base = MarchParams { seed: self.settings.photon_seed, ..march::March::params(grids, budget, flux_unit, (bounce_flux_unit, desc.bounces), deposit, anisotropic_scattering(desc), desc.receivers.len() as u32, self.settings.fixed_point_headroom) };
         let march_params = march::March::with_spectrum(base, desc.spectrum(), self.settings.wavelength_band);
         let (volume_key, photon_key) = self.stage_keys(desc);
         let mut reused = self.reuse_of(&volume_key, &photon_key);
@@ -530,10 +549,15 @@ impl Renderer {
             let (seed, scattering) = (self.settings.photon_seed, needs_scattering(desc));
             let spectral = march_params.flags & march_flags::SPECTRAL != 0; // wavelengths, XYZ deposits
             let environment = (&self.environment, view::env_params(desc));
-            self.photons.encode(&self.ctx, &mut enc, &mut self.profiler, grids, &self.lights, environment, desc.photons, seed, scattering, spectral); // lights, environment, octree → photons
+            self.photons.encode(&self.ctx, &mut enc, &mut self.profiler, grids, &self.lights, environment, budget, seed, scattering, spectral); // lights, environment, octree → photons
             self.march.encode(&self.ctx, &mut enc, &mut self.profiler, &march_params, grids, &self.photons, receivers, radiance); // photons, grids, receivers → radiance, caustic atlas
-            let filter_unit = flux_unit / march_params.flux_scale;
-            self.caustics.encode(&self.ctx, &mut enc, &mut self.profiler, receivers, self.settings.caustic_filter, filter_unit, spectral); // caustic atlas → caustic irradiance
+            let filter = self.settings.caustic_filter;
+            let caustic_unit = flux_unit / march_params.flux_scale;
+            self.caustics.encode(&self.ctx, &mut enc, &mut self.profiler, receivers, ChartMap::Caustic, filter, caustic_unit, spectral); // caustic atlas → caustic irradiance
+            if budget.bounce > 0 {
+                let indirect_unit = bounce_flux_unit / march_params.bounce_flux_scale;
+                self.caustics.encode(&self.ctx, &mut enc, &mut self.profiler, receivers, ChartMap::Indirect, filter.for_indirect(), indirect_unit, spectral); // indirect atlas → indirect irradiance
+            }
             self.march.encode_stats_readback(&mut enc, slot);
             self.counters.photon_traces += 1;
             parts.push((Part::Photons, self.submit_part(&mut enc)));
@@ -546,6 +570,7 @@ impl Renderer {
             radiance,
             target,
             caustics: photons,
+            indirect: photons && budget.bounce > 0,
             scattering: deposit,
             sample_first: self.refinement * desc.samples.max(1),
         };

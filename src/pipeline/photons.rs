@@ -1,5 +1,6 @@
 //! Stage 4, photons (`shaders/photons.wgsl`): importance raster per light, one CDF over all
-//! lights' cells, and stratified emission of the frame's photon budget.
+//! lights' cells, and stratified emission of the frame's photon budget — once for the caustic
+//! photons (toward the volume), once for the bounce photons (everywhere, for bounced light).
 
 use anyhow::Result;
 
@@ -24,7 +25,8 @@ pub struct Photons {
     scan: wgpu::ComputePipeline,
     emit: wgpu::ComputePipeline,
     bgl: wgpu::BindGroupLayout,
-    params: wgpu::Buffer,
+    /// The caustic and the bounce population's uniforms.
+    params: [wgpu::Buffer; 2],
     /// Per raster cell: its weight, then (after `scan`) the cumulative weight.
     cdf: wgpu::Buffer,
     cdf_cells: u32,
@@ -32,8 +34,26 @@ pub struct Photons {
     pub capacity: u32,
     /// Generation of these buffers (consumers rebind when it changes).
     pub generation: u64,
-    bound: Option<([u64; 4], wgpu::BindGroup)>,
+    bound: [Option<([u64; 4], wgpu::BindGroup)>; 2],
 }
+
+/// One population's photons: how many, and what they are for.
+#[derive(Clone, Copy, Debug)]
+pub struct Budget {
+    /// Caustic photons (toward the volume's glass and media).
+    pub caustic: u32,
+    /// Bounce photons (every light's whole emission), after the caustic ones.
+    pub bounce: u32,
+}
+
+impl Budget {
+    pub fn total(&self) -> u32 {
+        self.caustic.saturating_add(self.bounce)
+    }
+}
+
+/// Seeds the bounce population apart from the caustic one (both hash their photon index).
+const BOUNCE_SEED: u32 = 0x5bd1_e995;
 
 impl Photons {
     pub fn new(device: &wgpu::Device, shaders: &ShaderLibrary) -> Result<Self> {
@@ -51,7 +71,7 @@ impl Photons {
         let (importance, bgl) = layout::pipeline_entry(device, shaders, "photons", "importance_raster", &entries)?;
         let (scan, _) = layout::pipeline_entry(device, shaders, "photons", "scan", &entries)?;
         let (emit, _) = layout::pipeline_entry(device, shaders, "photons", "emit", &entries)?;
-        let params = layout::uniform_buffer::<PhotonParams>(device, "photon params");
+        let params = [layout::uniform_buffer::<PhotonParams>(device, "photon params"), layout::uniform_buffer::<PhotonParams>(device, "bounce photon params")];
         let (cdf, cdf_cells) = (Self::buffer(device, "cdf", 4, RASTER_CELLS * RASTER_CELLS), RASTER_CELLS * RASTER_CELLS);
         let photons = Self::buffer(device, "photons", std::mem::size_of::<Photon>() as u64, 1024);
         Ok(Self {
@@ -65,7 +85,7 @@ impl Photons {
             photons,
             capacity: 1024,
             generation: super::resources::next_generation(),
-            bound: None,
+            bound: [None, None],
         })
     }
 
@@ -78,7 +98,7 @@ impl Photons {
         })
     }
 
-    /// Makes room for `count` photons and the lights' rasters.
+    /// Makes room for `count` photons and rasters of `emitters` lights.
     pub fn reserve(&mut self, device: &wgpu::Device, count: u32, emitters: u32) {
         let cells = emitters.max(1) * RASTER_CELLS * RASTER_CELLS;
         if cells > self.cdf_cells {
@@ -106,33 +126,61 @@ impl Photons {
         grids: &Grids,
         lights: &LightBuffers,
         environment: (&EnvironmentTexture, EnvParams),
-        photon_count: u32,
+        budget: Budget,
         seed: u32,
         scattering: bool,
         spectral: bool,
     ) {
-        self.reserve(&ctx.device, photon_count, lights.emitter_count);
-        let params = PhotonParams {
+        self.reserve(&ctx.device, budget.total(), lights.emitter_count.max(lights.bounce_emitter_count));
+        let spectral_flag = if spectral { photon_flags::SPECTRAL } else { 0 };
+        let caustic = PhotonParams {
             grid: grids.octree_layout.grid,
             emitter_count: lights.emitter_count,
             cells: RASTER_CELLS,
-            photon_count,
+            photon_count: budget.caustic,
             seed,
             medium_importance: if scattering { MEDIUM_IMPORTANCE } else { 0.0 },
             eps_refract: EPS_REFRACT,
-            flags: if spectral { photon_flags::SPECTRAL } else { 0 },
+            flags: spectral_flag,
             env: environment.1,
             ..Default::default()
         };
-        ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
-        let env = environment.0;
+        let bounce = PhotonParams {
+            emitter_count: lights.bounce_emitter_count,
+            first_emitter: lights.emitter_count,
+            photon_count: budget.bounce,
+            photon_offset: budget.caustic,
+            seed: seed ^ BOUNCE_SEED,
+            flags: spectral_flag | photon_flags::BOUNCE,
+            ..caustic
+        };
+        let mut pass = profiler.pass(enc, "photons");
+        for (k, params) in [caustic, bounce].into_iter().enumerate() {
+            if params.emitter_count == 0 || params.photon_count == 0 {
+                continue;
+            }
+            ctx.queue.write_buffer(&self.params[k], 0, bytemuck::bytes_of(&params));
+            self.bind(ctx, k, grids, lights, environment.0);
+            pass.set_bind_group(0, &self.bound[k].as_ref().expect("bound").1, &[]);
+            pass.set_pipeline(&self.importance);
+            pass.dispatch_workgroups((params.emitter_count * RASTER_CELLS * RASTER_CELLS).div_ceil(64), 1, 1);
+            pass.set_pipeline(&self.scan);
+            pass.dispatch_workgroups(1, 1, 1);
+            pass.set_pipeline(&self.emit);
+            let (x, y) = layout::workgroups_1d(params.photon_count, 64);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+    }
+
+    /// Population `k`'s bind group (0 caustic, 1 bounce), made again when a buffer changed.
+    fn bind(&mut self, ctx: &GpuContext, k: usize, grids: &Grids, lights: &LightBuffers, env: &EnvironmentTexture) {
         let generations = [grids.generation, lights.generation, self.generation, env.generation];
-        if self.bound.as_ref().is_none_or(|(g, _)| *g != generations) {
+        if self.bound[k].as_ref().is_none_or(|(g, _)| *g != generations) {
             let bg = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("photons"),
                 layout: &self.bgl,
                 entries: &[
-                    layout::bind(0, &self.params),
+                    layout::bind(0, &self.params[k]),
                     layout::bind(1, &lights.emitters),
                     layout::bind(2, &lights.lights),
                     layout::bind(3, &grids.octree_params),
@@ -143,18 +191,7 @@ impl Photons {
                     layout::bind(8, &env.light_table),
                 ],
             });
-            self.bound = Some((generations, bg));
+            self.bound[k] = Some((generations, bg));
         }
-        let (_, bg) = self.bound.as_ref().expect("bound above");
-        let cells = lights.emitter_count * RASTER_CELLS * RASTER_CELLS;
-        let mut pass = profiler.pass(enc, "photons");
-        pass.set_bind_group(0, bg, &[]);
-        pass.set_pipeline(&self.importance);
-        pass.dispatch_workgroups(cells.div_ceil(64), 1, 1);
-        pass.set_pipeline(&self.scan);
-        pass.dispatch_workgroups(1, 1, 1);
-        pass.set_pipeline(&self.emit);
-        let (x, y) = layout::workgroups_1d(photon_count, 64);
-        pass.dispatch_workgroups(x, y, 1);
     }
 }

@@ -455,6 +455,10 @@ pub struct Receivers {
     pub caustic_footprint: GrowableBuffer,
     /// Filtered irradiance per texel (caustics stage → view stage).
     pub caustic_irradiance: GrowableBuffer,
+    /// The indirect maps (bounced light), laid out as the caustic maps: bounce photons'
+    /// deposits (march stage), and their filtered irradiance (caustics stage → view stage).
+    pub indirect_atlas: GrowableBuffer,
+    pub indirect_irradiance: GrowableBuffer,
     /// Photons each chart received this frame (caustics stage: charts without any skip their
     /// filter levels).
     pub chart_photons: GrowableBuffer,
@@ -503,6 +507,8 @@ impl Receivers {
             caustic_layer: buffer("caustic layer"),
             caustic_footprint: buffer("caustic footprint"),
             caustic_irradiance: buffer("caustic irradiance"),
+            indirect_atlas: buffer("indirect atlas"),
+            indirect_irradiance: buffer("indirect irradiance"),
             chart_photons: buffer("chart photons"),
             layout: layout(&[], Default::default(), 1.0, u64::MAX, &mut MeshTrees::default()),
             trees: MeshTrees::default(),
@@ -552,6 +558,8 @@ impl Receivers {
         grown |= self.caustic_layer.reserve(ctx, texel_bytes);
         grown |= self.caustic_footprint.reserve(ctx, texel_bytes / 2);
         grown |= self.caustic_irradiance.reserve(ctx, texel_bytes);
+        grown |= self.indirect_atlas.reserve(ctx, texel_bytes);
+        grown |= self.indirect_irradiance.reserve(ctx, texel_bytes);
         grown |= self.chart_photons.reserve(ctx, self.layout.charts.len().max(1) as u64 * 4);
         if grown {
             self.generation = super::resources::next_generation();

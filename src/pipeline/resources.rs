@@ -291,13 +291,14 @@ impl EnvironmentTexture {
     }
 }
 
-/// Planes of vec4 per pixel the view stage writes: beauty, depth, caustic, direct, volume.
-pub const FRAME_PLANES: u64 = 5;
+/// Planes of vec4 per pixel the view stage writes: beauty, depth, caustic, direct, volume,
+/// indirect.
+pub const FRAME_PLANES: u64 = 6;
 
 /// Where the view stage writes the image, and the staging buffer it comes home through. The
 /// planes lie one after another in one buffer, each bound on its own (a binding must start at a
 /// multiple of the adapter's offset alignment, so each plane starts at one): a frame needs one
-/// plane, not all five, to fit in a binding — 4K on adapters that bind 128 MiB.
+/// plane, not all six, to fit in a binding — 4K on adapters that bind 128 MiB.
 pub struct FrameTarget {
     pub width: u32,
     pub height: u32,
@@ -467,8 +468,8 @@ impl FrameTarget {
     }
 }
 
-/// The layer of frame plane `k` (vec4 per pixel): beauty RGBA, depth, then the caustic, direct
-/// and volume light (RGB).
+/// The layer of frame plane `k` (vec4 per pixel): beauty RGBA, depth, then the caustic, direct,
+/// volume and indirect (bounced) light (RGB).
 fn plane_layer(k: usize, plane: &[f32]) -> Layer {
     // (flat_map's size hint is unknown, so reserve the exact length up front)
     let rgb = |name: &str| {
@@ -481,7 +482,8 @@ fn plane_layer(k: usize, plane: &[f32]) -> Layer {
         1 => Layer::new("depth", &["Z"], plane.chunks_exact(4).map(|c| c[0]).collect()),
         2 => rgb("caustic"),
         3 => rgb("direct"),
-        _ => rgb("volume"),
+        4 => rgb("volume"),
+        _ => rgb("indirect"),
     }
 }
 

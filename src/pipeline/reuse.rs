@@ -52,6 +52,7 @@ pub struct PhotonKey {
     environment: (ImageIdentity, [f32; 3], f32),
     receivers: Vec<Receiver>,
     photons: u32,
+    bounces: (u32, u32),
     settings: RenderSettings,
 }
 
@@ -66,6 +67,7 @@ impl PhotonKey {
             },
             receivers: desc.receivers.iter().map(|r| Receiver { name: String::new(), ..r.clone() }).collect(),
             photons: desc.photons,
+            bounces: (desc.bounces, desc.bounce_photons),
             settings: settings.clone(),
         }
     }

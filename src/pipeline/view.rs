@@ -47,6 +47,8 @@ pub struct ViewInputs<'a> {
     pub target: &'a FrameTarget,
     /// Whether photons were traced this frame (receivers read their caustic maps).
     pub caustics: bool,
+    /// Whether bounce photons were traced this frame (receivers read their indirect maps).
+    pub indirect: bool,
     /// Whether the radiance grid holds this frame's fluence.
     pub scattering: bool,
     /// The frame's first camera sample ([`Renderer::refinement`](super::Renderer::refinement)).
@@ -135,8 +137,12 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
     if inputs.caustics {
         flags |= view_flags::CAUSTICS;
     }
-    // Shadow rays look past cut-outs, see-through receivers and thin glass sheets.
-    if desc.receivers.iter().any(|r| r.diffuse.alpha_mode != crate::scene::AlphaMode::Opaque) || desc.meshes.iter().any(|m| m.sharp && m.thin) {
+    if inputs.indirect {
+        flags |= view_flags::INDIRECT;
+    }
+    // Shadow rays look past cut-outs, see-through receivers and thin glass sheets and shells.
+    let thin_glass = desc.meshes.iter().any(|m| m.sharp && m.thin) || desc.fields.iter().any(|f| f.sharp && f.thin);
+    if desc.receivers.iter().any(|r| r.diffuse.alpha_mode != crate::scene::AlphaMode::Opaque) || thin_glass {
         flags |= view_flags::SEE_THROUGH;
     }
     if desc.receivers.iter().any(|r| r.diffuse.is_pbr()) {
@@ -174,7 +180,7 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
 }
 
 /// The view pass's bind group layout: grids, environment, the frame's planes, octree, receivers
-/// and their BVH, lights, radiance grid, step count and BRDF table. Its storage buffers are the
+/// and their BVH and maps, lights, radiance grid, step count and BRDF table. Its storage buffers are the
 /// most any stage binds (`gpu::STORAGE_BUFFERS_PER_STAGE`, which adapters are checked against).
 fn bindings() -> Vec<wgpu::BindGroupLayoutEntry> {
     let d3 = wgpu::TextureViewDimension::D3;
@@ -206,10 +212,12 @@ fn bindings() -> Vec<wgpu::BindGroupLayoutEntry> {
         layout::storage(24, true),
         layout::storage(25, true),
         layout::storage(26, true),
+        layout::storage(27, true),
         layout::storage(30, false),
         layout::storage(31, false),
         layout::storage(32, false),
         layout::storage(33, false),
+        layout::storage(34, false),
     ]
 }
 
@@ -277,6 +285,7 @@ impl View {
                     wgpu::BindGroupEntry { binding: 31, resource: target.plane(2) },
                     wgpu::BindGroupEntry { binding: 32, resource: target.plane(3) },
                     wgpu::BindGroupEntry { binding: 33, resource: target.plane(4) },
+                    wgpu::BindGroupEntry { binding: 34, resource: target.plane(5) },
                     layout::bind(8, &grids.octree_params),
                     layout::bind(9, &grids.octree),
                     layout::bind(25, &grids.octree_leaves),
@@ -296,6 +305,7 @@ impl View {
                     wgpu::BindGroupEntry { binding: 23, resource: layout::texture_view(&env.specular_view) },
                     layout::bind(24, &self.brdf_lut),
                     layout::bind(26, &env.light_table),
+                    layout::bind(27, &receivers.indirect_irradiance.buffer),
                 ],
             });
             self.bound = Some((generations, bg));

@@ -25,6 +25,8 @@ pub struct EvalOptions {
     pub samples: Option<u32>,
     /// `--photons N`: the photon budget.
     pub photons: Option<u32>,
+    /// `--bounces N`: diffuse bounces of bounced light.
+    pub bounces: Option<u32>,
     /// `--environment PRESET|FILE[:INTENSITY]`: the environment in place of the scene's.
     pub environment: Option<Environment>,
 }
@@ -112,8 +114,21 @@ pub fn evaluate(scene: &Scene, time: f64, opts: &EvalOptions) -> Result<FrameDes
         lights: c.lights,
         fog,
         photons: opts.photons.unwrap_or(scene.photons),
+        bounces: opts.bounces.unwrap_or(scene.bounces),
+        bounce_photons: bounce_photons(scene, opts.photons),
         samples: opts.samples.unwrap_or(scene.samples),
     })
+}
+
+/// The bounce photons: the scene's (as many as its `photons` unless it says), scaled as
+/// `--photons` scales the caustic budget, so one option makes a quick preview of both.
+fn bounce_photons(scene: &Scene, photons: Option<u32>) -> u32 {
+    let own = scene.bounce_photons.unwrap_or(scene.photons);
+    match photons {
+        Some(p) if scene.photons > 0 => (own as f64 * p as f64 / scene.photons as f64).round().min((1u32 << 30) as f64) as u32,
+        Some(p) => p,
+        None => own,
+    }
 }
 
 /// Boundaries are stored as voxels, negative meaning "the volume's default", until the voxel

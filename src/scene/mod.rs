@@ -180,6 +180,11 @@ pub fn by_name_or_index(names: &[Option<&str>], chosen: &str) -> Option<usize> {
     names.iter().position(|n| *n == Some(chosen)).or_else(|| chosen.parse::<usize>().ok().filter(|&i| i < names.len()))
 }
 
+/// Diffuse bounces a scene's light takes unless it says otherwise (as Cycles' default).
+pub const DEFAULT_BOUNCES: u32 = 4;
+/// The most diffuse bounces a scene may ask for (Russian roulette ends most paths long before).
+pub const MAX_BOUNCES: u32 = 1024;
+
 /// The whole scene: settings plus the root nodes.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -188,6 +193,10 @@ pub struct Scene {
     pub environment: Shared<Environment>,
     pub volume: Shared<VolumeSettings>,
     pub photons: u32,
+    /// Diffuse bounces of bounced light (Cycles' default diffuse bounces); 0 leaves it out.
+    pub bounces: u32,
+    /// Photons for bounced light; None: as many as `photons`.
+    pub bounce_photons: Option<u32>,
     /// A scattering medium filling the volume box (light shafts), if any.
     pub fog: Option<Shared<Fog>>,
     /// Camera rays per pixel.
@@ -206,6 +215,8 @@ impl Default for Scene {
             environment: shared(Environment::default()),
             volume: shared(VolumeSettings::default()),
             photons: 70_000,
+            bounces: DEFAULT_BOUNCES,
+            bounce_photons: None,
             fog: None,
             samples: 4,
             duration: None,

@@ -29,6 +29,7 @@ fn layer_data(image: &Image, layer: LayerChoice) -> Result<(&[f32], usize, usize
         LayerChoice::Alpha => ("beauty", 3),
         LayerChoice::Caustic => ("caustic", 0),
         LayerChoice::Direct => ("direct", 0),
+        LayerChoice::Indirect => ("indirect", 0),
         LayerChoice::Volume => ("volume", 0),
         LayerChoice::Depth => ("depth", 0),
     };

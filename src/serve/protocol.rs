@@ -57,6 +57,7 @@ pub enum LayerChoice {
     Beauty,
     Caustic,
     Direct,
+    Indirect,
     Volume,
     Depth,
     Alpha,

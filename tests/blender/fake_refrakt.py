@@ -43,7 +43,7 @@ def option(args, name, default=None):
 def frame_planes(k, w, h):
     n = w * h
     planes = {"R": [float(k)] * n, "G": [0.5] * n, "B": [0.25] * n, "A": [1.0] * n, "depth.Z": [2.0] * n}
-    for layer, value in (("caustic", 0.1), ("direct", 0.2), ("volume", 0.3)):
+    for layer, value in (("caustic", 0.1), ("direct", 0.2), ("indirect", 0.15), ("volume", 0.3)):
         for c in "RGB":
             planes[f"{layer}.{c}"] = [value] * n
     return planes

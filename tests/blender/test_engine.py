@@ -13,7 +13,7 @@ import pytest
 import scenes
 from conftest import submodule
 
-PASSES = ("caustic", "direct", "volume")
+PASSES = ("caustic", "direct", "indirect", "volume")
 
 
 def engine_scene(tmp_path, frames=(1, 1), size=(32, 18)):

@@ -194,14 +194,12 @@ def _local_half_extents(obj):
 
 LUMENS_PER_WATT = 683.0
 MIN_SIZE = 1e-4  # metres
-DISC_MESSAGE = ("refrakt has no disc lights yet: these disk or ellipse area lights are exported as rectangles "
-                "of the same area, aspect ratio and power")
 
 
 def area_light(obj, warnings):
-    """A Blender area light as refrakt's rect (`nodes[i].extras.refrakt.light`): its size in the
-    node's local X and Y (the exporter's light nodes keep Blender's local axes, −Z forward) and
-    its radiance in nits.
+    """A Blender area light as refrakt's rect, or for a disk or ellipse its disk
+    (`nodes[i].extras.refrakt.light`): its size (a disk's diameters) in the node's local X and Y
+    (the exporter's light nodes keep Blender's local axes, −Z forward) and its radiance in nits.
 
     Cycles makes an area light of power P W and area A (its size times the object's scale, π/4 of
     the bounding rectangle for a disk or ellipse) a Lambertian emitter of radiance
@@ -215,12 +213,8 @@ def area_light(obj, warnings):
     # refrakt needs a rect of some size; a vanishing one keeps its power (and so a huge radiance).
     width = max(light.size * sx, MIN_SIZE)
     height = max((light.size_y if light.shape in ("RECTANGLE", "ELLIPSE") else light.size) * sy, MIN_SIZE)
-    area = width * height
-    if light.shape in ("DISK", "ELLIPSE"):
-        area *= math.pi / 4.0
-        # The same area and aspect ratio: both sides times √π / 2.
-        width, height = (x * math.sqrt(math.pi) / 2.0 for x in (width, height))
-        warnings.add_about(obj.name, DISC_MESSAGE)
+    round_ = light.shape in ("DISK", "ELLIPSE")
+    area = width * height * (math.pi / 4.0 if round_ else 1.0)
     power = light.energy * 2.0 ** getattr(light, "exposure", 0.0)
     normalize = getattr(light, "normalize", True)
     radiance = power / (math.pi * area) if normalize else power / math.pi
@@ -231,7 +225,7 @@ def area_light(obj, warnings):
     color = list(light.color)
     if getattr(light, "use_temperature", False):
         color = [c * t for c, t in zip(color, light.temperature_color)]
-    return {"type": "rect", "size": [width, height], "color": color, "intensity": radiance * LUMENS_PER_WATT}
+    return {"type": "disk" if round_ else "rect", "size": [width, height], "color": color, "intensity": radiance * LUMENS_PER_WATT}
 
 
 def node_extras(obj, scene, warnings=None):

@@ -69,7 +69,7 @@ struct SpreadRay {
 }
 
 fn spreads(e: Emitter) -> bool {
-    return e.light == ENV_LIGHT || lights[e.light].kind == LIGHT_RECT;
+    return e.light == ENV_LIGHT || lights[e.light].kind == LIGHT_RECT || lights[e.light].kind == LIGHT_DISK;
 }
 
 // The photon ray of raster point u with direction numbers xi.
@@ -94,8 +94,13 @@ fn spread_ray(e: Emitter, u: vec2<f32>, xi: vec2<f32>) -> SpreadRay {
     return SpreadRay(origin, dir, radiance * max(dot(dir, e.axis), 0.0) * TAU * (1.0 - cone.w));
 }
 
+// Point u of a rect light's area (a disk's: the concentric map, equal areas for equal cells).
 fn rect_point(e: Emitter, u: vec2<f32>) -> vec3<f32> {
-    return e.origin + e.right * ((2.0 * u.x - 1.0) * e.half_width) + e.up * ((2.0 * u.y - 1.0) * e.half_height);
+    var q = 2.0 * u - 1.0;
+    if lights[e.light].kind == LIGHT_DISK {
+        q = concentric_disk(u);
+    }
+    return e.origin + e.right * (q.x * e.half_width) + e.up * (q.y * e.half_height);
 }
 
 // The cone of directions from p that holds the volume's bounding sphere: (axis, cos of its

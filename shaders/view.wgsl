@@ -280,17 +280,24 @@ fn light_arrival(l: LightGpu, p: vec3<f32>, k: u32) -> LightArrival {
         return LightArrival(w, l.radiant, 1.0, NO_HIT);
     }
     var aim = l.position;
+    let area_light = l.kind == LIGHT_RECT || l.kind == LIGHT_DISK;
+    var area = l.size_x * l.size_y;
     if l.kind == LIGHT_RECT {
         aim += l.right * ((u.x - 0.5) * l.size_x) + l.up * ((u.y - 0.5) * l.size_y);
+    } else if l.kind == LIGHT_DISK {
+        // The inscribed ellipse, uniform by area (the concentric map).
+        let q = concentric_disk(u);
+        aim += l.right * (0.5 * q.x * l.size_x) + l.up * (0.5 * q.y * l.size_y);
+        area *= 0.25 * PI;
     }
     let to_light = aim - p;
     let dist2 = dot(to_light, to_light);
     let dist = sqrt(dist2);
     let w = to_light / dist;
     var intensity: vec3<f32>;
-    if l.kind == LIGHT_RECT {
+    if area_light {
         // A one-sided Lambertian emitter of radiance L: I(θ) = L · A · cos θ (one sample).
-        intensity = l.radiant * (l.size_x * l.size_y) * max(dot(-w, l.direction), 0.0);
+        intensity = l.radiant * area * max(dot(-w, l.direction), 0.0);
     } else {
         intensity = light_intensity(l, -w);
     }
@@ -536,7 +543,7 @@ fn lights_seen(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> vec3<f32> {
             if t_max >= NO_HIT && light.half_angle > 0.0 && dot(d, -light.direction) >= cos_a {
                 l += light.radiant / (2.0 * PI * (1.0 - cos_a));
             }
-        } else if light.kind != LIGHT_RECT && light.radius > 0.0 {
+        } else if light.kind != LIGHT_RECT && light.kind != LIGHT_DISK && light.radius > 0.0 {
             let oc = o - light.position;
             let b = dot(oc, d);
             let disc = b * b - (dot(oc, oc) - light.radius * light.radius);

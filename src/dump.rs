@@ -138,7 +138,8 @@ fn light_json(l: &crate::scene::Light, d: &LightDesc) -> Value {
         LightKind::Point => ("point", "cd"),
         LightKind::Spot { .. } => ("spot", "cd"),
         LightKind::Sun { .. } => ("sun", "lx"),
-        LightKind::Rect { .. } => ("rect", "nit"),
+        LightKind::Rect { round: false, .. } => ("rect", "nit"),
+        LightKind::Rect { round: true, .. } => ("disk", "nit"),
     };
     let mut v = json!({
         "node": d.name, "kind": kind, "unit": unit, "intensity": l.intensity, "color": vec3(l.color),
@@ -151,7 +152,7 @@ fn light_json(l: &crate::scene::Light, d: &LightDesc) -> Value {
             v["radius"] = json!(l.radius);
         }
         LightKind::Sun { angular_diameter } => v["angular_diameter"] = json!(angular_diameter),
-        LightKind::Rect { size } => v["size"] = json!([size.x, size.y]),
+        LightKind::Rect { size, .. } => v["size"] = json!([size.x, size.y]),
         LightKind::Point => v["radius"] = json!(l.radius),
     }
     v

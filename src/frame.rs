@@ -287,8 +287,9 @@ pub enum LightShape {
     Spot { cos_outer: f32, cos_inner: f32 },
     /// Half the sun's angular diameter, radians.
     Sun { half_angle: f32 },
-    /// Rectangle of `size` spanned by `right` and `up`, emitting along `direction`.
-    Rect { size: Vec2 },
+    /// Rectangle of `size` spanned by `right` and `up`, emitting along `direction` — or,
+    /// `round`, the ellipse inscribed in it.
+    Rect { size: Vec2, round: bool },
 }
 
 /// A light in world space, in radiometric units (see `scene::light`).

@@ -209,34 +209,58 @@ fn a_dark_environment_changes_nothing() {
     }
 }
 
-/// A small rect light (4 cm square, radiance L) 2.5 m above a glass ball sends photons as a
-/// point light of intensity L·A at its centre does, but for its cos θ falloff (0.9954 on average
-/// over the ball): the caustic flux (the march's sum over the photons that passed glass and
-/// reached the floor) within 1.5 % of 0.9954 × the point light's, and the caustic seen (relative
-/// L1 of the two caustic images, which differ also by the rect's blur of the focus) ≤ 0.15.
+/// A small rect light (4 cm square, radiance L), and a disk light (4 cm across), 2.5 m above a
+/// glass ball send photons as a point light of intensity L·A at their centre does, but for their
+/// cos θ falloff (0.9954 on average over the ball): the caustic flux (the march's sum over the
+/// photons that passed glass and reached the floor) within 1.5 % of 0.9954 × the point light's,
+/// and the caustic seen (relative L1 of the caustic images, which differ also by the light's blur
+/// of the focus) ≤ 0.15.
 #[test]
-fn a_small_rect_lights_caustic_is_a_point_lights() {
+fn a_small_rect_or_disk_lights_caustic_is_a_point_lights() {
     let (radiance, side) = (2.0e6f32, 0.04f32);
     let scene = |light: &str| {
         let lamp = format!("scene:add(r.node{{ name = 'lamp', translation = {{0.1, 3, 0.05}}, rotation = r.look_at({{0.1, 3, 0.05}}, {{0.1, 0, 0.05}}, {{0, 0, -1}}), light = {light} }})");
         ball_over_floor(400_000, 1, &lamp)
     };
-    let rect = scene(&format!("r.rect{{ size = {{{side}, {side}}}, intensity = {radiance} }}"));
-    let point = scene(&format!("r.point{{ intensity = {} }}", radiance * side * side));
     let mut r = shared_renderer();
-    let with_rect = r.frame(&rect).unwrap();
-    let flux_rect = r.photon_stats().expect("photons were traced").caustic[0];
-    let with_point = r.frame(&point).unwrap();
-    let flux_point = r.photon_stats().expect("photons were traced").caustic[0];
-    let (a, b) = (layer(&with_point, "caustic"), layer(&with_rect, "caustic"));
-    let n = a.data.len() / a.channels.len();
-    let seen = (0..n).map(|i| rgb(a, i).x as f64).sum::<f64>();
-    let l1 = (0..n).map(|i| (rgb(a, i).x - rgb(b, i).x).abs() as f64).sum::<f64>() / seen;
-    let ratio = flux_rect / flux_point / 0.9954;
-    println!("caustic flux: rect {flux_rect:.5} W vs point {flux_point:.5} W × 0.9954 ({:+.2} %); images' relative L1 {l1:.3}", 100.0 * (ratio - 1.0));
-    assert!(flux_point > 0.0 && seen > 0.0);
-    assert!((ratio - 1.0).abs() < 0.015, "caustic flux ratio {ratio}");
-    assert!(l1 < 0.15, "relative L1 {l1}");
+    for (kind, area) in [("rect", side * side), ("disk", PI / 4.0 * side * side)] {
+        let area_light = scene(&format!("r.{kind}{{ size = {{{side}, {side}}}, intensity = {radiance} }}"));
+        let point = scene(&format!("r.point{{ intensity = {} }}", radiance * area));
+        let with_area = r.frame(&area_light).unwrap();
+        let flux_area = r.photon_stats().expect("photons were traced").caustic[0];
+        let with_point = r.frame(&point).unwrap();
+        let flux_point = r.photon_stats().expect("photons were traced").caustic[0];
+        let (a, b) = (layer(&with_point, "caustic"), layer(&with_area, "caustic"));
+        let n = a.data.len() / a.channels.len();
+        let seen = (0..n).map(|i| rgb(a, i).x as f64).sum::<f64>();
+        let l1 = (0..n).map(|i| (rgb(a, i).x - rgb(b, i).x).abs() as f64).sum::<f64>() / seen;
+        let ratio = flux_area / flux_point / 0.9954;
+        println!("caustic flux: {kind} {flux_area:.5} W vs point {flux_point:.5} W × 0.9954 ({:+.2} %); images' relative L1 {l1:.3}", 100.0 * (ratio - 1.0));
+        assert!(flux_point > 0.0 && seen > 0.0);
+        assert!((ratio - 1.0).abs() < 0.015, "{kind}: caustic flux ratio {ratio}");
+        assert!(l1 < 0.15, "{kind}: relative L1 {l1}");
+    }
+}
+
+/// A disk light (r = 0.5 m, radiance 1 W/m²/sr = 683 nits) 1 m over a white floor, facing it:
+/// on its axis the floor gets E = π L r²/(h² + r²) (the disk's form factor), within 1 %, from
+/// shadow rays to points spread evenly over the disk.
+#[test]
+fn a_disk_light_lights_the_floor_on_its_axis_by_its_form_factor() {
+    let desc = frame_from_lua(
+        "local r = require('refrakt')
+         local scene = r.scene{ camera = r.camera{ position = {0, 2, 0}, target = {0, 0, 0}, up = {0, 0, -1}, orthographic = 0.02, size = {4, 4} },
+                                environment = r.environment{ color = {0, 0, 0} }, photons = 0, bounces = 0, samples = 64 }
+         scene:add(r.node{ name = 'floor', shape = r.plane{ size = {6, 6} }, material = r.diffuse{ color = {1, 1, 1} } })
+         scene:add(r.node{ name = 'panel', translation = {0, 1, 0}, rotation = {-90, 0, 0}, light = r.disk{ size = {1, 1}, intensity = 683 } })
+         return scene",
+    );
+    let image = shared_renderer().frame(&desc).unwrap();
+    let direct = layer(&image, "direct");
+    let e = (0..16).map(|i| rgb(direct, i).x).sum::<f32>() / 16.0 * PI;
+    let expected = PI * 0.25 / (1.0 + 0.25);
+    println!("disk light on its axis: E = {e:.5} vs π L r²/(h² + r²) = {expected:.5} ({:+.2} %)", 100.0 * (e / expected - 1.0));
+    assert!((e / expected - 1.0).abs() < 0.01, "{e} vs {expected}");
 }
 
 /// The integrating sphere: a point light at the centre of a closed diffuse sphere (r = 1 m) of

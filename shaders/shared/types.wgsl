@@ -375,6 +375,7 @@ const LIGHT_POINT: u32 = 0u;
 const LIGHT_SPOT: u32 = 1u;
 const LIGHT_SUN: u32 = 2u;
 const LIGHT_RECT: u32 = 3u;
+const LIGHT_DISK: u32 = 4u;
 // Emitter.light of the environment's emitter (it has no LightGpu).
 const ENV_LIGHT: u32 = 0xffffffffu;
 

@@ -144,7 +144,8 @@ pub struct NodeExtras {
 
 /// `nodes[i].extras.refrakt.light`: `{"type": "rect", "size": [w, h], "color": [r, g, b],
 /// "intensity": nits}`, as Lua's `refrakt.rect` (in the node's local XY plane, emitting toward
-/// its local −Z; intensity in nits, cd/m², as KHR_lights_punctual's photometric units).
+/// its local −Z; intensity in nits, cd/m², as KHR_lights_punctual's photometric units); type
+/// "disk": the ellipse of diameters w, h, as Lua's `refrakt.disk`.
 #[derive(Debug, Default, Deserialize)]
 #[serde(default)]
 pub struct LightExtras {
@@ -158,11 +159,14 @@ pub struct LightExtras {
     pub unknown: std::collections::BTreeMap<String, serde_json::Value>,
 }
 
-/// An area light from a node's extras: a one-sided rectangle (refrakt's `rect`).
+/// An area light from a node's extras: a one-sided rectangle (refrakt's `rect`) or the ellipse
+/// inscribed in it (`disk`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RectExtras {
     /// Metres, along the node's local X and Y.
     pub size: Vec2,
+    /// A disk or ellipse of diameters `size`.
+    pub round: bool,
     pub color: Vec3,
     /// Nits (cd/m²).
     pub intensity: f32,
@@ -222,17 +226,18 @@ fn rect_light(l: &LightExtras, file: &str, what: &str, warnings: &mut Collector)
     for key in l.unknown.keys() {
         warnings.about(what, format!("extras.refrakt.light.{key} is not a refrakt setting (known: {}); skipped", LIGHT_KEYS.join(", ")));
     }
-    match l.kind.as_deref() {
-        Some("rect") => {}
-        Some(other) => bail!("{file}: {what}.extras.refrakt.light.type is \"{other}\"; refrakt reads \"rect\" (point, spot and sun lights come through KHR_lights_punctual)"),
-        None => bail!("{file}: {what}.extras.refrakt.light.type must be \"rect\""),
-    }
+    let round = match l.kind.as_deref() {
+        Some("rect") => false,
+        Some("disk") => true,
+        Some(other) => bail!("{file}: {what}.extras.refrakt.light.type is \"{other}\"; refrakt reads \"rect\" and \"disk\" (point, spot and sun lights come through KHR_lights_punctual)"),
+        None => bail!("{file}: {what}.extras.refrakt.light.type must be \"rect\" or \"disk\""),
+    };
     let size = Vec2::from(l.size.unwrap_or([0.0; 2]));
     check(size.is_finite() && size.min_element() > 0.0, file, what, "light.size", "two numbers > 0 (metres)")?;
     check(non_negative(l.color), file, what, "light.color", "three numbers ≥ 0")?;
     let intensity = l.intensity.unwrap_or(1.0);
     check(intensity.is_finite() && intensity >= 0.0, file, what, "light.intensity", "a number ≥ 0 (nits)")?;
-    Ok(RectExtras { size, color: Vec3::from(l.color.unwrap_or([1.0; 3])), intensity })
+    Ok(RectExtras { size, round, color: Vec3::from(l.color.unwrap_or([1.0; 3])), intensity })
 }
 
 fn node_role(n: NodeExtras, file: &str, what: &str) -> Result<Option<NodeRole>> {

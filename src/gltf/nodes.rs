@@ -188,7 +188,7 @@ impl<'a> Builder<'a, '_> {
             } else {
                 // Not in `animated.lights` (no KHR_animation_pointer reaches it); the node's
                 // transform, animated or not, places and aims it.
-                let light = Light { color: r.color, intensity: r.intensity, ..Light::new(LightKind::Rect { size: r.size }) };
+                let light = Light { color: r.color, intensity: r.intensity, ..Light::new(LightKind::Rect { size: r.size, round: r.round }) };
                 node.borrow_mut().light = Some(shared(light));
                 return Ok(());
             }

@@ -653,6 +653,8 @@ pub mod light_kind {
     pub const SPOT: u32 = 1;
     pub const SUN: u32 = 2;
     pub const RECT: u32 = 3;
+    /// A rect's inscribed ellipse (`LightShape::Rect { round: true }`).
+    pub const DISK: u32 = 4;
 }
 
 /// Probe integrators (`ProbeParams::integrator`).

@@ -74,7 +74,8 @@ pub fn module(lua: &Lua) -> mlua::Result<Table> {
         lua.create_function(light(LightKind::Spot { angle: 30f32.to_radians(), blend: 0.15 }))?,
     )?;
     r.raw_set("sun", lua.create_function(light(LightKind::Sun { angular_diameter: 0.53f32.to_radians() }))?)?;
-    r.raw_set("rect", lua.create_function(light(LightKind::Rect { size: glam::Vec2::ONE }))?)?;
+    r.raw_set("rect", lua.create_function(light(LightKind::Rect { size: glam::Vec2::ONE, round: false }))?)?;
+    r.raw_set("disk", lua.create_function(light(LightKind::Rect { size: glam::Vec2::ONE, round: true }))?)?;
     r.raw_set("camera", lua.create_function(|lua, t: Option<Table>| construct(lua, Camera::default(), t, &[]))?)?;
     r.raw_set(
         "environment",

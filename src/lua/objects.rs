@@ -521,7 +521,8 @@ impl LuaObject for Light {
             LightKind::Point => "point",
             LightKind::Spot { .. } => "spot",
             LightKind::Sun { .. } => "sun",
-            LightKind::Rect { .. } => "rect",
+            LightKind::Rect { round: false, .. } => "rect",
+            LightKind::Rect { round: true, .. } => "disk",
         }
     }
     fn fields(&self) -> &'static [&'static str] {
@@ -543,7 +544,7 @@ impl LuaObject for Light {
             (LightKind::Spot { blend, .. }, "blend") => num(*blend),
             (LightKind::Point | LightKind::Spot { .. }, "radius") => num(self.radius),
             (LightKind::Sun { angular_diameter }, "angular_diameter") => num(angular_diameter.to_degrees()),
-            (LightKind::Rect { size }, "size") => lua.create_sequence_from(size.to_array().map(decimal))?.into_lua(lua),
+            (LightKind::Rect { size, .. }, "size") => lua.create_sequence_from(size.to_array().map(decimal))?.into_lua(lua),
             (LightKind::Spot { .. } | LightKind::Rect { .. }, "target") => self.target.map_or(Ok(Value::Nil), |t| vec_value(lua, t)),
             (LightKind::Sun { .. }, "direction") => self.direction.map_or(Ok(Value::Nil), |d| vec_value(lua, d)),
             _ => Err(unknown_field(lua, self.kind(), key, self.fields())),
@@ -576,7 +577,7 @@ impl LuaObject for Light {
                     (cv::number_in(lua, name, &value, Some(0.0), Some(45.0), "an angle in degrees from 0 to 45")? as f32)
                         .to_radians()
             }
-            (LightKind::Rect { size }, "size") => *size = cv::size2(lua, name, &value)?,
+            (LightKind::Rect { size, .. }, "size") => *size = cv::size2(lua, name, &value)?,
             (LightKind::Spot { .. } | LightKind::Rect { .. }, "target") => self.target = Some(cv::vec3(lua, name, &value)?),
             (LightKind::Sun { .. }, "direction") => {
                 let d = cv::vec3(lua, name, &value)?;

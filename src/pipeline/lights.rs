@@ -15,7 +15,8 @@ pub fn light_gpu(l: &LightDesc, media: [u32; 2]) -> LightGpu {
         LightShape::Point => (light_kind::POINT, -1.0, -1.0, 0.0, glam::Vec2::ZERO),
         LightShape::Spot { cos_outer, cos_inner } => (light_kind::SPOT, cos_outer, cos_inner, 0.0, glam::Vec2::ZERO),
         LightShape::Sun { half_angle } => (light_kind::SUN, -1.0, -1.0, half_angle, glam::Vec2::ZERO),
-        LightShape::Rect { size } => (light_kind::RECT, -1.0, -1.0, 0.0, size),
+        LightShape::Rect { size, round: false } => (light_kind::RECT, -1.0, -1.0, 0.0, size),
+        LightShape::Rect { size, round: true } => (light_kind::DISK, -1.0, -1.0, 0.0, size),
     };
     LightGpu {
         position: l.position.into(),
@@ -84,7 +85,7 @@ pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, first_cell: u
     let cells = (RASTER_CELLS * RASTER_CELLS) as f32;
     let corners = box_corners(lo, hi);
     match l.shape {
-        LightShape::Rect { size } => Some(rect_emitter(l, index, size, first_cell)),
+        LightShape::Rect { size, round } => Some(rect_emitter(l, index, size, round, first_cell)),
         LightShape::Sun { .. } => {
             let axis = l.direction;
             let right = axis.any_orthonormal_vector();
@@ -138,9 +139,10 @@ pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, first_cell: u
     }
 }
 
-/// A rect light's emitter: its area, in equal cells (its photons' directions are drawn per
-/// photon, `spread_ray` in shaders/photons.wgsl).
-fn rect_emitter(l: &LightDesc, index: u32, size: glam::Vec2, first_cell: u32) -> Emitter {
+/// A rect (or, `round`, a disk's) light's emitter: its area, in equal cells (its photons'
+/// directions are drawn per photon, `spread_ray` in shaders/photons.wgsl).
+fn rect_emitter(l: &LightDesc, index: u32, size: glam::Vec2, round: bool, first_cell: u32) -> Emitter {
+    let area = size.x * size.y * if round { std::f32::consts::FRAC_PI_4 } else { 1.0 };
     Emitter {
         origin: l.position.into(),
         light: index,
@@ -149,7 +151,7 @@ fn rect_emitter(l: &LightDesc, index: u32, size: glam::Vec2, first_cell: u32) ->
         half_width: 0.5 * size.x,
         up: l.up.into(),
         half_height: 0.5 * size.y,
-        measure: size.x * size.y / (RASTER_CELLS * RASTER_CELLS) as f32,
+        measure: area / (RASTER_CELLS * RASTER_CELLS) as f32,
         first_cell,
         ..Default::default()
     }
@@ -186,7 +188,7 @@ pub fn bounce_emitter_for(l: &LightDesc, index: u32, centre: Vec3, reach: f32, f
         (right, axis.cross(right))
     };
     match l.shape {
-        LightShape::Rect { size } => rect_emitter(l, index, size, first_cell),
+        LightShape::Rect { size, round } => rect_emitter(l, index, size, round, first_cell),
         LightShape::Sun { .. } => {
             let (right, up) = frame(l.direction);
             Emitter {

@@ -314,7 +314,7 @@ fn light_of(p: &Placed) -> Result<Option<LightDesc>> {
             LightShape::Spot { cos_outer: angle.cos(), cos_inner: (angle * (1.0 - blend)).cos() }
         }
         LightKind::Sun { angular_diameter } => LightShape::Sun { half_angle: 0.5 * angular_diameter },
-        LightKind::Rect { size } => LightShape::Rect { size },
+        LightKind::Rect { size, round } => LightShape::Rect { size, round },
     };
     Ok(Some(LightDesc {
         name: node.name.clone(),

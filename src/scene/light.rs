@@ -18,8 +18,9 @@ pub enum LightKind {
     /// Parallel light along the node's local −Z (or `direction`), from a disc of
     /// `angular_diameter` radians (0: perfectly parallel).
     Sun { angular_diameter: f32 },
-    /// A one-sided rectangle of `size` in the node's local XY plane, emitting toward −Z.
-    Rect { size: Vec2 },
+    /// A one-sided rectangle of `size` in the node's local XY plane, emitting toward −Z — or,
+    /// `round`, the ellipse inscribed in it (a disk when its sides are equal: Lua's `disk`).
+    Rect { size: Vec2, round: bool },
 }
 
 #[derive(Clone, Debug, PartialEq)]

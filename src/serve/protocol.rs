@@ -275,7 +275,8 @@ impl LightInfo {
             LightShape::Point => "point",
             LightShape::Spot { .. } => "spot",
             LightShape::Sun { .. } => "sun",
-            LightShape::Rect { .. } => "rect",
+            LightShape::Rect { round: false, .. } => "rect",
+            LightShape::Rect { round: true, .. } => "disk",
         };
         let max = light.radiant.max_element();
         let color = if max > 0.0 { light.radiant / max } else { Vec3::ONE };

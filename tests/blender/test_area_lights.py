@@ -1,5 +1,5 @@
-"""Blender's area lights, which glTF's KHR_lights_punctual lacks, go to refrakt as rect lights in
-the node extras: what the .glb says, what refrakt's importer makes of it (`refrakt dump`), and
+"""Blender's area lights, which glTF's KHR_lights_punctual lacks, go to refrakt as rect lights (disk
+and ellipse lights as disk lights) in the node extras: what the .glb says, what refrakt's importer makes of it (`refrakt dump`), and
 what a Blender area light gives a floor in Cycles and in refrakt (through the engine, the real
 binary).
 
@@ -70,17 +70,16 @@ def export(saved_blend):
     return warnings, paths, Gltf(paths.glb)
 
 
-def expected_rect(name):
-    """(size, nits) of an area light by Cycles' rule: a disk or ellipse as a rectangle of its area
-    and aspect ratio."""
+def expected_light(name):
+    """(kind, size, nits) of an area light by Cycles' rule: a rect, or a disk or ellipse of its
+    diameters, of radiance P / (π · A)."""
     light = bpy.data.objects[name].data
     scale = bpy.data.objects[name].matrix_world.to_3x3()
     w = light.size * scale.col[0].length
     h = (light.size_y if light.shape in ("RECTANGLE", "ELLIPSE") else light.size) * scale.col[1].length
     round_ = light.shape in ("DISK", "ELLIPSE")
     area = w * h * (math.pi / 4 if round_ else 1.0)
-    k = math.sqrt(math.pi) / 2 if round_ else 1.0
-    return [w * k, h * k], nits(light.energy * 2 ** light.exposure, area)
+    return "disk" if round_ else "rect", [w, h], nits(light.energy * 2 ** light.exposure, area)
 
 
 def test_area_lights_reach_the_node_extras(addon, saved_blend):
@@ -94,18 +93,15 @@ def test_area_lights_reach_the_node_extras(addon, saved_blend):
     assert panel["color"] == pytest.approx([1.0, 0.8, 0.6], rel=1e-6)
     square = gltf.node("Square")["extras"]["refrakt"]["light"]
     assert square["size"] == pytest.approx([0.5, 0.5]) and square["intensity"] == pytest.approx(nits(80.0, 0.25), rel=1e-6)
-    # A disk of diameter 0.6 m: a square of its area π · 0.3², so the same radiance and power.
+    # A disk of diameter 0.6 m: refrakt's disk, of radiance P / (π · 0.3²).
     disk = gltf.node("Disk")["extras"]["refrakt"]["light"]
-    side = 0.6 * math.sqrt(math.pi) / 2
-    assert disk["size"] == pytest.approx([side, side], rel=1e-6)
+    assert disk["type"] == "disk" and disk["size"] == pytest.approx([0.6, 0.6], rel=1e-6)
     assert disk["intensity"] == pytest.approx(nits(30.0, math.pi * 0.3 ** 2), rel=1e-6)
     oval = gltf.node("Oval")["extras"]["refrakt"]["light"]
-    assert oval["size"][0] / oval["size"][1] == pytest.approx(0.8 / 0.3, rel=1e-6)
-    assert oval["size"][0] * oval["size"][1] == pytest.approx(math.pi / 4 * 0.8 * 0.3, rel=1e-6)
-    # None is skipped any more; disc shapes are named once; a narrowed spread is warned about.
-    assert not any("not exported" in w for w in warnings), warnings
-    disc = [w for w in warnings if "no disc lights" in w]
-    assert len(disc) == 1 and "'Disk'" in disc[0] and "'Oval'" in disc[0] and "'Square'" not in disc[0], warnings
+    assert oval["type"] == "disk" and oval["size"] == pytest.approx([0.8, 0.3], rel=1e-6)
+    assert oval["intensity"] == pytest.approx(nits(20.0, math.pi / 4 * 0.8 * 0.3), rel=1e-6)
+    # None is skipped or reshaped any more; a narrowed spread is warned about.
+    assert not any("not exported" in w or "disc" in w for w in warnings), warnings
     assert any("'Oval': its spread is 90°" in w for w in warnings), warnings
     assert not any("'Panel': its spread" in w for w in warnings), warnings
     assert "refrakt" not in (gltf.node("Portal").get("extras") or {})
@@ -126,7 +122,7 @@ def dump(refrakt, scene_file, frames):
     return {doc["frame"]: doc for doc in map(json.loads, done.stdout.splitlines())}
 
 
-def test_refrakt_reads_area_lights_as_rects(addon, real_refrakt, saved_blend):
+def test_refrakt_reads_area_lights_as_rects_and_disks(addon, real_refrakt, saved_blend):
     if not refrakt_supports(real_refrakt, "dump"):
         pytest.skip("this refrakt build has no `refrakt dump`")
     scene = lights_scene()
@@ -138,8 +134,8 @@ def test_refrakt_reads_area_lights_as_rects(addon, real_refrakt, saved_blend):
         assert set(lights) == {"Panel", "Square", "Disk", "Oval"}
         for name, light in lights.items():
             obj = bpy.data.objects[name]
-            size, intensity = expected_rect(name)
-            assert light["kind"] == "rect" and light["unit"] == "nit"
+            kind, size, intensity = expected_light(name)
+            assert light["kind"] == kind and light["unit"] == "nit"
             assert light["size"] == pytest.approx(size, rel=1e-5)
             assert light["intensity"] == pytest.approx(intensity, rel=1e-5)
             # radiant: W/(m²·sr), Cycles' P / (π · A) times the colour.
@@ -234,7 +230,7 @@ def square_expected():
 @pytest.mark.parametrize("shape", ["SQUARE", "DISK"])
 def test_area_light_on_a_floor_matches_cycles(shape, addon, real_refrakt, saved_blend, tmp_path):
     """Cycles (no denoising, no clamping) and refrakt through the engine on the same scene: the
-    mean floor radiance under the light. A disk reaches refrakt as the square of its area."""
+    mean floor radiance under the light (a disk reaches refrakt as a disk)."""
     scene = floor_scene(shape)
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"

@@ -25,7 +25,7 @@ scene:add(r.node{ name = "stem", translation = {-0.4, 0.83, -0.1}, shape = r.box
                   material = r.diffuse{ color = {0.1, 0.1, 0.1} } })
 scene:add(r.node{ name = "shade", translation = {-0.4, 1.1, -0.1}, shape = r.sphere{ radius = 0.16 },
                   material = r.glass{ ior = 1.5, thin = true, tint = {1.0, 0.8, 0.55} } })
-scene:add(r.node{ name = "bulb", translation = {-0.4, 1.1, -0.1}, light = r.point{ intensity = 120, radius = 0.02 } })
+scene:add(r.node{ name = "bulb", translation = {-0.4, 1.1, -0.1}, light = r.point{ intensity = 300, radius = 0.02 } })
 
 -- A glass tumbler's worth of glass on the table: a clear ball throwing the bulb's caustic.
 scene:add(r.node{ name = "ball", translation = {0.25, 0.85, 0.1}, shape = r.sphere{ radius = 0.12 },

@@ -250,7 +250,8 @@ fn deposit_on_chart(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, flux: vec3<f32>
     if chart_index < 0 {
         return;
     }
-    let chart = charts[u32(chart_index)];
+    // (The indirect maps' charts, coarser, follow the caustic maps'.)
+    let chart = charts[u32(chart_index) + select(0u, params.indirect_chart_base, indirect)];
     let t = clamp(vec2<i32>(floor(chart_coords(chart, p))), vec2<i32>(0), vec2<i32>(i32(chart.width), i32(chart.height)) - 1);
     let texel = 4u * (chart.offset + u32(t.x) + chart.width * u32(t.y));
     // Irradiance is flux per surface area; the chart's texel is the surface's projection, so

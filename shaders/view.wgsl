@@ -414,7 +414,8 @@ fn map_irradiance_at(receiver: u32, p: vec3<f32>, facing: vec3<f32>, back: bool,
     if has(select(VIEW_FLAG_CAUSTICS, VIEW_FLAG_INDIRECT, indirect)) {
         let c = chart_for(receiver, facing, back);
         if c >= 0 {
-            return chart_irradiance(charts[u32(c)], p, indirect);
+            // (The indirect maps' charts, coarser, follow the caustic maps'.)
+            return chart_irradiance(charts[u32(c) + select(0u, params.indirect_chart_base, indirect)], p, indirect);
         }
     }
     return vec3<f32>(0.0);

@@ -152,10 +152,10 @@ fn many_samples_keep_all_their_light() {
 /// 128 MiB — renders, each layer bound on its own: here an adapter is made to bind 64 KiB and a
 /// 67×53 frame (56 KiB per layer, 280 KiB in all, planes not multiples of the offset alignment)
 /// renders every layer identically to an adapter that binds it whole. (1000 photons: 48 KB, within
-/// such a binding.)
+/// such a binding; as many bounce photons would not be.)
 #[test]
 fn a_frame_larger_than_one_binding_renders_layer_by_layer() {
-    let desc = frame_from_lua(
+    let mut desc = frame_from_lua(
         r#"local r = require("refrakt")
         local scene = r.scene{
           camera = r.camera{ position = {0, 1.5, 2.5}, target = {0, 0, 0}, fov = 40, size = {67, 53} },
@@ -168,6 +168,7 @@ fn a_frame_larger_than_one_binding_renders_layer_by_layer() {
         scene:add(r.node{ name = "sun", light = r.sun{ direction = {0.3, -1, 0.2}, intensity = 683 } })
         return scene"#,
     );
+    desc.bounces = 0;
     let whole = renderer().frame(&desc).unwrap();
     let mut ctx = refrakt::gpu::GpuContext::new(None).unwrap();
     ctx.limits.max_storage_buffer_binding_size = 64 << 10;

@@ -63,11 +63,12 @@ fn refrakt_caustic(glass: &str, allow: &[PathBuf]) -> (Vec<f32>, f32) {
 }
 
 /// The same with other light: `scene_fields` more fields of `r.scene{…}` (an environment),
-/// `lights` Lua that adds lights, and `photons` per frame.
+/// `lights` Lua that adds lights, and `photons` per frame. (Without bounced light: the caustic
+/// maps are what is compared.)
 fn refrakt_caustic_lit(glass: &str, scene_fields: &str, lights: &str, photons: u32, allow: &[PathBuf]) -> (Vec<f32>, f32) {
     let source = format!(
         r#"local r = require("refrakt")
-        local scene = r.scene{{ volume = {{ resolution = 128 }}, photons = {photons}, camera = r.camera{{ size = {{8, 8}} }}, {scene_fields} }}
+        local scene = r.scene{{ volume = {{ resolution = 128 }}, photons = {photons}, bounces = 0, camera = r.camera{{ size = {{8, 8}} }}, {scene_fields} }}
         scene:add(r.node{{ name = "floor", shape = r.plane{{ size = {{6, 6}} }}, material = r.diffuse{{ color = {{1, 1, 1}} }} }})
         {glass}
         {lights}

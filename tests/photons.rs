@@ -408,9 +408,10 @@ fn photons_trapped_by_total_internal_reflection_are_absorbed() {
 fn a_photon_budget_beyond_one_binding_is_refused_by_name() {
     let mut desc = frame_from_lua(&ball_under_sun(1000, 0.6));
     desc.photons = refrakt::pipeline::MAX_PHOTONS;
+    desc.bounces = 0;
     if let Err(e) = renderer().frame(&desc) {
         let message = format!("{e:#}");
-        assert!(message.contains("lower the photon budget (--photons or photons) to at most"), "{message}");
+        assert!(message.contains("lower the photon budget (--photons, photons or bounce_photons) to at most"), "{message}");
         assert!(!message.contains("exceeds max"), "{message}");
     }
 }

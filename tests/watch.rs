@@ -401,7 +401,7 @@ fn the_preview_holds_the_layers_asked_for() {
         image.layers.iter().map(|l| l.name.clone()).collect::<Vec<_>>()
     };
     assert_eq!(layers(&[], "beauty.exr"), ["beauty"]);
-    assert_eq!(layers(&["--layers", "all"], "all.exr"), ["beauty", "caustic", "depth", "direct", "volume"]);
+    assert_eq!(layers(&["--layers", "all"], "all.exr"), ["beauty", "caustic", "depth", "direct", "indirect", "volume"]);
 }
 
 /// A glTF scene whose buffer file is missing is reported, and renders once the file appears:

@@ -53,7 +53,7 @@ struct ViewParams {
     max_path: f32,
     camera_media_lo: u32,
     env_pairs: u32,
-    _pad_env0: u32,
+    indirect_chart_base: u32,
     _pad_env1: u32,
     camera_media_hi: u32,
     sample_first: u32,
@@ -318,7 +318,7 @@ struct MarchParams {
     bounces: u32,
     bounce_flux_unit: f32,
     bounce_flux_scale: f32,
-    _pad0: u32,
+    indirect_chart_base: u32,
 }
 
 struct CausticParams {

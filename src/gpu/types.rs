@@ -98,7 +98,8 @@ gpu_struct! {
         /// Shadow rays toward the environment per receiver hit, in pairs (one drawn from the
         /// environment's table, one by cos θ): `view::env_pairs`; 0 when the environment is dark.
         pub env_pairs: u32,
-        pub _pad_env0: u32,
+        /// Where the indirect maps' charts start in `charts` (`receivers::indirect_chart_base`).
+        pub indirect_chart_base: u32,
         pub _pad_env1: u32,
         /// …and high word.
         pub camera_media_hi: u32,
@@ -508,7 +509,8 @@ gpu_struct! {
         pub bounce_flux_unit: f32,
         /// Fixed-point units per (bounce-photon flux / their mean flux), indirect maps.
         pub bounce_flux_scale: f32,
-        pub _pad0: u32,
+        /// Where the indirect maps' charts start in `charts` (`receivers::indirect_chart_base`).
+        pub indirect_chart_base: u32,
     }
 }
 

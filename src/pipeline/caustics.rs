@@ -5,11 +5,11 @@
 use anyhow::Result;
 
 use super::layout;
-use super::receivers::Receivers;
+use super::receivers::{Receivers, indirect_chart_base};
 use super::timing::Profiler;
 use crate::gpu::GpuContext;
 use crate::gpu::shaders::ShaderLibrary;
-use crate::gpu::types::{CausticLevel, CausticParams};
+use crate::gpu::types::{CausticLevel, CausticParams, Chart};
 
 /// How caustic maps are filtered.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -33,7 +33,7 @@ impl CausticFilter {
 }
 
 /// How many times the caustic maps' photon target the indirect maps' footprints hold.
-pub const INDIRECT_TARGET_SCALE: u32 = 4;
+pub const INDIRECT_TARGET_SCALE: u32 = 16;
 
 impl Default for CausticFilter {
     fn default() -> Self {
@@ -102,7 +102,9 @@ pub struct Caustics {
     level_bgl: wgpu::BindGroupLayout,
     /// Per map (caustic, indirect): its uniforms and bind group.
     params: [wgpu::Buffer; 2],
-    bound: [Option<(u64, wgpu::BindGroup)>; 2],
+    /// Keyed by the receivers' buffers and both chart counts (the indirect charts' binding range
+    /// follows them).
+    bound: [Option<([u64; 3], wgpu::BindGroup)>; 2],
     /// One uniform and bind group per (level index, radius), made once.
     levels: Vec<(CausticLevel, wgpu::Buffer, wgpu::BindGroup)>,
 }
@@ -156,7 +158,10 @@ impl Caustics {
     /// the indirect maps are filtered after the caustic maps, in the same encoder.
     #[allow(clippy::too_many_arguments)]
     pub fn encode(&mut self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder, profiler: &mut Profiler, receivers: &Receivers, map: ChartMap, filter: CausticFilter, flux_unit: f32, spectral: bool) {
-        let charts = &receivers.layout.charts;
+        let charts = match map {
+            ChartMap::Caustic => &receivers.layout.charts,
+            ChartMap::Indirect => &receivers.layout.indirect_charts,
+        };
         if charts.is_empty() {
             return;
         }
@@ -176,17 +181,29 @@ impl Caustics {
         };
         let k = map as usize;
         ctx.queue.write_buffer(&self.params[k], 0, bytemuck::bytes_of(&params));
-        if self.bound[k].as_ref().is_none_or(|(g, _)| *g != receivers.generation) {
+        let key = [receivers.generation, receivers.layout.charts.len() as u64, charts.len() as u64];
+        if self.bound[k].as_ref().is_none_or(|(g, _)| *g != key) {
             let (atlas, irradiance) = match map {
                 ChartMap::Caustic => (&receivers.caustic_atlas, &receivers.caustic_irradiance),
                 ChartMap::Indirect => (&receivers.indirect_atlas, &receivers.indirect_irradiance),
+            };
+            // The indirect maps' charts follow the caustic maps' in the same buffer.
+            let chart_bytes = std::mem::size_of::<Chart>() as u64;
+            let first = match map {
+                ChartMap::Caustic => 0,
+                ChartMap::Indirect => indirect_chart_base(receivers.layout.charts.len()) as u64,
+            };
+            let chart_range = wgpu::BufferBinding {
+                buffer: &receivers.charts.buffer,
+                offset: first * chart_bytes,
+                size: wgpu::BufferSize::new(charts.len() as u64 * chart_bytes),
             };
             let bg = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("caustics"),
                 layout: &self.bgl,
                 entries: &[
                     layout::bind(0, &self.params[k]),
-                    layout::bind(1, &receivers.charts.buffer),
+                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Buffer(chart_range) },
                     layout::bind(2, &atlas.buffer),
                     layout::bind(3, &receivers.caustic_sat.buffer),
                     layout::bind(4, &irradiance.buffer),
@@ -195,7 +212,7 @@ impl Caustics {
                     layout::bind(7, &receivers.chart_photons.buffer),
                 ],
             });
-            self.bound[k] = Some((receivers.generation, bg));
+            self.bound[k] = Some((key, bg));
         }
         let levels: Vec<usize> = level_radii(filter).into_iter().enumerate().map(|(k, r)| self.level(&ctx.device, k as u32, r)).collect();
         // The photon counts are tabulated on the chart itself (a level of half-size 0).

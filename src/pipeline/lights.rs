@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use crate::frame::{FrameDesc, LightDesc, LightShape, VolumeDesc};
+use crate::frame::{LightDesc, LightShape, VolumeDesc};
 use crate::gpu::types::{ENV_LIGHT, Emitter, LightGpu, light_kind};
 
 /// Cells per side of each light's photon raster (G×G importance cells).
@@ -37,21 +37,14 @@ pub fn light_gpu(l: &LightDesc, media: [u32; 2]) -> LightGpu {
 }
 
 /// How far from the volume's centre the scene reaches: its bounding sphere's radius and the
-/// farthest corner of any receiver's box. The environment's photons start beyond it, so
-/// whatever stands between the sky and the glass — a room's walls, a ceiling — stops them as it
-/// stops the shadow rays.
-pub fn scene_reach(desc: &FrameDesc) -> f32 {
-    let (lo, hi) = (desc.volume.min, desc.volume.max());
+/// farthest corner of `surfaces`, the world box of every receiver and glass mesh (the BVH's
+/// root). The environment's photons start beyond it, so whatever stands between the sky and the
+/// glass — a room's walls, a ceiling — stops them as it stops the shadow rays.
+pub fn scene_reach(volume: &VolumeDesc, surfaces: Option<(Vec3, Vec3)>) -> f32 {
+    let (lo, hi) = (volume.min, volume.max());
     let centre = 0.5 * (lo + hi);
-    let mut reach = 0.5 * (hi - lo).length();
-    for r in &desc.receivers {
-        if let Some((a, b)) = r.mesh.bounds() {
-            for corner in box_corners(a, b) {
-                reach = reach.max((r.world.transform_point3(corner) - centre).length());
-            }
-        }
-    }
-    reach
+    let corners = surfaces.map(|(a, b)| box_corners(a, b)).unwrap_or_default();
+    corners.iter().map(|c| (*c - centre).length()).fold(0.5 * (hi - lo).length(), f32::max)
 }
 
 /// The eight corners of the box (lo, hi).

@@ -401,7 +401,9 @@ impl Renderer {
         if self.receivers.update(&self.ctx, desc) {
             self.counters.receiver_uploads += 1;
         }
-        let reach = lights::scene_reach(desc);
+        let bvh = &self.receivers.layout.bvh;
+        let surfaces = bvh.nodes.first().filter(|_| !bvh.triangles.is_empty()).map(|n| (glam::Vec3::from(n.min), glam::Vec3::from(n.max)));
+        let reach = lights::scene_reach(&desc.volume, surfaces);
         let media: Vec<[u32; 2]> =
             desc.lights.iter().map(|l| interfaces::media_at(desc, lights::photon_start(l, &desc.volume))).collect();
         // The environment's caustic photons matter only where glass or a medium bends or
@@ -527,7 +529,10 @@ impl Renderer {
             self.radiance.as_ref().expect("prepared"),
             self.target.as_ref().expect("prepared"),
         );
-        let base = MarchParams { seed: self.settings.photon_seed, ..march::March::params(grids, budget, flux_unit, (bounce_flux_unit, desc.bounces), deposit, anisotropic_scattering(desc), desc.receivers.len() as u32, self.settings.fixed_point_headroom) };
+        let base = MarchParams {
+            seed: self.settings.photon_seed,
+            indirect_chart_base: receivers::indirect_chart_base(self.receivers.layout.charts.len()),
+            ..march::March::params(grids, budget, flux_unit, (bounce_flux_unit, desc.bounces), deposit, anisotropic_scattering(desc), desc.receivers.len() as u32, self.settings.fixed_point_headroom) };
         let march_params = march::March::with_spectrum(base, desc.spectrum(), self.settings.wavelength_band);
         let (volume_key, photon_key) = self.stage_keys(desc);
         let mut reused = self.reuse_of(&volume_key, &photon_key);

@@ -323,6 +323,10 @@ pub struct ReceiverLayout {
     pub receivers: Vec<ReceiverGpu>,
     pub charts: Vec<Chart>,
     pub texels: u32,
+    /// The indirect maps' charts, one per caustic chart and over the same surface, coarser
+    /// (`indirect_charts`); stored after the caustic charts, from `indirect_chart_base`.
+    pub indirect_charts: Vec<Chart>,
+    pub indirect_texels: u32,
     /// `UV_VEC4S` vec4 of texture coordinates and tangent per BVH triangle (see `triangle_uvs`).
     pub triangle_uvs: Vec<[f32; 4]>,
     /// Three vec4 of corner normals per BVH triangle (see `triangle_normals`).
@@ -332,6 +336,37 @@ pub struct ReceiverLayout {
     /// Each sharp glass mesh's (roughness, tint) textures in `albedo_texels` (for
     /// `interfaces::table`).
     pub interface_textures: Vec<[[u32; 4]; 2]>,
+}
+
+/// Texels along the longest side of an indirect chart, at most: bounced light is smooth, and the
+/// adaptive filter's widest footprint (`caustics::MAX_RADIUS` = 64 texels) should reach across a
+/// good part of a wall where few bounce photons land.
+pub const INDIRECT_CHART_SIDE: u32 = 256;
+
+/// The indirect maps' charts: each caustic chart's surface at a texel of a whole multiple of its
+/// own, so that no side exceeds `INDIRECT_CHART_SIDE` texels (charts already that small stay as
+/// they are). Returns them and their texel count.
+pub fn indirect_charts(charts: &[Chart]) -> (Vec<Chart>, u32) {
+    let mut offset = 0;
+    let coarse = charts
+        .iter()
+        .map(|c| {
+            let k = c.width.max(c.height).div_ceil(INDIRECT_CHART_SIDE).max(1);
+            let (width, height) = (c.width.div_ceil(k), c.height.div_ceil(k));
+            let chart = Chart { texel: c.texel * k as f32, width, height, offset, ..*c };
+            offset += width * height;
+            chart
+        })
+        .collect();
+    (coarse, offset)
+}
+
+/// Where the indirect charts start in the charts buffer: past the caustic charts, at a whole
+/// 256 bytes (the most any adapter asks a binding's offset to be aligned to), so the caustics
+/// stage can bind them alone.
+pub fn indirect_chart_base(charts: usize) -> u32 {
+    let per_block = 256 / std::mem::size_of::<Chart>();
+    charts.div_ceil(per_block).max(1) as u32 * per_block as u32
 }
 
 /// Lays out BVH and charts; `texel` is the wanted texel size (metres), grown where a chart or
@@ -418,11 +453,14 @@ pub fn layout(receivers: &[Receiver], interfaces: SharpTriangles, texel: f32, ma
         .collect();
     let triangle_uvs = triangle_uvs(&bvh, receivers, &interface_uvs);
     let triangle_normals = triangle_normals(&bvh, receivers, &interface_normals);
+    let (indirect_charts, indirect_texels) = indirect_charts(&charts);
     ReceiverLayout {
         bvh,
         receivers: table,
         charts,
         texels: offset,
+        indirect_charts,
+        indirect_texels,
         triangle_uvs,
         triangle_normals,
         albedo_texels: atlas.texels,
@@ -546,7 +584,11 @@ impl Receivers {
         // Empty arrays still bind a buffer of at least one element.
         let table = if self.layout.receivers.is_empty() { vec![ReceiverGpu::default()] } else { self.layout.receivers.clone() };
         grown |= self.receivers.write(ctx, bytemuck::cast_slice(&table));
-        grown |= self.charts.write(ctx, bytemuck::cast_slice(&self.layout.charts));
+        // The caustic charts, then the indirect ones from `indirect_chart_base`.
+        let mut charts = self.layout.charts.clone();
+        charts.resize(indirect_chart_base(charts.len()) as usize, Chart::default());
+        charts.extend_from_slice(&self.layout.indirect_charts);
+        grown |= self.charts.write(ctx, bytemuck::cast_slice(&charts));
         let uvs = if self.layout.triangle_uvs.is_empty() { vec![[0.0f32; 4]] } else { self.layout.triangle_uvs.clone() };
         grown |= self.triangle_uvs.write(ctx, bytemuck::cast_slice(&uvs));
         let normals = if self.layout.triangle_normals.is_empty() { vec![[0.0f32; 4]] } else { self.layout.triangle_normals.clone() };
@@ -558,8 +600,9 @@ impl Receivers {
         grown |= self.caustic_layer.reserve(ctx, texel_bytes);
         grown |= self.caustic_footprint.reserve(ctx, texel_bytes / 2);
         grown |= self.caustic_irradiance.reserve(ctx, texel_bytes);
-        grown |= self.indirect_atlas.reserve(ctx, texel_bytes);
-        grown |= self.indirect_irradiance.reserve(ctx, texel_bytes);
+        let indirect_bytes = self.layout.indirect_texels.max(1) as u64 * 16;
+        grown |= self.indirect_atlas.reserve(ctx, indirect_bytes);
+        grown |= self.indirect_irradiance.reserve(ctx, indirect_bytes);
         grown |= self.chart_photons.reserve(ctx, self.layout.charts.len().max(1) as u64 * 4);
         if grown {
             self.generation = super::resources::next_generation();
@@ -590,6 +633,25 @@ mod tests {
         assert_eq!((top.width, top.height), (202, 402));
         let cube = receiver(mesh::cuboid(Vec3::ONE), glam::Mat4::IDENTITY);
         assert_eq!(layout(&[cube], Default::default(), 0.01, u64::MAX, &mut MeshTrees::default()).charts.len(), 12);
+    }
+
+    /// The indirect charts cover the caustic charts' surfaces at a whole multiple of their texel,
+    /// at most INDIRECT_CHART_SIDE a side, packed one after another; small charts stay as they are.
+    #[test]
+    fn indirect_charts_cover_the_same_surface_coarser() {
+        let floor = receiver(mesh::plane(Vec2::new(4.0, 2.0)), glam::Mat4::IDENTITY);
+        let l = layout(&[floor], Default::default(), 0.01, u64::MAX, &mut MeshTrees::default());
+        let (fine, coarse) = (&l.charts[0], &l.indirect_charts[0]);
+        // 402 texels along the long side: 2 to 1, 201 × 101.
+        assert_eq!((coarse.width, coarse.height, coarse.texel), (101, 201, 0.02));
+        assert_eq!(coarse.origin, fine.origin);
+        assert!(coarse.width as f32 * coarse.texel >= fine.width as f32 * fine.texel);
+        assert_eq!(l.indirect_charts[1].offset, 101 * 201);
+        assert_eq!(l.indirect_texels, 2 * 101 * 201);
+        let small = layout(&[receiver(mesh::plane(Vec2::ONE), glam::Mat4::IDENTITY)], Default::default(), 0.01, u64::MAX, &mut MeshTrees::default());
+        assert_eq!((small.indirect_charts[0].width, small.indirect_charts[0].texel), (small.charts[0].width, 0.01));
+        // The indirect charts start at a whole 256 bytes (8 charts of 32 bytes).
+        assert_eq!((indirect_chart_base(0), indirect_chart_base(2), indirect_chart_base(9)), (8, 8, 16));
     }
 
     #[test]

@@ -171,6 +171,7 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
         max_step: if inputs.scattering { v.voxel_size } else { 64.0 * v.voxel_size },
         eps_refract: super::photons::EPS_REFRACT,
         env_pairs: env_pairs(desc, inputs.environment),
+        indirect_chart_base: super::receivers::indirect_chart_base(inputs.receivers.layout.charts.len()),
         camera_media_lo: camera_media[0],
         camera_media_hi: camera_media[1],
         grid_dispersion: spectrum.grid_dispersion,

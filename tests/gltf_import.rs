@@ -281,7 +281,7 @@ fn a_rect_light_in_node_extras_is_an_area_light_of_that_size_direction_and_radia
     let path = g.write_glb(&dir.path().join("a.glb"));
     let s = load(&path).scene;
     let light = s.find("Panel").unwrap().borrow().light.as_ref().unwrap().borrow().clone();
-    assert_eq!(light.kind, LightKind::Rect { size: glam::Vec2::new(1.5, 0.5) });
+    assert_eq!(light.kind, LightKind::Rect { size: glam::Vec2::new(1.5, 0.5), round: false });
     assert_eq!((light.color, light.intensity), (Vec3::new(1.0, 0.5, 0.25), 2000.0));
     let desc = evaluate(&s, 0.0, &EvalOptions::default()).unwrap();
     let l = desc.lights.iter().find(|l| l.name == "Panel").unwrap();

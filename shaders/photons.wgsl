@@ -9,8 +9,8 @@
 // u = (i + ξ)/N of it, so its flux — I(ω)·cell measure / (N·pmf) — keeps the estimate unbiased
 // wherever the weight is nonzero. All randomness is hash(seed, i): the same photons every frame.
 //
-// Entry points, in order: `importance` (one thread per cell), `scan` (one workgroup: the CDF),
-// `emit` (one thread per photon).
+// Entry points, in order: `importance_raster` (one thread per cell; `bounce_raster` for the
+// bounce photons), `scan` (one workgroup: the CDF), `emit` (one thread per photon).
 //
 // They run twice a frame. First for the caustic photons, as above. Then, where the frame
 // traces bounced light, for the bounce photons (PHOTON_FLAG_BOUNCE): each light's whole
@@ -85,7 +85,7 @@ fn spread_ray(e: Emitter, u: vec2<f32>, xi: vec2<f32>) -> SpreadRay {
     }
     let origin = rect_point(e, u);
     let radiance = lights[e.light].radiant;
-    let cone = volume_cone(origin);
+    let cone = rect_cone(e, origin);
     if cone.w <= -1.0 {
         return SpreadRay(origin, cosine_direction(e.axis, e.right, e.up, xi), PI * radiance);
     }
@@ -103,12 +103,20 @@ fn rect_point(e: Emitter, u: vec2<f32>) -> vec3<f32> {
     return e.origin + e.right * (q.x * e.half_width) + e.up * (q.y * e.half_height);
 }
 
+// The cone a rect light's photons from p leave in: toward the volume (`volume_cone`), or every
+// direction for a bounce emitter (`lights::bounce_emitter_for` marks it by cos_max = −2).
+// (The emitter says so rather than PHOTON_FLAG_BOUNCE: a branch on that flag here made
+// lavapipe's heap grow by 0.67 MiB a frame, tests/memory.rs.)
+fn rect_cone(e: Emitter, p: vec3<f32>) -> vec4<f32> {
+    if e.cos_max < -1.5 {
+        return vec4<f32>(0.0, 1.0, 0.0, -1.0);
+    }
+    return volume_cone(p);
+}
+
 // The cone of directions from p that holds the volume's bounding sphere: (axis, cos of its
 // half-angle), or cos −1 (every direction) from inside the sphere.
 fn volume_cone(p: vec3<f32>) -> vec4<f32> {
-    if (params.flags & PHOTON_FLAG_BOUNCE) != 0u {
-        return vec4<f32>(0.0, 1.0, 0.0, -1.0); // bounced light goes everywhere
-    }
     let lo = params.grid.origin;
     let hi = grid_box_max(params.grid);
     let radius = 0.5 * length(hi - lo);
@@ -127,7 +135,7 @@ fn spread_power(e: Emitter, u: vec2<f32>) -> vec3<f32> {
     if e.light == ENV_LIGHT {
         return env_light_integral(params.env);
     }
-    let cone = volume_cone(rect_point(e, u));
+    let cone = rect_cone(e, rect_point(e, u));
     return lights[e.light].radiant * select(TAU * (1.0 - cone.w), PI, cone.w <= -1.0);
 }
 
@@ -201,25 +209,49 @@ fn cell_count() -> u32 {
     return params.emitter_count * params.cells * params.cells;
 }
 
+// Raster cell `cell`'s emitter and the centre u of the cell in its raster.
+struct RasterCell {
+    e: Emitter,
+    u: vec2<f32>,
+}
+
+fn raster_cell(cell: u32) -> RasterCell {
+    let per = params.cells * params.cells;
+    let local = cell % per;
+    let u = (vec2<f32>(f32(local % params.cells), f32(local / params.cells)) + 0.5) / f32(params.cells);
+    return RasterCell(emitters[params.first_emitter + cell / per], u);
+}
+
 @compute @workgroup_size(64)
 fn importance_raster(@builtin(global_invocation_id) id: vec3<u32>) {
     let cell = id.x;
     if cell >= cell_count() {
         return;
     }
-    let per = params.cells * params.cells;
-    let e = emitters[params.first_emitter + cell / per];
-    let local = cell % per;
-    let u = (vec2<f32>(f32(local % params.cells), f32(local / params.cells)) + 0.5) / f32(params.cells);
-    // Bounced light matters wherever it lands: every cell is worth its power.
-    let bounce = (params.flags & PHOTON_FLAG_BOUNCE) != 0u;
-    if spreads(e) {
-        let worth = select(spread_importance(e, cell, u), 1.0, bounce);
-        cdf[cell] = luminance(spread_power(e, u) * e.measure) * worth;
+    let c = raster_cell(cell);
+    if spreads(c.e) {
+        cdf[cell] = luminance(spread_power(c.e, c.u) * c.e.measure) * spread_importance(c.e, cell, c.u);
         return;
     }
-    let ray = emitter_ray(e, u);
-    cdf[cell] = luminance(cell_power(e, ray.dir)) * select(importance(ray.origin, ray.dir), 1.0, bounce);
+    let ray = emitter_ray(c.e, c.u);
+    cdf[cell] = luminance(cell_power(c.e, ray.dir)) * importance(ray.origin, ray.dir);
+}
+
+// The bounce population's raster (PHOTON_FLAG_BOUNCE): bounced light matters wherever it lands,
+// so every cell is worth its power. (A kernel of its own: the importance walk behind a branch on
+// the flag made lavapipe's heap grow by 0.67 MiB a frame, tests/memory.rs.)
+@compute @workgroup_size(64)
+fn bounce_raster(@builtin(global_invocation_id) id: vec3<u32>) {
+    let cell = id.x;
+    if cell >= cell_count() {
+        return;
+    }
+    let c = raster_cell(cell);
+    if spreads(c.e) {
+        cdf[cell] = luminance(spread_power(c.e, c.u) * c.e.measure);
+        return;
+    }
+    cdf[cell] = luminance(cell_power(c.e, emitter_ray(c.e, c.u).dir));
 }
 
 var<workgroup> chunk_sums: array<f32, 256>;

@@ -181,7 +181,8 @@ pub fn bounce_emitter_for(l: &LightDesc, index: u32, centre: Vec3, reach: f32, f
         (right, axis.cross(right))
     };
     match l.shape {
-        LightShape::Rect { size, round } => rect_emitter(l, index, size, round, first_cell),
+        // cos_max −2: its photons leave over the whole hemisphere (photons.wgsl, `rect_cone`).
+        LightShape::Rect { size, round } => Emitter { cos_max: -2.0, ..rect_emitter(l, index, size, round, first_cell) },
         LightShape::Sun { .. } => {
             let (right, up) = frame(l.direction);
             Emitter {

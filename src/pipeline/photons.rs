@@ -22,6 +22,8 @@ pub const EPS_REFRACT: f32 = 0.01;
 
 pub struct Photons {
     importance: wgpu::ComputePipeline,
+    /// The bounce population's raster: power alone (`bounce_raster`).
+    bounce_raster: wgpu::ComputePipeline,
     scan: wgpu::ComputePipeline,
     emit: wgpu::ComputePipeline,
     bgl: wgpu::BindGroupLayout,
@@ -69,6 +71,7 @@ impl Photons {
             layout::storage(8, true),
         ];
         let (importance, bgl) = layout::pipeline_entry(device, shaders, "photons", "importance_raster", &entries)?;
+        let (bounce_raster, _) = layout::pipeline_entry(device, shaders, "photons", "bounce_raster", &entries)?;
         let (scan, _) = layout::pipeline_entry(device, shaders, "photons", "scan", &entries)?;
         let (emit, _) = layout::pipeline_entry(device, shaders, "photons", "emit", &entries)?;
         let params = [layout::uniform_buffer::<PhotonParams>(device, "photon params"), layout::uniform_buffer::<PhotonParams>(device, "bounce photon params")];
@@ -76,6 +79,7 @@ impl Photons {
         let photons = Self::buffer(device, "photons", std::mem::size_of::<Photon>() as u64, 1024);
         Ok(Self {
             importance,
+            bounce_raster,
             scan,
             emit,
             bgl,
@@ -162,7 +166,7 @@ impl Photons {
             ctx.queue.write_buffer(&self.params[k], 0, bytemuck::bytes_of(&params));
             self.bind(ctx, k, grids, lights, environment.0);
             pass.set_bind_group(0, &self.bound[k].as_ref().expect("bound").1, &[]);
-            pass.set_pipeline(&self.importance);
+            pass.set_pipeline(if k == 0 { &self.importance } else { &self.bounce_raster });
             pass.dispatch_workgroups((params.emitter_count * RASTER_CELLS * RASTER_CELLS).div_ceil(64), 1, 1);
             pass.set_pipeline(&self.scan);
             pass.dispatch_workgroups(1, 1, 1);

@@ -13,7 +13,7 @@
 // bounce photons), `scan` (one workgroup: the CDF), `emit` (one thread per photon).
 //
 // They run twice a frame. First for the caustic photons, as above. Then, where the frame
-// traces bounced light, for the bounce photons (PHOTON_FLAG_BOUNCE): each light's whole
+// traces bounced light, for the bounce photons (`bounce_raster`): each light's whole
 // emission (`lights::bounce_emitter_for`), every cell of importance 1, written after the caustic
 // photons (`photon_offset`); march.wgsl follows them over diffuse bounces.
 
@@ -105,7 +105,7 @@ fn rect_point(e: Emitter, u: vec2<f32>) -> vec3<f32> {
 
 // The cone a rect light's photons from p leave in: toward the volume (`volume_cone`), or every
 // direction for a bounce emitter (`lights::bounce_emitter_for` marks it by cos_max = −2).
-// (The emitter says so rather than PHOTON_FLAG_BOUNCE: a branch on that flag here made
+// (The emitter says so rather than a flag in the uniforms: a branch on such a flag here made
 // lavapipe's heap grow by 0.67 MiB a frame, tests/memory.rs.)
 fn rect_cone(e: Emitter, p: vec3<f32>) -> vec4<f32> {
     if e.cos_max < -1.5 {
@@ -237,9 +237,9 @@ fn importance_raster(@builtin(global_invocation_id) id: vec3<u32>) {
     cdf[cell] = luminance(cell_power(c.e, ray.dir)) * importance(ray.origin, ray.dir);
 }
 
-// The bounce population's raster (PHOTON_FLAG_BOUNCE): bounced light matters wherever it lands,
+// The bounce population's raster: bounced light matters wherever it lands,
 // so every cell is worth its power. (A kernel of its own: the importance walk behind a branch on
-// the flag made lavapipe's heap grow by 0.67 MiB a frame, tests/memory.rs.)
+// a flag in the uniforms made lavapipe's heap grow by 0.67 MiB a frame, tests/memory.rs.)
 @compute @workgroup_size(64)
 fn bounce_raster(@builtin(global_invocation_id) id: vec3<u32>) {
     let cell = id.x;

@@ -366,7 +366,6 @@ const MARCH_FLAG_DEPOSIT_DIRECTION: u32 = 2u;
 const MARCH_FLAG_SPECTRAL: u32 = 4u;
 
 const PHOTON_FLAG_SPECTRAL: u32 = 1u;
-const PHOTON_FLAG_BOUNCE: u32 = 2u;
 
 // Photon.flags: bit 0 marks a live photon; bits 1–31 hold a spectral photon's wavelength sample.
 const PHOTON_LIVE: u32 = 1u;

@@ -630,9 +630,6 @@ pub mod photon_flags {
     /// The frame's photons carry wavelengths: their in-cell position and their wavelength are
     /// drawn together (photons.wgsl's `cell_sample`, march.wgsl's `spectral_flux`).
     pub const SPECTRAL: u32 = 1;
-    /// The bounce population: every light's whole emission (not only toward the volume), each
-    /// cell of importance 1 (photons.wgsl).
-    pub const BOUNCE: u32 = 2;
 }
 
 /// `MarchParams::flags` bits.

@@ -173,7 +173,7 @@ pub fn environment_emitter(integral: Vec3, centre: Vec3, radius: f32, reach: f32
 /// Where light `index`'s photons go for bounced light: everywhere it shines, not only toward
 /// the volume. A point light's whole sphere (a spot's cone); the sun's square across its
 /// direction as wide as the scene (`reach` about `centre`), starting outside it; a rect light's
-/// area, its photons cosine-weighted over its hemisphere (photons.wgsl, `PHOTON_FLAG_BOUNCE`).
+/// area, its photons cosine-weighted over its hemisphere (photons.wgsl, `bounce_raster` and `rect_cone`).
 pub fn bounce_emitter_for(l: &LightDesc, index: u32, centre: Vec3, reach: f32, first_cell: u32) -> Emitter {
     let cells = (RASTER_CELLS * RASTER_CELLS) as f32;
     let frame = |axis: Vec3| {

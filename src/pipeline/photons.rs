@@ -155,7 +155,6 @@ impl Photons {
             photon_count: budget.bounce,
             photon_offset: budget.caustic,
             seed: seed ^ BOUNCE_SEED,
-            flags: spectral_flag | photon_flags::BOUNCE,
             ..caustic
         };
         let mut pass = profiler.pass(enc, "photons");

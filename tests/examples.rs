@@ -26,7 +26,8 @@ fn every_example_animates_and_renders() {
     }
     // Small everything: the test is that each example loads, animates and covers the frame,
     // not how it looks (the guide's pictures), and lavapipe marches a million photons slowly.
-    let opts = EvalOptions { size: Some((32, 18)), resolution: Some(24), samples: Some(1), photons: Some(20_000), ..Default::default() };
+    // Without bounced light, which tests/lights.rs and tests/mitsuba_caustics.rs check.
+    let opts = EvalOptions { size: Some((32, 18)), resolution: Some(24), samples: Some(1), photons: Some(20_000), bounces: Some(0), ..Default::default() };
     let mut renderer = common::renderer();
     for path in &files {
         let mut source = SceneSource::load(path, &[], &Default::default()).unwrap_or_else(|e| panic!("{e:#}"));

@@ -276,7 +276,8 @@ fn a_rect_light_in_node_extras_is_an_area_light_of_that_size_direction_and_radia
     let rect = json!({ "refrakt": { "light": { "type": "rect", "size": [1.5, 0.5], "color": [1.0, 0.5, 0.25], "intensity": 2000.0 } } });
     let panel = g.push("nodes", json!({ "name": "Panel", "translation": [0.5, 2.0, -1.0], "rotation": turn.to_array(), "extras": rect }));
     let plain = g.push("nodes", json!({ "name": "Plain", "extras": { "refrakt": { "light": { "type": "rect", "size": [1.0, 1.0], "future": 1 } } } }));
-    g.scene("S", &[panel, plain]);
+    let oval = g.push("nodes", json!({ "name": "Oval", "extras": { "refrakt": { "light": { "type": "disk", "size": [0.8, 0.3] } } } }));
+    g.scene("S", &[panel, plain, oval]);
     let dir = tempfile::tempdir().unwrap();
     let path = g.write_glb(&dir.path().join("a.glb"));
     let s = load(&path).scene;
@@ -290,6 +291,8 @@ fn a_rect_light_in_node_extras_is_an_area_light_of_that_size_direction_and_radia
     assert!((l.right - turn * Vec3::X).length() < 1e-6 && (l.up - turn * Vec3::Y).length() < 1e-6, "its size lies along local X and Y");
     // Radiance in W/(m²·sr): nits / 683 lm/W, times the colour.
     assert!((l.radiant - Vec3::new(1.0, 0.5, 0.25) * 2000.0 / 683.0).abs().max_element() < 1e-5);
+    let oval = s.find("Oval").unwrap().borrow().light.as_ref().unwrap().borrow().clone();
+    assert_eq!(oval.kind, LightKind::Rect { size: glam::Vec2::new(0.8, 0.3), round: true }, "a disk of diameters 0.8 and 0.3");
     let plain = s.find("Plain").unwrap().borrow().light.as_ref().unwrap().borrow().clone();
     assert_eq!((plain.color, plain.intensity), (Vec3::ONE, 1.0), "colour and intensity default to 1");
     let access = refrakt::lua::sandbox::FileAccess::new(dir.path(), &[]).unwrap();
@@ -298,8 +301,8 @@ fn a_rect_light_in_node_extras_is_an_area_light_of_that_size_direction_and_radia
     assert!(import.warnings.iter().any(|w| w.to_string() == warned), "{:?}", import.warnings.iter().map(|w| w.to_string()).collect::<Vec<_>>());
 
     for (light, message) in [
-        (json!({ "type": "disk", "size": [1.0, 1.0] }), "nodes[0].extras.refrakt.light.type is \"disk\"; refrakt reads \"rect\""),
-        (json!({ "size": [1.0, 1.0] }), "nodes[0].extras.refrakt.light.type must be \"rect\""),
+        (json!({ "type": "sphere", "size": [1.0, 1.0] }), "nodes[0].extras.refrakt.light.type is \"sphere\"; refrakt reads \"rect\" and \"disk\""),
+        (json!({ "size": [1.0, 1.0] }), "nodes[0].extras.refrakt.light.type must be \"rect\" or \"disk\""),
         (json!({ "type": "rect", "size": [1.0, 0.0] }), "nodes[0].extras.refrakt.light.size must be two numbers > 0 (metres)"),
         (json!({ "type": "rect", "size": [1.0, 1.0], "intensity": -1.0 }), "nodes[0].extras.refrakt.light.intensity must be a number ≥ 0 (nits)"),
     ] {

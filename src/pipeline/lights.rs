@@ -116,19 +116,25 @@ pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, first_cell: u
                     (axis, cos_max) = (l.direction, cos_outer);
                 }
             }
-            let right = axis.any_orthonormal_vector();
-            Some(Emitter {
-                origin: l.position.into(),
-                light: index,
-                axis: axis.into(),
-                cos_max,
-                right: right.into(),
-                up: axis.cross(right).into(),
-                measure: std::f32::consts::TAU * (1.0 - cos_max) / cells,
-                first_cell,
-                ..Default::default()
-            })
+            Some(cone_emitter(l, index, axis, cos_max, first_cell))
         }
+    }
+}
+
+/// A point or spot light's emitter: the cap of directions within acos(cos_max) of `axis` from
+/// its position, in equal cells (the whole sphere at cos_max = −1).
+fn cone_emitter(l: &LightDesc, index: u32, axis: Vec3, cos_max: f32, first_cell: u32) -> Emitter {
+    let right = axis.any_orthonormal_vector();
+    Emitter {
+        origin: l.position.into(),
+        light: index,
+        axis: axis.into(),
+        cos_max,
+        right: right.into(),
+        up: axis.cross(right).into(),
+        measure: std::f32::consts::TAU * (1.0 - cos_max) / (RASTER_CELLS * RASTER_CELLS) as f32,
+        first_cell,
+        ..Default::default()
     }
 }
 
@@ -204,18 +210,7 @@ pub fn bounce_emitter_for(l: &LightDesc, index: u32, centre: Vec3, reach: f32, f
                 LightShape::Spot { cos_outer, .. } => (l.direction, cos_outer),
                 _ => (Vec3::Y, -1.0),
             };
-            let (right, up) = frame(axis);
-            Emitter {
-                origin: l.position.into(),
-                light: index,
-                axis: axis.into(),
-                cos_max,
-                right: right.into(),
-                up: up.into(),
-                measure: std::f32::consts::TAU * (1.0 - cos_max) / cells,
-                first_cell,
-                ..Default::default()
-            }
+            cone_emitter(l, index, axis, cos_max, first_cell)
         }
     }
 }

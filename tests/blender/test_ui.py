@@ -148,4 +148,6 @@ def test_passes_panel_shows_with_the_engine(addon):
     assert panel.poll(bpy.context)
     context = Context(view_layer=scene.view_layers[0])
     shown = [name for _, name in draw("VIEWLAYER_PT_refrakt_passes", context)]
-    assert shown == ["use_pass_z", "use_pass_caustic", "use_pass_direct", "use_pass_volume"]
+    assert shown == [
+        "use_pass_z", "use_pass_caustic", "use_pass_direct", "use_pass_indirect", "use_pass_volume"
+    ]

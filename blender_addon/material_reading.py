@@ -18,7 +18,6 @@ IGNORED = (
     ("Subsurface Weight", 0.0),
     ("Coat Weight", 0.0),
     ("Sheen Weight", 0.0),
-    ("Emission Strength", 0.0),
     ("Thin Film Thickness", 0.0),
     ("Dispersion", 0.0),  # Blender 4.4 and later
     ("Alpha", 1.0),
@@ -98,6 +97,12 @@ def _principled(node, medium):
         rows.append(("Roughness", f"{value('Roughness'):.3g}", "GGX roughness: frosted glass" if value("Roughness") > 0 else "polished"))
     elif value("Roughness") > 0.0:
         ignored.append(f"Roughness {value('Roughness'):.3g} (receivers are Lambertian)")
+    emitting = value("Emission Strength") > 0.0 and max(list(value("Emission Color"))[:3]) > 0.0
+    if emitting and glass:
+        ignored.append(f"Emission Strength {value('Emission Strength'):.3g} (glass does not glow)")
+    elif emitting:
+        rows.append(("Emission", f"{_color(value('Emission Color'))} × {value('Emission Strength'):.3g}",
+                     "glows, and lights the scene from both sides"))
     for name, neutral in IGNORED:
         if name in node.inputs and abs(value(name) - neutral) > 1e-6:
             ignored.append(f"{name} {value(name):.3g}")

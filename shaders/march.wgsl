@@ -339,8 +339,11 @@ fn absorbed(steps: u32) -> PathEnd {
 }
 
 // A photon's path from where it starts (its light, or a receiver it left) to where it ends.
-// `key` seeds its interface choices; `deposit_radiance`: fill the radiance grid on the way.
-fn march_path(photon: Photon, start_flux: vec3<f32>, key: u32, deposit_radiance: bool) -> PathEnd {
+// `key` seeds its interface choices; `deposit_radiance`: fill the radiance grid on the way;
+// `flux_unit`: its population's mean photon flux (caustic or bounce), below 10⁻⁶ of which a
+// photon a medium has all but absorbed ends. (The caustic unit for a bounce photon ended every
+// one once the bounce budget reached 10⁶ times the caustic one: with `photons = 0`, at 10⁶.)
+fn march_path(photon: Photon, start_flux: vec3<f32>, key: u32, deposit_radiance: bool, flux_unit: f32) -> PathEnd {
     var flux = start_flux;
     let index = key;
     let grid = params.grid;
@@ -431,7 +434,7 @@ fn march_path(photon: Photon, start_flux: vec3<f32>, key: u32, deposit_radiance:
             d = d_new;
             ahead_of.valid = false;
         }
-        if max(flux.r, max(flux.g, flux.b)) < 1e-6 * params.flux_unit {
+        if max(flux.r, max(flux.g, flux.b)) < 1e-6 * flux_unit {
             return absorbed(n_steps + 1u);
         }
         // (Checked after the step: the entry point itself may round to just outside.)
@@ -449,7 +452,7 @@ fn march_path(photon: Photon, start_flux: vec3<f32>, key: u32, deposit_radiance:
 fn march_photon(photon: Photon, index: u32) -> u32 {
     let flux = spectral_flux(photon.flux, photon.flags);
     stat_flux(STAT_EMITTED, flux);
-    let end = march_path(photon, flux, index, (params.flags & MARCH_FLAG_DEPOSIT_RADIANCE) != 0u);
+    let end = march_path(photon, flux, index, (params.flags & MARCH_FLAG_DEPOSIT_RADIANCE) != 0u, params.flux_unit);
     land(end);
     return end.steps;
 }
@@ -463,7 +466,7 @@ fn march_bounces(photon: Photon, index: u32) -> u32 {
     for (var bounce = 0u; ; bounce++) {
         // Each leg draws its own interface choices.
         let key = index ^ (bounce * 0x9e3779b9u);
-        let end = march_path(leg, flux, key, false);
+        let end = march_path(leg, flux, key, false, params.bounce_flux_unit);
         steps += end.steps;
         if !end.landed || !is_receiver_hit(end.hit) {
             break;

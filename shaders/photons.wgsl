@@ -24,6 +24,7 @@
 #import shared/dda.wgsl
 #import shared/environment.wgsl
 #import shared/env_light.wgsl
+#import shared/mesh_light.wgsl
 
 @group(0) @binding(0) var<uniform> params: PhotonParams;
 @group(0) @binding(1) var<storage, read> emitters: array<Emitter>;
@@ -37,6 +38,8 @@
 @group(0) @binding(7) var<storage, read> glass_mark: array<f32>;
 // The environment's importance table (shared/env_light.wgsl), for its emitter.
 @group(0) @binding(8) var<storage, read> env_table: array<f32>;
+// The glowing meshes' triangles (shared/mesh_light.wgsl).
+@group(0) @binding(9) var<storage, read> light_triangles: array<LightTriangle>;
 
 // Raster rays are classified by the octree's level-0 cells, which follow the objects' outline to
 // a voxel (each cell bounds the 4×4×4 voxels around it, so the test stays conservative): few
@@ -50,7 +53,7 @@ struct EmitterRay {
 }
 
 // Emitters whose photons each take a direction of their own within a raster cell: the
-// environment and rect lights. `SpreadRay.weight` is the radiance over the direction's density,
+// environment and area lights. `SpreadRay.weight` is the radiance over the direction's density,
 // L(ω)/p(ω): a photon's flux is that × the cell's `measure` × total/(N·weight).
 //
 // - The environment's emitter (`Emitter.light == ENV_LIGHT`) is a disc as wide as the volume's
@@ -62,6 +65,8 @@ struct EmitterRay {
 //   leave uniformly over the cone of directions from their start that holds the volume's
 //   bounding sphere (as a point light's raster does), L cos θ / p = L cos θ × the cone's solid
 //   angle — or, from inside the sphere, cosine-weighted about its normal (`axis`): π L.
+// - A glowing mesh's cells are equal areas of its two sides (shared/mesh_light.wgsl), each
+//   point emitting as a rect's does about that side's normal.
 struct SpreadRay {
     origin: vec3<f32>,
     dir: vec3<f32>,
@@ -69,7 +74,11 @@ struct SpreadRay {
 }
 
 fn spreads(e: Emitter) -> bool {
-    return e.light == ENV_LIGHT || lights[e.light].kind == LIGHT_RECT || lights[e.light].kind == LIGHT_DISK;
+    if e.light == ENV_LIGHT {
+        return true;
+    }
+    let kind = lights[e.light].kind;
+    return kind == LIGHT_RECT || kind == LIGHT_DISK || kind == LIGHT_MESH;
 }
 
 // The photon ray of raster point u with direction numbers xi.
@@ -83,24 +92,36 @@ fn spread_ray(e: Emitter, u: vec2<f32>, xi: vec2<f32>) -> SpreadRay {
         let origin = e.origin + frame[0] * q.x + frame[1] * q.y - dir * e.start_distance;
         return SpreadRay(origin, dir, s.radiance / s.pdf);
     }
-    let origin = rect_point(e, u);
+    let at = area_point(e, u);
     let radiance = lights[e.light].radiant;
-    let cone = rect_cone(e, origin);
+    let cone = rect_cone(e, at.p);
     if cone.w <= -1.0 {
-        return SpreadRay(origin, cosine_direction(e.axis, e.right, e.up, xi), PI * radiance);
+        // About a rect's own axes; a mesh's point has only its normal.
+        var frame = mat2x3<f32>(e.right, e.up);
+        if lights[e.light].kind == LIGHT_MESH {
+            frame = cone_frame(at.n);
+        }
+        return SpreadRay(at.p, cosine_direction(at.n, frame[0], frame[1], xi), PI * radiance);
     }
     let frame = cone_frame(cone.xyz);
     let dir = cap_direction(cone.xyz, frame[0], frame[1], cone.w, xi);
-    return SpreadRay(origin, dir, radiance * max(dot(dir, e.axis), 0.0) * TAU * (1.0 - cone.w));
+    return SpreadRay(at.p, dir, radiance * max(dot(dir, at.n), 0.0) * TAU * (1.0 - cone.w));
 }
 
-// Point u of a rect light's area (a disk's: the concentric map, equal areas for equal cells).
-fn rect_point(e: Emitter, u: vec2<f32>) -> vec3<f32> {
+// Point u of an area light and the normal it emits about: a rect's (a disk's: the concentric
+// map, equal areas for equal cells), or one side of a glowing mesh's surface, lifted off it as
+// a photon leaving a receiver is (march.wgsl) so that it does not land where it starts.
+fn area_point(e: Emitter, u: vec2<f32>) -> LightPoint {
+    let light = lights[e.light];
+    if light.kind == LIGHT_MESH {
+        let q = mesh_light_side_point(light, u);
+        return LightPoint(q.p + q.n * (1e-4 + 1e-3 * params.grid.voxel_size), q.n);
+    }
     var q = 2.0 * u - 1.0;
-    if lights[e.light].kind == LIGHT_DISK {
+    if light.kind == LIGHT_DISK {
         q = concentric_disk(u);
     }
-    return e.origin + e.right * (q.x * e.half_width) + e.up * (q.y * e.half_height);
+    return LightPoint(e.origin + e.right * (q.x * e.half_width) + e.up * (q.y * e.half_height), e.axis);
 }
 
 // The cone a rect light's photons from p leave in: toward the volume (`volume_cone`), or every
@@ -135,7 +156,14 @@ fn spread_power(e: Emitter, u: vec2<f32>) -> vec3<f32> {
     if e.light == ENV_LIGHT {
         return env_light_integral(params.env);
     }
-    let cone = rect_cone(e, rect_point(e, u));
+    let at = area_point(e, u);
+    let cone = rect_cone(e, at.p);
+    // Nothing reaches the volume from a side that faces away from all of its cone (the back
+    // of a glowing sheet): cos θ ≤ 0 over the cone when the angle from the normal to its axis
+    // is at least 90° plus its half-angle.
+    if cone.w > -1.0 && dot(cone.xyz, at.n) <= -sqrt(max(0.0, 1.0 - cone.w * cone.w)) {
+        return vec3<f32>(0.0);
+    }
     return lights[e.light].radiant * select(TAU * (1.0 - cone.w), PI, cone.w <= -1.0);
 }
 

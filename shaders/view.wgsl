@@ -36,6 +36,7 @@
 #import shared/lights.wgsl
 #import shared/environment.wgsl
 #import shared/env_light.wgsl
+#import shared/mesh_light.wgsl
 #import shared/hash.wgsl
 #import shared/pbr.wgsl
 #import shared/glass_surface.wgsl
@@ -65,6 +66,8 @@
 @group(0) @binding(14) var<storage, read> caustic_irradiance: array<vec4<f32>>;
 // The indirect maps' filtered irradiance (bounced light), laid out as the caustic maps.
 @group(0) @binding(27) var<storage, read> indirect_irradiance: array<vec4<f32>>;
+// The glowing meshes' triangles (shared/mesh_light.wgsl).
+@group(0) @binding(28) var<storage, read> light_triangles: array<LightTriangle>;
 @group(0) @binding(15) var<storage, read> lights: array<LightGpu>;
 @group(0) @binding(16) var fluence_grid: texture_3d<f32>;
 @group(0) @binding(17) var direction_grid: texture_3d<f32>;
@@ -279,6 +282,13 @@ fn light_arrival(l: LightGpu, p: vec3<f32>, k: u32) -> LightArrival {
         }
         return LightArrival(w, l.radiant, 1.0, NO_HIT);
     }
+    if l.kind == LIGHT_MESH {
+        // Rotated per pixel (Cranley–Patterson) as the environment's numbers are: the points the
+        // sequence picks fall over the mesh's triangles in whatever order they were listed, so
+        // a pixel's few samples are as good as random, and neighbouring pixels must differ.
+        let key = pcg_hash(pixel_key ^ 0x2f6b3c1du);
+        return glowing_mesh_arrival(l, p, fract(u + vec2<f32>(random01(key, 0u, 44u), random01(key, 0u, 45u))));
+    }
     var aim = l.position;
     let area_light = l.kind == LIGHT_RECT || l.kind == LIGHT_DISK;
     var area = l.size_x * l.size_y;
@@ -304,6 +314,19 @@ fn light_arrival(l: LightGpu, p: vec3<f32>, k: u32) -> LightArrival {
     return LightArrival(w, intensity, dist2, dist);
 }
 
+// A glowing mesh seen from p through one point spread uniformly over its surface: each side
+// that glows a Lambertian emitter of radiance L, so I(θ) = L · A · cos θ (one sample; 0 from a
+// closed mesh's point facing away, which then costs no shadow ray). The shadow ray stops just
+// short of the point, which lies on a receiver's own triangle.
+fn glowing_mesh_arrival(l: LightGpu, p: vec3<f32>, u: vec2<f32>) -> LightArrival {
+    let q = mesh_light_point(l, u);
+    let to_light = q.p - p;
+    let dist2 = dot(to_light, to_light);
+    let dist = sqrt(dist2);
+    let w = to_light / dist;
+    return LightArrival(w, l.radiant * (l.area * mesh_light_cos(l, q.n, -w)), dist2, dist * (1.0 - 1e-4));
+}
+
 // Four uniform numbers for shadow-ray pair j toward the environment of camera sample k on
 // branch `path` of this pixel: point k·pairs + j of the R2 sequence, rotated per pixel and
 // branch (Cranley–Patterson) once for the table's direction (xy) and once for the cosine one
@@ -323,18 +346,37 @@ struct ShadowRay {
     e: vec3<f32>,
 }
 
-// Shadow ray i of the point p with shading normal n: first one per light (light_arrival), then
-// two per environment pair — one direction drawn from the environment's table
+// Glowing meshes' shadow samples per camera sample: a mesh seen from a point is partly hidden by
+// itself (a tube or a bulb by half), so one sample each would be mostly noise; a closed mesh's
+// candidates facing away cost nothing.
+const GLOWING_CANDIDATES: u32 = 4u;
+
+// The first shadow-ray slot toward the environment: after one per light and the glowing
+// meshes' extra candidates.
+fn environment_slot() -> u32 {
+    return params.light_count + (GLOWING_CANDIDATES - 1u) * params.glowing_count;
+}
+
+// Shadow ray i of the point p with shading normal n: first one per light (light_arrival) — for
+// each glowing mesh (the last `glowing_count` lights) GLOWING_CANDIDATES, each weighing 1/that —
+// then two per environment pair: one direction drawn from the environment's table
 // (shared/env_light.wgsl), one by cos θ, each weighted by the balance heuristic (Veach 1997,
 // §9.2), so a small bright sun and a wide dim sky both converge:
 // E_env ≈ Σ L(ω) cos θ / (p_env(ω) + cos θ / π) over both, divided by the pairs. A colour
 // environment takes both by cos θ.
 fn shadow_ray(i: u32, p: vec3<f32>, n: vec3<f32>, k: u32, path: u32) -> ShadowRay {
-    if i < params.light_count {
+    let glowing_first = params.light_count - params.glowing_count;
+    if i < glowing_first {
         let a = light_arrival(lights[i], p, k);
         return ShadowRay(a.w, a.dist, a.intensity * max(dot(n, a.w), 0.0) / a.dist2);
     }
-    let j = i - params.light_count;
+    let env_first = environment_slot();
+    if i < env_first {
+        let g = i - glowing_first;
+        let a = light_arrival(lights[glowing_first + g / GLOWING_CANDIDATES], p, k * GLOWING_CANDIDATES + g % GLOWING_CANDIDATES);
+        return ShadowRay(a.w, a.dist, a.intensity * (max(dot(n, a.w), 0.0) / (a.dist2 * f32(GLOWING_CANDIDATES))));
+    }
+    let j = i - env_first;
     let u = env_numbers(k, path, j / 2u);
     let frame = basis_around(n);
     let rays = f32(2u * params.env_pairs);
@@ -365,14 +407,15 @@ fn shadow_ray(i: u32, p: vec3<f32>, n: vec3<f32>, k: u32, path: u32) -> ShadowRa
 // its share; the glossy lobes take the prefiltered environment, unshadowed).
 fn direct_light(p: vec3<f32>, facing: vec3<f32>, s: PbrSurface, pbr: bool, env_diffuse: vec3<f32>, k: u32, path: u32) -> LightResponse {
     var out = LightResponse(vec3<f32>(0.0), vec3<f32>(0.0));
-    let count = params.light_count + 2u * params.env_pairs;
+    let env_first = environment_slot();
+    let count = env_first + 2u * params.env_pairs;
     for (var i = 0u; i < count; i++) {
         let ray = shadow_ray(i, p, s.n, k, path);
         if all(ray.e <= vec3<f32>(0.0)) || dot(facing, ray.w) <= 0.0 {
             continue;
         }
         let e = ray.e * visibility(p, ray.w, ray.dist);
-        if i >= params.light_count {
+        if i >= env_first {
             out.diffuse += env_diffuse * e;
         } else if pbr {
             let response = pbr_response(s, ray.w, dot(s.n, ray.w));

@@ -290,6 +290,11 @@ pub enum LightShape {
     /// Rectangle of `size` spanned by `right` and `up`, emitting along `direction` — or,
     /// `round`, the ellipse inscribed in it.
     Rect { size: Vec2, round: bool },
+    /// A glowing mesh: an emissive receiver's triangles `first .. first + count` of the frame's
+    /// light triangles (`pipeline::mesh_lights`), `area` m² in all, glowing with `radiant` on
+    /// both sides as Cycles' emission does — or, `closed`, on its outer side (its triangles
+    /// wound outward), the inner side's light having nowhere to go but the mesh itself.
+    Mesh { first: u32, count: u32, area: f32, closed: bool },
 }
 
 /// A light in world space, in radiometric units (see `scene::light`).
@@ -303,7 +308,7 @@ pub struct LightDesc {
     /// Unit axes across the direction (rect extents; any orthonormal pair otherwise).
     pub right: Vec3,
     pub up: Vec3,
-    /// color × intensity / 683: W/sr (point, spot), W/m² (sun), W/(m²·sr) (rect).
+    /// color × intensity / 683: W/sr (point, spot), W/m² (sun), W/(m²·sr) (rect, mesh).
     pub radiant: Vec3,
     /// Point and spot lights: the bulb's radius glass shows as a highlight, metres.
     pub radius: f32,

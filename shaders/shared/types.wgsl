@@ -54,7 +54,7 @@ struct ViewParams {
     camera_media_lo: u32,
     env_pairs: u32,
     indirect_chart_base: u32,
-    _pad_env1: u32,
+    glowing_count: u32,
     camera_media_hi: u32,
     sample_first: u32,
     sample_count: u32,
@@ -244,6 +244,23 @@ struct LightGpu {
     size_y: f32,
     radius: f32,
     media: vec2<u32>,
+    // A glowing mesh's triangles (light_triangles[first_triangle ..][.. triangle_count]), area
+    // and the sides it glows on (2, or 1 for a closed mesh wound outward).
+    first_triangle: u32,
+    triangle_count: u32,
+    area: f32,
+    sides: u32,
+}
+
+// One triangle of a glowing mesh: corner v0, edges e1 and e2, and the mesh's area fraction up to
+// and including it (`cdf`).
+struct LightTriangle {
+    v0: vec3<f32>,
+    cdf: f32,
+    e1: vec3<f32>,
+    _pad0: f32,
+    e2: vec3<f32>,
+    _pad1: f32,
 }
 
 struct Emitter {
@@ -375,6 +392,7 @@ const LIGHT_SPOT: u32 = 1u;
 const LIGHT_SUN: u32 = 2u;
 const LIGHT_RECT: u32 = 3u;
 const LIGHT_DISK: u32 = 4u;
+const LIGHT_MESH: u32 = 5u;
 // Emitter.light of the environment's emitter (it has no LightGpu).
 const ENV_LIGHT: u32 = 0xffffffffu;
 

@@ -100,7 +100,9 @@ gpu_struct! {
         pub env_pairs: u32,
         /// Where the indirect maps' charts start in `charts` (`receivers::indirect_chart_base`).
         pub indirect_chart_base: u32,
-        pub _pad_env1: u32,
+        /// Glowing meshes: the last `glowing_count` of the `light_count` lights, each taking
+        /// `GLOWING_CANDIDATES` shadow samples (shaders/view.wgsl, `shadow_ray`).
+        pub glowing_count: u32,
         /// …and high word.
         pub camera_media_hi: u32,
         /// The camera samples this dispatch traces: from `sample_first`, `sample_count` of them
@@ -382,6 +384,29 @@ gpu_struct! {
         pub radius: f32,
         /// The sharp interfaces around the light, packed (`interfaces::media_at`).
         pub media: [u32; 2],
+        /// A glowing mesh's triangles: `light_triangles[first .. first + count]`.
+        pub first_triangle: u32,
+        pub triangle_count: u32,
+        /// A glowing mesh's area (m²), and the sides it glows on: 2 (an open mesh, as Cycles'
+        /// emission), or 1 for a closed one, its triangles wound outward (the inner side's
+        /// light would only land on the mesh itself).
+        pub area: f32,
+        pub sides: u32,
+    }
+}
+
+gpu_struct! {
+    /// One triangle of a glowing mesh (`LightShape::Mesh`), in world space: corner `v0` and the
+    /// edges `e1`, `e2` from it. `cdf`: the mesh's area up to and including this triangle, as a
+    /// fraction of its whole, so a uniform number picks triangles by area (by power: the mesh
+    /// glows with one radiance).
+    pub struct LightTriangle {
+        pub v0: [f32; 3],
+        pub cdf: f32,
+        pub e1: [f32; 3],
+        pub _pad0: f32,
+        pub e2: [f32; 3],
+        pub _pad1: f32,
     }
 }
 
@@ -654,6 +679,8 @@ pub mod light_kind {
     pub const RECT: u32 = 3;
     /// A rect's inscribed ellipse (`LightShape::Rect { round: true }`).
     pub const DISK: u32 = 4;
+    /// A glowing mesh (`LightShape::Mesh`): an emissive receiver's triangles.
+    pub const MESH: u32 = 5;
 }
 
 /// Probe integrators (`ProbeParams::integrator`).
@@ -707,6 +734,7 @@ mod tests {
         check::<Chart>(&module);
         check::<LightGpu>(&module);
         check::<Emitter>(&module);
+        check::<LightTriangle>(&module);
         check::<Photon>(&module);
         check::<OctreeParams>(&module);
         check::<PhotonParams>(&module);

@@ -4,7 +4,7 @@
 use glam::Vec3;
 
 use crate::frame::{LightDesc, LightShape, VolumeDesc};
-use crate::gpu::types::{ENV_LIGHT, Emitter, LightGpu, light_kind};
+use crate::gpu::types::{ENV_LIGHT, Emitter, LightGpu, LightTriangle, light_kind};
 
 /// Cells per side of each light's photon raster (G×G importance cells).
 pub const RASTER_CELLS: u32 = 64;
@@ -17,6 +17,11 @@ pub fn light_gpu(l: &LightDesc, media: [u32; 2]) -> LightGpu {
         LightShape::Sun { half_angle } => (light_kind::SUN, -1.0, -1.0, half_angle, glam::Vec2::ZERO),
         LightShape::Rect { size, round: false } => (light_kind::RECT, -1.0, -1.0, 0.0, size),
         LightShape::Rect { size, round: true } => (light_kind::DISK, -1.0, -1.0, 0.0, size),
+        LightShape::Mesh { .. } => (light_kind::MESH, -1.0, -1.0, 0.0, glam::Vec2::ZERO),
+    };
+    let (first_triangle, triangle_count, area, sides) = match l.shape {
+        LightShape::Mesh { first, count, area, closed } => (first, count, area, if closed { 1 } else { 2 }),
+        _ => (0, 0, 0.0, 0),
     };
     LightGpu {
         position: l.position.into(),
@@ -32,8 +37,17 @@ pub fn light_gpu(l: &LightDesc, media: [u32; 2]) -> LightGpu {
         size_y: size.y,
         radius: l.radius,
         media,
-        ..Default::default()
+        first_triangle,
+        triangle_count,
+        area,
+        sides,
     }
+}
+
+/// Whether the light has an area its photons leave from (rect, disk, glowing mesh), each point
+/// a Lambertian emitter of radiance `radiant`.
+fn has_area(l: &LightDesc) -> bool {
+    matches!(l.shape, LightShape::Rect { .. } | LightShape::Mesh { .. })
 }
 
 /// How far from the volume's centre the scene reaches: its bounding sphere's radius and the
@@ -70,7 +84,8 @@ pub fn photon_start(l: &LightDesc, volume: &VolumeDesc) -> Vec3 {
 /// Where light `index`'s photons can reach the volume: for the sun, the rectangle across its
 /// direction that the box projects to; for point and spot lights, the cone of directions that
 /// contains the box (the whole sphere from inside it), narrowed to the spot's cone when that is
-/// smaller; for a rect light, its area (each photon leaves it toward the volume, `spread_ray`).
+/// smaller; for a rect light, its area (each photon leaves it toward the volume, `spread_ray`);
+/// for a glowing mesh, the sides of its surface it glows on.
 pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, first_cell: u32) -> Option<Emitter> {
     let (lo, hi) = (volume.min, volume.max());
     let centre = 0.5 * (lo + hi);
@@ -79,6 +94,7 @@ pub fn emitter_for(l: &LightDesc, index: u32, volume: &VolumeDesc, first_cell: u
     let corners = box_corners(lo, hi);
     match l.shape {
         LightShape::Rect { size, round } => Some(rect_emitter(l, index, size, round, first_cell)),
+        LightShape::Mesh { area, closed, .. } => Some(mesh_emitter(l, index, area, closed, first_cell)),
         LightShape::Sun { .. } => {
             let axis = l.direction;
             let right = axis.any_orthonormal_vector();
@@ -156,6 +172,23 @@ fn rect_emitter(l: &LightDesc, index: u32, size: glam::Vec2, round: bool, first_
     }
 }
 
+/// A glowing mesh's emitter: the sides of its surface it glows on, in equal cells
+/// (`mesh_light_side_point` in shaders/shared/mesh_light.wgsl maps a cell to a side and a point;
+/// directions per photon, as a rect's).
+fn mesh_emitter(l: &LightDesc, index: u32, area: f32, closed: bool, first_cell: u32) -> Emitter {
+    let sides = if closed { 1.0 } else { 2.0 };
+    Emitter {
+        origin: l.position.into(),
+        light: index,
+        axis: l.direction.into(),
+        right: l.right.into(),
+        up: l.up.into(),
+        measure: sides * area / (RASTER_CELLS * RASTER_CELLS) as f32,
+        first_cell,
+        ..Default::default()
+    }
+}
+
 /// The environment's emitter: a disc of radius `radius` about `centre` (the volume's bounding
 /// sphere for caustics, the scene's for bounced light), perpendicular to each photon's
 /// direction and `reach` ([`scene_reach`]) back from `centre`, as the sun's raster
@@ -189,6 +222,7 @@ pub fn bounce_emitter_for(l: &LightDesc, index: u32, centre: Vec3, reach: f32, f
     match l.shape {
         // cos_max −2: its photons leave over the whole hemisphere (photons.wgsl, `rect_cone`).
         LightShape::Rect { size, round } => Emitter { cos_max: -2.0, ..rect_emitter(l, index, size, round, first_cell) },
+        LightShape::Mesh { area, closed, .. } => Emitter { cos_max: -2.0, ..mesh_emitter(l, index, area, closed, first_cell) },
         LightShape::Sun { .. } => {
             let (right, up) = frame(l.direction);
             Emitter {
@@ -221,7 +255,7 @@ pub fn raster_power(e: &Emitter, l: &LightDesc, volume: &VolumeDesc) -> f32 {
     let mean = l.radiant.element_sum() / 3.0;
     // A rect light sends L × the solid angle of the volume's bounding sphere per unit area
     // toward it (at most; π·L from inside it), as `spread_power` weighs its cells.
-    let per_measure = if let LightShape::Rect { .. } = l.shape {
+    let per_measure = if has_area(l) {
         let (lo, hi) = (volume.min, volume.max());
         let (radius, distance) = (0.5 * (hi - lo).length(), (0.5 * (lo + hi) - l.position).length());
         let cone = if distance > radius * 1.001 { std::f32::consts::TAU * (1.0 - (1.0 - (radius / distance).powi(2)).sqrt()) } else { std::f32::consts::PI };
@@ -233,9 +267,9 @@ pub fn raster_power(e: &Emitter, l: &LightDesc, volume: &VolumeDesc) -> f32 {
 }
 
 /// Power (W, mean over channels) a bounce emitter's raster covers at most (`bounce_emitter_for`):
-/// a rect light's π·L per unit area, the others' power per unit measure as for caustics.
+/// an area light's π·L per unit area, the others' power per unit measure as for caustics.
 pub fn bounce_raster_power(e: &Emitter, l: &LightDesc) -> f32 {
-    let per_measure = l.radiant.element_sum() / 3.0 * if let LightShape::Rect { .. } = l.shape { std::f32::consts::PI } else { 1.0 };
+    let per_measure = l.radiant.element_sum() / 3.0 * if has_area(l) { std::f32::consts::PI } else { 1.0 };
     e.measure * (RASTER_CELLS * RASTER_CELLS) as f32 * per_measure
 }
 
@@ -249,8 +283,13 @@ fn environment_raster_power(e: &Emitter, integral: Vec3) -> f32 {
 pub struct LightBuffers {
     pub lights: wgpu::Buffer,
     pub emitters: wgpu::Buffer,
+    /// The glowing meshes' triangles (`mesh_lights`; one unused record where there are none).
+    pub triangles: wgpu::Buffer,
     capacity: usize,
+    triangle_capacity: usize,
     pub light_count: u32,
+    /// Glowing meshes: the last of the `light_count` lights.
+    pub glowing_count: u32,
     /// Caustic emitters: `emitters[0..emitter_count]`.
     pub emitter_count: u32,
     /// Bounce emitters: `emitters[emitter_count..emitter_count + bounce_emitter_count]`.
@@ -284,13 +323,25 @@ impl LightBuffers {
         (make("lights", std::mem::size_of::<LightGpu>()), make("emitters", 2 * std::mem::size_of::<Emitter>()))
     }
 
+    fn triangle_buffer(device: &wgpu::Device, capacity: usize) -> wgpu::Buffer {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("light triangles"),
+            size: (capacity * std::mem::size_of::<LightTriangle>()) as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
     pub fn new(device: &wgpu::Device) -> Self {
         let (lights, emitters) = Self::buffers(device, 4);
         Self {
             lights,
             emitters,
+            triangles: Self::triangle_buffer(device, 1),
             capacity: 4,
+            triangle_capacity: 1,
             light_count: 0,
+            glowing_count: 0,
             emitter_count: 0,
             bounce_emitter_count: 0,
             raster_power: 0.0,
@@ -299,10 +350,30 @@ impl LightBuffers {
         }
     }
 
-    /// Uploads this frame's lights and their emitters, the environment's last in each set.
-    /// `media[i]`: the sharp interfaces around light i; `reach`: [`scene_reach`]; `bounce`:
-    /// whether the frame traces bounced light (else no bounce emitters).
-    pub fn update(&mut self, ctx: &crate::gpu::GpuContext, lights: &[LightDesc], media: &[[u32; 2]], volume: &VolumeDesc, env: EnvEmission, reach: f32, bounce: bool) {
+    /// Uploads this frame's lights and their emitters, the environment's last in each set, and
+    /// the glowing meshes' `triangles`. `media[i]`: the sharp interfaces around light i;
+    /// `reach`: [`scene_reach`]; `bounce`: whether the frame traces bounced light (else no
+    /// bounce emitters).
+    #[allow(clippy::too_many_arguments)]
+    pub fn update(
+        &mut self,
+        ctx: &crate::gpu::GpuContext,
+        lights: &[LightDesc],
+        triangles: &[LightTriangle],
+        media: &[[u32; 2]],
+        volume: &VolumeDesc,
+        env: EnvEmission,
+        reach: f32,
+        bounce: bool,
+    ) {
+        if triangles.len() > self.triangle_capacity {
+            self.triangle_capacity = triangles.len().next_power_of_two();
+            self.triangles = Self::triangle_buffer(&ctx.device, self.triangle_capacity);
+            self.generation = super::resources::next_generation();
+        }
+        if !triangles.is_empty() {
+            ctx.queue.write_buffer(&self.triangles, 0, bytemuck::cast_slice(triangles));
+        }
         // One emitter per light at most, and the environment's, in each set.
         if lights.len() + 1 > self.capacity {
             self.capacity = (lights.len() + 1).next_power_of_two();
@@ -349,5 +420,7 @@ impl LightBuffers {
             ctx.queue.write_buffer(&self.emitters, 0, bytemuck::cast_slice(&emitters));
         }
         self.light_count = gpu.len() as u32;
+        self.glowing_count = lights.iter().filter(|l| matches!(l.shape, LightShape::Mesh { .. })).count() as u32;
+        debug_assert!(lights.iter().rev().take(self.glowing_count as usize).all(|l| matches!(l.shape, LightShape::Mesh { .. })), "glowing meshes come last");
     }
 }

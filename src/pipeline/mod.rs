@@ -12,6 +12,7 @@ pub mod gradient;
 pub mod interfaces;
 pub mod lights;
 pub mod march;
+pub mod mesh_lights;
 pub mod octree;
 pub mod parts;
 pub mod photons;
@@ -28,7 +29,7 @@ pub mod voxelize_mesh;
 use anyhow::{Result, bail};
 use glam::UVec3;
 
-use crate::frame::FrameDesc;
+use crate::frame::{FrameDesc, LightDesc};
 use crate::gpu::GpuContext;
 use crate::gpu::shaders::ShaderLibrary;
 use crate::gpu::types::{MarchParams, march_flags};
@@ -404,15 +405,29 @@ impl Renderer {
         let bvh = &self.receivers.layout.bvh;
         let surfaces = bvh.nodes.first().filter(|_| !bvh.triangles.is_empty()).map(|n| (glam::Vec3::from(n.min), glam::Vec3::from(n.max)));
         let reach = lights::scene_reach(&desc.volume, surfaces);
+        // The scene's lights, then its glowing meshes (receivers that emit light).
+        let glowing = mesh_lights::mesh_lights(&desc.receivers);
+        let triangle_size = std::mem::size_of::<crate::gpu::types::LightTriangle>() as u64;
+        let triangle_bytes = glowing.triangles.len() as u64 * triangle_size;
+        if triangle_bytes > self.binding_limit() {
+            bail!(
+                "the glowing meshes (emissive materials) have {} triangles in all, and {} holds at most {} in one buffer: \
+                 simplify them or turn their emission off",
+                glowing.triangles.len(),
+                self.ctx.info.name,
+                self.binding_limit() / triangle_size
+            );
+        }
+        let all_lights: Vec<LightDesc> = desc.lights.iter().chain(&glowing.lights).cloned().collect();
         let media: Vec<[u32; 2]> =
-            desc.lights.iter().map(|l| interfaces::media_at(desc, lights::photon_start(l, &desc.volume))).collect();
+            all_lights.iter().map(|l| interfaces::media_at(desc, lights::photon_start(l, &desc.volume))).collect();
         // The environment's caustic photons matter only where glass or a medium bends or
         // scatters them (its direct light is the receivers' shadow rays).
         let env = lights::EnvEmission {
             integral: self.environment.light.integral * env_light::scale(&desc.environment),
             caustics: !desc.fields.is_empty() || !desc.meshes.is_empty() || desc.fog.is_some(),
         };
-        self.lights.update(&self.ctx, &desc.lights, &media, &desc.volume, env, reach, desc.traces_bounces());
+        self.lights.update(&self.ctx, &all_lights, &glowing.triangles, &media, &desc.volume, env, reach, desc.traces_bounces());
         let radiance_dims = if self.deposits(desc) { desc.volume.dims } else { UVec3::ONE };
         if self.radiance.as_ref().is_none_or(|r| r.dims != radiance_dims) {
             self.radiance = Some(RadianceGrid::new(&self.ctx, radiance_dims)?);

@@ -69,6 +69,7 @@ impl Photons {
             layout::storage(6, false),
             layout::storage(7, true),
             layout::storage(8, true),
+            layout::storage(9, true),
         ];
         let (importance, bgl) = layout::pipeline_entry(device, shaders, "photons", "importance_raster", &entries)?;
         let (bounce_raster, _) = layout::pipeline_entry(device, shaders, "photons", "bounce_raster", &entries)?;
@@ -192,6 +193,7 @@ impl Photons {
                     layout::bind(6, &self.photons),
                     layout::bind(7, &grids.glass_mark),
                     layout::bind(8, &env.light_table),
+                    layout::bind(9, &lights.triangles),
                 ],
             });
             self.bound[k] = Some((generations, bg));

@@ -167,6 +167,7 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
         sample_first: inputs.sample_first,
         sample_count: desc.samples.max(1),
         light_count: inputs.lights.light_count,
+        glowing_count: inputs.lights.glowing_count,
         // In a scattering medium the in-scattered light varies voxel to voxel: sample each.
         max_step: if inputs.scattering { v.voxel_size } else { 64.0 * v.voxel_size },
         eps_refract: super::photons::EPS_REFRACT,
@@ -176,7 +177,6 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
         camera_media_hi: camera_media[1],
         grid_dispersion: spectrum.grid_dispersion,
         wavelengths_per_sample: wavelengths_per_sample(spectrum.spectral, desc.samples),
-        ..Default::default()
     }
 }
 
@@ -214,6 +214,7 @@ fn bindings() -> Vec<wgpu::BindGroupLayoutEntry> {
         layout::storage(25, true),
         layout::storage(26, true),
         layout::storage(27, true),
+        layout::storage(28, true),
         layout::storage(30, false),
         layout::storage(31, false),
         layout::storage(32, false),
@@ -307,6 +308,7 @@ impl View {
                     layout::bind(24, &self.brdf_lut),
                     layout::bind(26, &env.light_table),
                     layout::bind(27, &receivers.indirect_irradiance.buffer),
+                    layout::bind(28, &lights.triangles),
                 ],
             });
             self.bound = Some((generations, bg));

@@ -277,6 +277,7 @@ impl LightInfo {
             LightShape::Sun { .. } => "sun",
             LightShape::Rect { round: false, .. } => "rect",
             LightShape::Rect { round: true, .. } => "disk",
+            LightShape::Mesh { .. } => "mesh",
         };
         let max = light.radiant.max_element();
         let color = if max > 0.0 { light.radiant / max } else { Vec3::ONE };

@@ -157,18 +157,38 @@ CYCLES_SAMPLES = 512
 REFRAKT_SAMPLES = 64
 
 
+def glowing_square(name, radiance, location):
+    """A 1 m plane whose material glows with `radiance` (Emission Strength; white, black base):
+    in Cycles, and in refrakt through the glTF's emissive strength, a light on both sides."""
+    bpy.ops.mesh.primitive_plane_add(size=1.0, location=location)
+    obj = bpy.context.object
+    obj.name = name
+    material = bpy.data.materials.new(name)
+    material.use_nodes = True
+    bsdf = material.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    bsdf.inputs["Emission Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    bsdf.inputs["Emission Strength"].default_value = radiance
+    obj.data.materials.append(material)
+    return obj
+
+
 def floor_scene(shape):
-    """An area light of WATTS, 1 m across (a square, or a disk of diameter 1 m), 1 m above a 6 m
-    floor of Cycles' default surface (diffuse 0.8), a black world, and a camera 0.6 m above the
-    floor looking straight down (90° field of view: it sees 1.2 × 1.2 m of floor under the
-    light, which is behind it)."""
+    """An area light of WATTS, 1 m across (a square, or a disk of diameter 1 m) — or, GLOWING, a
+    1 m plane glowing with the square's radiance P / (π · 1 m²) — 1 m above a 6 m floor of
+    Cycles' default surface (diffuse 0.8), a black world, and a camera 0.6 m above the floor
+    looking straight down (90° field of view: it sees 1.2 × 1.2 m of floor under the light,
+    which is behind it)."""
     scene = bpy.context.scene
     scene.render.resolution_x = scene.render.resolution_y = SIZE
     scene.render.resolution_percentage = 100
     scene.frame_start = scene.frame_end = 1
     bpy.ops.mesh.primitive_plane_add(size=6.0)
     bpy.context.object.name = "Floor"
-    area_light("Lamp", shape, (1.0, 1.0), WATTS, (0.0, 0.0, 1.0))
+    if shape == "GLOWING":
+        glowing_square("Lamp", WATTS / math.pi, (0.0, 0.0, 1.0))
+    else:
+        area_light("Lamp", shape, (1.0, 1.0), WATTS, (0.0, 0.0, 1.0))
     cam_data = bpy.data.cameras.new("Camera")
     cam_data.sensor_fit, cam_data.sensor_width, cam_data.lens = "AUTO", 36.0, 18.0
     cam = bpy.data.objects.new("Camera", cam_data)
@@ -227,10 +247,11 @@ def square_expected():
     return sum(floor) / len(floor)
 
 
-@pytest.mark.parametrize("shape", ["SQUARE", "DISK"])
+@pytest.mark.parametrize("shape", ["SQUARE", "DISK", "GLOWING"])
 def test_area_light_on_a_floor_matches_cycles(shape, addon, real_refrakt, saved_blend, tmp_path):
     """Cycles (no denoising, no clamping) and refrakt through the engine on the same scene: the
-    mean floor radiance under the light (a disk reaches refrakt as a disk)."""
+    mean floor radiance under the light (a disk reaches refrakt as a disk, a glowing plane as a
+    glowing mesh)."""
     scene = floor_scene(shape)
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
@@ -249,8 +270,9 @@ def test_area_light_on_a_floor_matches_cycles(shape, addon, real_refrakt, saved_
     ours = central_mean(rgb(tmp_path / "refrakt.exr"))
 
     line = f"\n{shape}: mean floor radiance over 0.6 × 0.6 m: Cycles {cycles:.4f}, refrakt {ours:.4f} ({100 * (ours / cycles - 1):+.2f} %)"
-    if shape == "SQUARE":
-        # Cycles itself against L = P / (π · A): the conversion the add-on writes is Cycles' own.
+    if shape in ("SQUARE", "GLOWING"):
+        # Cycles itself against L = P / (π · A): the conversion the add-on writes is Cycles' own
+        # (a glowing plane's radiance is its Emission Strength).
         expected = square_expected()
         print(f"{line}; by the form factor {expected:.4f} (Cycles {100 * (cycles / expected - 1):+.2f} %)")
         assert cycles == pytest.approx(expected, rel=0.02)

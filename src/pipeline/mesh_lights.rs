@@ -1,0 +1,158 @@
+//! Glowing meshes as lights: every receiver whose material emits (glTF's emissive ×
+//! KHR_materials_emissive_strength, Lua's `emission`) is a light too, as in Cycles, where an
+//! emission shader lights the scene. Its triangles go to the GPU in world space with their
+//! share of its area (`LightTriangle::cdf`), so the view's shadow rays and the photons stage
+//! pick a point uniformly over the surface (`shaders/shared/mesh_light.wgsl`).
+//!
+//! The mesh glows with one radiance, the material's `emission × emission_strength` times the
+//! mean of its emission texture, on both sides of each triangle as Cycles' emission does — but
+//! a closed mesh (a bulb, a tube) only on its outer side, its triangles wound outward: light
+//! from the inner side could only land on the mesh itself, so its photons and shadow rays would
+//! be spent for nothing. A texture's pattern shows on the surface itself, not in the light it
+//! casts.
+
+use glam::{Vec3, Vec4Swizzles};
+
+use crate::frame::{LightDesc, LightShape, Receiver};
+use crate::gpu::types::LightTriangle;
+
+/// The frame's glowing meshes: one light per emissive receiver, and their triangles.
+#[derive(Debug, Default)]
+pub struct MeshLights {
+    pub lights: Vec<LightDesc>,
+    pub triangles: Vec<LightTriangle>,
+}
+
+/// Every receiver that glows, as a light over its world-space triangles (degenerate ones left
+/// out). A receiver without emission, or without area, gives none.
+pub fn mesh_lights(receivers: &[Receiver]) -> MeshLights {
+    let mut out = MeshLights::default();
+    for r in receivers {
+        let radiance = emitted_radiance(r);
+        if radiance.max_element() <= 0.0 {
+            continue;
+        }
+        let first = out.triangles.len();
+        let closed = r.mesh.is_closed();
+        let (area, centroid) = push_triangles(r, closed, &mut out.triangles);
+        if area <= 0.0 {
+            out.triangles.truncate(first);
+            continue;
+        }
+        out.lights.push(LightDesc {
+            name: r.name.clone(),
+            shape: LightShape::Mesh { first: first as u32, count: (out.triangles.len() - first) as u32, area, closed },
+            position: centroid,
+            direction: Vec3::NEG_Y,
+            right: Vec3::X,
+            up: Vec3::Z,
+            radiant: radiance,
+            radius: 0.0,
+        });
+    }
+    out
+}
+
+/// The radiance a receiver glows with (W·m⁻²·sr⁻¹): its emission at full texture times the
+/// texture's mean.
+fn emitted_radiance(r: &Receiver) -> Vec3 {
+    let d = &r.diffuse;
+    let texture_mean = d.emission_texture.as_ref().map_or(Vec3::ONE, |t| {
+        let sum: Vec3 = t.texels.iter().map(|c| Vec3::new(c[0], c[1], c[2])).sum();
+        sum / t.texels.len().max(1) as f32
+    });
+    (d.emitted() * texture_mean).max(Vec3::ZERO)
+}
+
+/// Appends the receiver's world-space triangles with their running area fraction — wound
+/// outward where `closed` (by the sign of the volume they enclose, which a mirroring transform
+/// turns) — and returns the mesh's area and its area-weighted centroid.
+fn push_triangles(r: &Receiver, closed: bool, out: &mut Vec<LightTriangle>) -> (f32, Vec3) {
+    let world: Vec<Vec3> = r.mesh.positions.iter().map(|p| (r.world * p.extend(1.0)).xyz()).collect();
+    let corners = |t: &[u32; 3]| t.map(|i| world[i as usize]);
+    let volume: f64 = r.mesh.triangles.iter().map(|t| {
+        let [a, b, c] = corners(t);
+        a.as_dvec3().dot(b.as_dvec3().cross(c.as_dvec3()))
+    }).sum();
+    let inward = closed && volume < 0.0;
+    let first = out.len();
+    let (mut area, mut moment) = (0.0f64, glam::DVec3::ZERO);
+    for t in &r.mesh.triangles {
+        let [a, mut b, mut c] = corners(t);
+        if inward {
+            std::mem::swap(&mut b, &mut c);
+        }
+        let (e1, e2) = (b - a, c - a);
+        let twice = e1.cross(e2).length();
+        if !(twice > 0.0 && twice.is_finite()) {
+            continue;
+        }
+        area += 0.5 * twice as f64;
+        moment += (0.5 * twice as f64) * ((a + b + c) / 3.0).as_dvec3();
+        out.push(LightTriangle { v0: a.into(), cdf: area as f32, e1: e1.into(), e2: e2.into(), ..Default::default() });
+    }
+    for t in &mut out[first..] {
+        t.cdf = (t.cdf as f64 / area) as f32;
+    }
+    if let Some(last) = out[first..].last_mut() {
+        last.cdf = 1.0;
+    }
+    (area as f32, if area > 0.0 { (moment / area).as_vec3() } else { Vec3::ZERO })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::material::Diffuse;
+    use crate::scene::mesh::{MeshData, plane};
+    use std::sync::Arc;
+
+    fn receiver(mesh: MeshData, emission: Vec3, world: glam::Mat4) -> Receiver {
+        let diffuse = Diffuse { emission, ..Diffuse::pbr() };
+        Receiver { name: "lamp".into(), mesh: Arc::new(mesh), world, diffuse }
+    }
+
+    #[test]
+    fn only_glowing_receivers_are_lights_with_their_world_area() {
+        let world = glam::Mat4::from_scale_rotation_translation(Vec3::new(2.0, 1.0, 3.0), glam::Quat::IDENTITY, Vec3::new(0.0, 1.0, 0.0));
+        let lit = mesh_lights(&[receiver(plane(glam::Vec2::ONE), Vec3::ZERO, world), receiver(plane(glam::Vec2::ONE), Vec3::new(1.0, 2.0, 3.0), world)]);
+        assert_eq!(lit.lights.len(), 1);
+        let LightShape::Mesh { first, count, area, .. } = lit.lights[0].shape else { panic!("a mesh light") };
+        assert_eq!((first, count), (0, 2));
+        assert!((area - 6.0).abs() < 1e-5, "area {area}");
+        assert_eq!(lit.lights[0].radiant, Vec3::new(1.0, 2.0, 3.0));
+        assert!((lit.lights[0].position - Vec3::Y).length() < 1e-5);
+    }
+
+    /// A closed mesh glows on its outer side: its triangles face away from its centre, even
+    /// through a mirroring transform; an open one is marked two-sided.
+    #[test]
+    fn a_closed_mesh_is_wound_outward() {
+        let mirror = glam::Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+        for world in [glam::Mat4::IDENTITY, mirror] {
+            let lit = mesh_lights(&[receiver(crate::scene::mesh::cuboid(Vec3::ONE), Vec3::ONE, world)]);
+            assert!(matches!(lit.lights[0].shape, LightShape::Mesh { closed: true, .. }));
+            for t in &lit.triangles {
+                let (v0, e1, e2) = (Vec3::from(t.v0), Vec3::from(t.e1), Vec3::from(t.e2));
+                assert!(e1.cross(e2).dot(v0 + (e1 + e2) / 3.0) > 0.0, "a triangle faces inward");
+            }
+        }
+        let open = mesh_lights(&[receiver(plane(glam::Vec2::ONE), Vec3::ONE, glam::Mat4::IDENTITY)]);
+        assert!(matches!(open.lights[0].shape, LightShape::Mesh { closed: false, .. }));
+    }
+
+    /// Triangles of unequal area get their share: a uniform number lands in each in proportion.
+    #[test]
+    fn the_cdf_follows_area_and_ends_at_one() {
+        let mesh = MeshData {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Z, Vec3::new(3.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 1.0)],
+            triangles: vec![[0, 2, 1], [1, 0, 0], [0, 4, 3]],
+            uvs: None,
+            normals: Default::default(),
+        };
+        let lit = mesh_lights(&[receiver(mesh, Vec3::ONE, glam::Mat4::IDENTITY)]);
+        let cdf: Vec<f32> = lit.triangles.iter().map(|t| t.cdf).collect();
+        assert_eq!(cdf.len(), 2, "the degenerate triangle is left out");
+        assert!((cdf[0] - 0.25).abs() < 1e-6 && cdf[1] == 1.0, "{cdf:?}");
+    }
+}

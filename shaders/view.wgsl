@@ -282,12 +282,18 @@ fn light_arrival(l: LightGpu, p: vec3<f32>, k: u32) -> LightArrival {
         }
         return LightArrival(w, l.radiant, 1.0, NO_HIT);
     }
+    // A glowing mesh's and a bulb's numbers are rotated per pixel (Cranley–Patterson) as the
+    // environment's are: the points the sequence picks fall over a mesh's triangles in whatever
+    // order they were listed, and a penumbra drawn with the same few points in every pixel
+    // shows them as steps; rotated, neighbouring pixels differ and the steps become fine noise.
+    let key = pcg_hash(pixel_key ^ 0x2f6b3c1du);
+    let rotated = fract(u + vec2<f32>(random01(key, 0u, 44u), random01(key, 0u, 45u)));
     if l.kind == LIGHT_MESH {
-        // Rotated per pixel (Cranley–Patterson) as the environment's numbers are: the points the
-        // sequence picks fall over the mesh's triangles in whatever order they were listed, so
-        // a pixel's few samples are as good as random, and neighbouring pixels must differ.
-        let key = pcg_hash(pixel_key ^ 0x2f6b3c1du);
-        return glowing_mesh_arrival(l, p, fract(u + vec2<f32>(random01(key, 0u, 44u), random01(key, 0u, 45u))));
+        return glowing_mesh_arrival(l, p, rotated);
+    }
+    let to_centre = l.position - p;
+    if l.radius > 0.0 && dot(to_centre, to_centre) > l.radius * l.radius * 1.0001 {
+        return bulb_arrival(l, p, rotated);
     }
     var aim = l.position;
     let area_light = l.kind == LIGHT_RECT || l.kind == LIGHT_DISK;
@@ -312,6 +318,28 @@ fn light_arrival(l: LightGpu, p: vec3<f32>, k: u32) -> LightArrival {
         intensity = light_intensity(l, -w);
     }
     return LightArrival(w, intensity, dist2, dist);
+}
+
+// A bulb — a point or spot light of radius r, a sphere of radiance I/(π r²) — seen from p
+// outside it, through one direction uniform over the cone it fills (sin α = r/d, solid angle
+// Ω = 2π(1 − cos α) = 2π sin²α/(1 + cos α), kept exact for small bulbs): E ≈ L · Ω · cos θ, so
+// its shadows are soft, and where nothing is in the way it gives the point light's I cos θ/d²
+// on average (exactly, for a receiver the whole sphere is above). The shadow ray ends on the
+// sphere. (Its photons still leave from its centre: caustics keep a point light's focus.)
+fn bulb_arrival(l: LightGpu, p: vec3<f32>, u: vec2<f32>) -> LightArrival {
+    let to_centre = l.position - p;
+    let d2 = dot(to_centre, to_centre);
+    let axis = to_centre * inverseSqrt(d2);
+    let r2 = l.radius * l.radius;
+    let sin2 = r2 / d2;
+    let cos_a = sqrt(1.0 - sin2);
+    let frame = cone_frame(axis);
+    let w = cap_direction(axis, frame[0], frame[1], cos_a, u);
+    // The near root of |p + t·w − centre|² = r².
+    let b = dot(w, to_centre);
+    let t = b - sqrt(max(b * b - (d2 - r2), 0.0));
+    let radiance = light_intensity(l, -axis) / (PI * r2);
+    return LightArrival(w, radiance * (TAU * sin2 / (1.0 + cos_a)), 1.0, t);
 }
 
 // A glowing mesh seen from p through one point spread uniformly over its surface: each side

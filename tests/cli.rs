@@ -140,7 +140,7 @@ fn info_names_the_adapter() {
 }
 
 /// An adapter that cannot bind what refrakt's passes bind — Mesa's GL drivers offer 16 storage
-/// buffers a stage, the view binds 22 — is refused by name, with the reason, when the adapters
+/// buffers a stage, the view binds `STORAGE_BUFFERS_PER_STAGE` — is refused by name, with the reason, when the adapters
 /// are listed; it used to be chosen and fail mid-frame with "a bug in refrakt". (Where the
 /// machine has no GL adapter, or one that can, this renders or names no adapter.)
 #[test]
@@ -157,7 +157,8 @@ fn an_adapter_short_of_storage_buffers_is_refused_up_front() {
     assert!(err.contains("no adapter refrakt can use") || err.contains("found no GPU adapter"), "{err}");
     assert!(!err.contains("a bug in refrakt"), "{err}");
     if err.contains("(Gl)") {
-        assert!(err.contains("storage buffers per shader stage, and refrakt's view pass binds 22"), "{err}");
+        let binds = format!("storage buffers per shader stage, and refrakt's view pass binds {}", refrakt::gpu::STORAGE_BUFFERS_PER_STAGE);
+        assert!(err.contains(&binds), "{err}");
     }
 }
 

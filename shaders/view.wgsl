@@ -292,7 +292,8 @@ fn light_arrival(l: LightGpu, p: vec3<f32>, k: u32) -> LightArrival {
         return glowing_mesh_arrival(l, p, rotated);
     }
     let to_centre = l.position - p;
-    if l.radius > 0.0 && dot(to_centre, to_centre) > l.radius * l.radius * 1.0001 {
+    let bulb = (l.kind == LIGHT_POINT || l.kind == LIGHT_SPOT) && l.radius > 0.0;
+    if bulb && dot(to_centre, to_centre) > l.radius * l.radius * 1.0001 {
         return bulb_arrival(l, p, rotated);
     }
     var aim = l.position;

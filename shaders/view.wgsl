@@ -394,16 +394,22 @@ fn environment_slot() -> u32 {
 // E_env ≈ Σ L(ω) cos θ / (p_env(ω) + cos θ / π) over both, divided by the pairs. A colour
 // environment takes both by cos θ.
 fn shadow_ray(i: u32, p: vec3<f32>, n: vec3<f32>, k: u32, path: u32) -> ShadowRay {
-    let glowing_first = params.light_count - params.glowing_count;
-    if i < glowing_first {
-        let a = light_arrival(lights[i], p, k);
-        return ShadowRay(a.w, a.dist, a.intensity * max(dot(n, a.w), 0.0) / a.dist2);
-    }
     let env_first = environment_slot();
     if i < env_first {
-        let g = i - glowing_first;
-        let a = light_arrival(lights[glowing_first + g / GLOWING_CANDIDATES], p, k * GLOWING_CANDIDATES + g % GLOWING_CANDIDATES);
-        return ShadowRay(a.w, a.dist, a.intensity * (max(dot(n, a.w), 0.0) / (a.dist2 * f32(GLOWING_CANDIDATES))));
+        // One call of light_arrival for both kinds: lavapipe inlines every call site anew, and
+        // a second one doubled the view pipeline's compile time.
+        let glowing_first = params.light_count - params.glowing_count;
+        var light = i;
+        var sample = k;
+        var candidates = 1u;
+        if i >= glowing_first {
+            let g = i - glowing_first;
+            light = glowing_first + g / GLOWING_CANDIDATES;
+            sample = k * GLOWING_CANDIDATES + g % GLOWING_CANDIDATES;
+            candidates = GLOWING_CANDIDATES;
+        }
+        let a = light_arrival(lights[light], p, sample);
+        return ShadowRay(a.w, a.dist, a.intensity * max(dot(n, a.w), 0.0) / (a.dist2 * f32(candidates)));
     }
     let j = i - env_first;
     let u = env_numbers(k, path, j / 2u);

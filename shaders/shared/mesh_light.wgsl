@@ -36,12 +36,9 @@ fn mesh_light_point(l: LightGpu, u: vec2<f32>) -> LightPoint {
 // halves of u (its emitter's measure twice its area), u.x < ½ the front (n as the triangle's),
 // else the back (n reversed); for a closed one its outer side (its triangles wound outward).
 fn mesh_light_side_point(l: LightGpu, u: vec2<f32>) -> LightPoint {
-    if l.sides == 1u {
-        return mesh_light_point(l, u);
-    }
-    let back = u.x >= 0.5;
-    let q = mesh_light_point(l, vec2<f32>(fract(2.0 * u.x), u.y));
-    return LightPoint(q.p, select(q.n, -q.n, back));
+    let two_sided = l.sides != 1u;
+    let q = mesh_light_point(l, select(u, vec2<f32>(fract(2.0 * u.x), u.y), two_sided));
+    return LightPoint(q.p, select(q.n, -q.n, two_sided && u.x >= 0.5));
 }
 
 // The cosine a side of light l that glows shows toward w (unit, from the point along n): |cos|

@@ -270,12 +270,20 @@ def _world_box(obj):
     return [min(c[i] for c in yup) for i in range(3)], [max(c[i] for c in yup) for i in range(3)]
 
 
+def world_in_frames(scene):
+    """Whether camera rays that meet nothing see the World. With refrakt as the render engine,
+    as in Cycles: unless Film ▸ Transparent is on. For frames laid over Blender's own render of
+    the same world (another engine renders the scene): only with *World in Frames*."""
+    if scene.render.engine == "REFRAKT":
+        return not scene.render.film_transparent
+    return scene.refrakt.show_environment
+
+
 def environment(scene, directory, warnings):
     """The world as refrakt's environment: radiance = color × intensity in Blender's units, or an
     equirectangular image (path relative to the exported file) with its Mapping Z rotation.
-    Refracted and reflected rays always see it; the camera sees it only when asked, because a
-    frame that shows it cannot be laid over Blender's render of the same world."""
-    env = {"visible": scene.refrakt.show_environment}
+    Refracted and reflected rays always see it; the camera as `world_in_frames` says."""
+    env = {"visible": world_in_frames(scene)}
     world = scene.world
     if world is None:
         return {**env, "color": [0.0, 0.0, 0.0], "intensity": 1.0}

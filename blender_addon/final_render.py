@@ -15,7 +15,7 @@ import time
 import bpy
 import numpy as np
 
-from . import binary, cli, exr, job, preferences, scene_export
+from . import binary, cli, exr, extras, job, preferences, scene_export
 
 # refrakt's passes beside Combined and Depth, named as its EXR layers (properties.py describes them).
 PASSES = ("caustic", "direct", "indirect", "volume")
@@ -51,6 +51,7 @@ class RangeRender:
         argv = cli.render(refrakt, scene, self.paths, frames=(first, last), resume=False)
         self.job = job.Job(argv, output_dir=self.paths.frames)
         self.files = {}
+        self.shown_stats = None  # the status line last handed to Blender
 
     def covers(self, scene, k):
         return scene.name == self.scene_name and self.first <= k <= self.last and not self.job.cancelled
@@ -83,9 +84,15 @@ class RangeRender:
 
 
 def _show_progress(engine, run, k):
+    """Blender's status line and progress bar, told only what changed: each update_stats call
+    prints a `Fra:` line to the console of a headless or command-line Blender, and this runs
+    every POLL_SECONDS."""
     j = run.job
     state = "stopping after the frame in hand" if j.cancelled else f"rendering frame {k}"
-    engine.update_stats("refrakt", f"{state} ({j.done}/{j.total or run.last - run.first + 1} of frames {run.first}–{run.last})")
+    stats = f"{state} ({j.done}/{j.total or run.last - run.first + 1} of frames {run.first}–{run.last})"
+    if stats != run.shown_stats:
+        engine.update_stats("refrakt", stats)
+        run.shown_stats = stats
     total = run.last - run.first + 1
     engine.update_progress((k - run.first + 0.5) / total)  # half way through frame k of the range
 
@@ -201,6 +208,9 @@ def write_result(engine, scene, planes):
     got = next(iter(planes.values())).shape
     if got != (h, w):
         raise RenderError(f"refrakt's frame is {got[1]}×{got[0]}, Blender's render size {w}×{h}")
+    # refrakt's alpha is the coverage of glass and receivers; where the camera sees the World
+    # the film is opaque, as Cycles' without Film ▸ Transparent.
+    opaque = extras.world_in_frames(scene)
     result = engine.begin_result(0, 0, w, h)
     try:
         for layer in result.layers:
@@ -208,7 +218,10 @@ def write_result(engine, scene, planes):
                 names = CHANNELS.get(render_pass.name)
                 if names is None or not all(n in planes for n in names):
                     continue  # a pass refrakt does not make (Blender's own) stays empty
-                pixels = np.stack([planes[n][::-1] for n in names], axis=-1).reshape(-1)
+                pixels = np.stack([planes[n][::-1] for n in names], axis=-1)
+                if render_pass.name == "Combined" and opaque:
+                    pixels[..., 3] = 1.0
+                pixels = pixels.reshape(-1)
                 set_pass(render_pass, pixels)
     finally:
         engine.end_result(result)

@@ -78,8 +78,9 @@ class RefraktSceneSettings(bpy.types.PropertyGroup):
 
     show_environment: BoolProperty(
         name="World in Frames",
-        description="Show the World where refrakt's frames see no object. Off: those pixels are "
-        "transparent, so the frames composite exactly over Blender's own render",
+        description="Show the World where refrakt's frames see no object when they are laid over "
+        "another engine's render. Off: those pixels are transparent, so the frames composite exactly "
+        "over Blender's own render. (With refrakt as the render engine, Film ▸ Transparent decides.)",
         default=False,
     )
 

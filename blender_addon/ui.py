@@ -116,7 +116,12 @@ class RENDER_PT_refrakt_output(RefraktSubPanel, bpy.types.Panel):
     def draw_settings(self, context, layout, s):
         layout.prop(s, "directory")
         layout.prop(s, "basename")
-        layout.prop(s, "show_environment")
+        row = layout.row()
+        row.prop(s, "show_environment")
+        if context.scene.render.engine == "REFRAKT":
+            # As the render engine, refrakt shows the World unless Film ▸ Transparent is on.
+            row.active = False
+            layout.label(text="F12 shows the World unless Film ▸ Transparent is on", icon="INFO")
         layout.prop(s, "source")
         layout.prop(s, "skip_existing")
         layout.prop(s, "apply_modifiers")

@@ -8,6 +8,7 @@ volume.*) whose R channel holds k, written through a temporary name and a rename
 environment variables below steer it:
 
   FAKE_REFRAKT_DELAY   seconds per frame (default 0.05)
+  FAKE_REFRAKT_ALPHA   the frames' alpha (default 1)
   FAKE_REFRAKT_FAIL_AT frame at which to fail with refrakt's kind of error
   FAKE_REFRAKT_LOG     file to which each invocation's argv is appended as a JSON line
   FAKE_REFRAKT_WATCH_LOG  file to which `watch` appends, for each reload, the files that
@@ -42,7 +43,7 @@ def option(args, name, default=None):
 
 def frame_planes(k, w, h):
     n = w * h
-    planes = {"R": [float(k)] * n, "G": [0.5] * n, "B": [0.25] * n, "A": [1.0] * n, "depth.Z": [2.0] * n}
+    planes = {"R": [float(k)] * n, "G": [0.5] * n, "B": [0.25] * n, "A": [float(os.environ.get("FAKE_REFRAKT_ALPHA", "1"))] * n, "depth.Z": [2.0] * n}
     for layer, value in (("caustic", 0.1), ("direct", 0.2), ("indirect", 0.15), ("volume", 0.3)):
         for c in "RGB":
             planes[f"{layer}.{c}"] = [value] * n

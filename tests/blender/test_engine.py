@@ -12,6 +12,7 @@ import pytest
 
 import scenes
 from conftest import submodule
+from gltf_eval import Gltf
 
 PASSES = ("caustic", "direct", "indirect", "volume")
 
@@ -46,12 +47,15 @@ def refrakt_exr(path):
         return {name: np.asarray(c.pixels, dtype=np.float32) for part in f.parts for name, c in part.channels.items()}
 
 
-def expected_passes(planes):
-    """refrakt's channels grouped as Blender's passes, rows from the bottom as Blender keeps them."""
+def expected_passes(planes, opaque):
+    """refrakt's channels grouped as Blender's passes, rows from the bottom as Blender keeps them;
+    Combined's alpha 1 where the film is `opaque` (the World in the frame)."""
     def stack(names):
         return np.stack([planes[n][::-1] for n in names], axis=-1)
 
     out = {"Combined": stack("RGBA"), "Depth": stack(["depth.Z"])}
+    if opaque:
+        out["Combined"][..., 3] = 1.0
     out.update({p: stack([f"{p}.{c}" for c in "RGB"]) for p in PASSES})
     return out
 
@@ -101,13 +105,40 @@ def test_f12_writes_the_result_and_blenders_file(request, refrakt, tmp_path, sav
     paths = submodule("scene_export").paths(scene)
     ours = refrakt_exr(paths.frame(1))
     blenders = blender_exr_passes(written)
-    want = expected_passes(ours)
+    want = expected_passes(ours, opaque=not scene.render.film_transparent)
     assert set(want) <= set(blenders), (sorted(blenders), sorted(want))
-    assert np.any(want["Combined"][..., 3] > 0) and np.any(want["caustic"] > 0), "an empty frame proves nothing"
+    assert np.any(ours["A"] > 0) and np.any(want["caustic"] > 0), "an empty frame proves nothing"
     for name, pixels in want.items():
         got = blenders[name]
         assert got.shape == pixels.shape, name
         assert np.max(np.abs(got - pixels)) <= 1e-6, name
+
+
+def test_film_transparent_decides_whether_f12_shows_the_world(fake_refrakt, tmp_path, saved_blend, monkeypatch):
+    """As in Cycles: F12 shows the World, with alpha 1, unless Film ▸ Transparent is on; then the
+    camera does not see the World and alpha is refrakt's coverage (here the fake's 0.25)."""
+    monkeypatch.setenv("FAKE_REFRAKT_ALPHA", "0.25")
+    for transparent in (False, True):
+        scene = engine_scene(tmp_path)
+        scene.render.film_transparent = transparent
+        saved_blend()
+        assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+        glb = Gltf(submodule("scene_export").paths(scene).glb)
+        assert glb.json["scenes"][0]["extras"]["refrakt"]["environment"]["visible"] is (not transparent)
+        alpha = blender_exr_passes(tmp_path / "out" / "shot.exr")["Combined"][..., 3]
+        assert np.all(alpha == (0.25 if transparent else 1.0)), (transparent, np.unique(alpha))
+
+
+def test_a_long_frame_prints_few_status_lines(fake_refrakt, tmp_path, saved_blend, monkeypatch, capfd):
+    """Headless Blender prints a `Fra:` line for every status update; the engine polls refrakt
+    every 50 ms but tells Blender only what changed (a 1 s frame gave ~20 lines before)."""
+    monkeypatch.setenv("FAKE_REFRAKT_DELAY", "1.0")
+    engine_scene(tmp_path)
+    saved_blend()
+    capfd.readouterr()
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    lines = [line for line in capfd.readouterr().out.splitlines() if "Fra:" in line]
+    assert 0 < len(lines) <= 5, lines
 
 
 def blender_exr_passes(path):

@@ -275,19 +275,20 @@ struct LightArrival {
 
 fn light_arrival(l: LightGpu, p: vec3<f32>, k: u32) -> LightArrival {
     let u = r2(k + 7u);
+    // A sun's, a glowing mesh's and a bulb's numbers are rotated per pixel (Cranley–Patterson)
+    // as the environment's are: a penumbra drawn with the same few directions or points in
+    // every pixel shows them as steps (and a mesh's points fall over its triangles in whatever
+    // order they were listed); rotated, neighbouring pixels differ and the steps become fine
+    // noise that more samples average away.
+    let key = pcg_hash(pixel_key ^ 0x2f6b3c1du);
+    let rotated = fract(u + vec2<f32>(random01(key, 0u, 44u), random01(key, 0u, 45u)));
     if l.kind == LIGHT_SUN {
         var w = -l.direction;
         if l.half_angle > 0.0 {
-            w = cone_direction(w, l.right, l.up, l.half_angle, u);
+            w = cone_direction(w, l.right, l.up, l.half_angle, rotated);
         }
         return LightArrival(w, l.radiant, 1.0, NO_HIT);
     }
-    // A glowing mesh's and a bulb's numbers are rotated per pixel (Cranley–Patterson) as the
-    // environment's are: the points the sequence picks fall over a mesh's triangles in whatever
-    // order they were listed, and a penumbra drawn with the same few points in every pixel
-    // shows them as steps; rotated, neighbouring pixels differ and the steps become fine noise.
-    let key = pcg_hash(pixel_key ^ 0x2f6b3c1du);
-    let rotated = fract(u + vec2<f32>(random01(key, 0u, 44u), random01(key, 0u, 45u)));
     if l.kind == LIGHT_MESH {
         return glowing_mesh_arrival(l, p, rotated);
     }

@@ -11,6 +11,8 @@
 //! be spent for nothing. A texture's pattern shows on the surface itself, not in the light it
 //! casts.
 
+use std::sync::Arc;
+
 use glam::{Vec3, Vec4Swizzles};
 
 use crate::frame::{LightDesc, LightShape, Receiver};
@@ -23,9 +25,53 @@ pub struct MeshLights {
     pub triangles: Vec<LightTriangle>,
 }
 
-/// Every receiver that glows, as a light over its world-space triangles (degenerate ones left
-/// out). A receiver without emission, or without area, gives none.
-pub fn mesh_lights(receivers: &[Receiver]) -> MeshLights {
+/// What identifies a glowing receiver's light: its mesh by pointer, placement, emission and
+/// emission texture by pointer.
+type GlowingKey = (usize, glam::Mat4, Vec3, usize);
+
+/// The glowing meshes of the frames so far, built again only when a glowing receiver's mesh,
+/// placement or emission changes (an animation's glass moving under a still lamp keeps them).
+#[derive(Debug, Default)]
+pub struct GlowingMeshes {
+    key: Vec<GlowingKey>,
+    /// The glowing receivers of `key`, held so that the addresses it compares are not reused.
+    held: Vec<Receiver>,
+    pub built: MeshLights,
+    /// Whether the last [`update`](Self::update) built them anew (their triangles need uploading).
+    pub changed: bool,
+}
+
+impl GlowingMeshes {
+    /// Brings the glowing meshes up to this frame's receivers. A frame whose glowing meshes
+    /// have more than `max_triangles` triangles in all is refused before anything is built:
+    /// `Err` holds their count.
+    pub fn update(&mut self, receivers: &[Receiver], max_triangles: usize) -> Result<(), usize> {
+        let glowing: Vec<&Receiver> = receivers.iter().filter(|r| r.diffuse.emitted().max_element() > 0.0).collect();
+        let key: Vec<GlowingKey> = glowing
+            .iter()
+            .map(|r| {
+                let texture = r.diffuse.emission_texture.as_ref().map_or(0, |t| Arc::as_ptr(t) as usize);
+                (Arc::as_ptr(&r.mesh) as usize, r.world, r.diffuse.emitted(), texture)
+            })
+            .collect();
+        self.changed = key != self.key;
+        if !self.changed {
+            return Ok(());
+        }
+        let count: usize = glowing.iter().map(|r| r.mesh.triangles.len()).sum();
+        if count > max_triangles {
+            return Err(count);
+        }
+        self.built = mesh_lights(glowing.iter().copied());
+        self.held = glowing.into_iter().cloned().collect();
+        self.key = key;
+        Ok(())
+    }
+}
+
+/// Every receiver given that glows, as a light over its world-space triangles (degenerate ones
+/// left out). A receiver without emission, or without area, gives none.
+pub fn mesh_lights<'a>(receivers: impl IntoIterator<Item = &'a Receiver>) -> MeshLights {
     let mut out = MeshLights::default();
     for r in receivers {
         let radiance = emitted_radiance(r);
@@ -154,5 +200,23 @@ mod tests {
         let cdf: Vec<f32> = lit.triangles.iter().map(|t| t.cdf).collect();
         assert_eq!(cdf.len(), 2, "the degenerate triangle is left out");
         assert!((cdf[0] - 0.25).abs() < 1e-6 && cdf[1] == 1.0, "{cdf:?}");
+    }
+
+    /// Built once while nothing glowing changes; built again when a lamp moves; refused, before
+    /// anything is built, when its triangles exceed the cap.
+    #[test]
+    fn glowing_meshes_are_built_again_only_when_they_change() {
+        let lamp = receiver(crate::scene::mesh::cuboid(Vec3::ONE), Vec3::ONE, glam::Mat4::IDENTITY);
+        let dark = receiver(plane(glam::Vec2::ONE), Vec3::ZERO, glam::Mat4::IDENTITY);
+        let mut glowing = GlowingMeshes::default();
+        glowing.update(&[lamp.clone(), dark.clone()], 12).unwrap();
+        assert!(glowing.changed && glowing.built.lights.len() == 1);
+        let moved_dark = Receiver { world: glam::Mat4::from_translation(Vec3::X), ..dark };
+        glowing.update(&[lamp.clone(), moved_dark.clone()], 12).unwrap();
+        assert!(!glowing.changed, "a receiver that does not glow moved");
+        let moved = Receiver { world: glam::Mat4::from_translation(Vec3::Y), ..lamp };
+        glowing.update(&[moved.clone(), moved_dark], 12).unwrap();
+        assert!(glowing.changed && (glowing.built.lights[0].position - Vec3::Y).length() < 1e-5);
+        assert_eq!(GlowingMeshes::default().update(&[moved], 11), Err(12));
     }
 }

@@ -136,6 +136,8 @@ pub struct Renderer {
     grids: Option<Grids>,
     environment: EnvironmentTexture,
     receivers: Receivers,
+    /// The glowing meshes, kept while they do not change.
+    glowing: mesh_lights::GlowingMeshes,
     lights: LightBuffers,
     radiance: Option<RadianceGrid>,
     target: Option<FrameTarget>,
@@ -244,6 +246,7 @@ impl Renderer {
             grids: None,
             environment,
             receivers,
+            glowing: Default::default(),
             lights,
             radiance: None,
             target: None,
@@ -406,19 +409,16 @@ impl Renderer {
         let surfaces = bvh.nodes.first().filter(|_| !bvh.triangles.is_empty()).map(|n| (glam::Vec3::from(n.min), glam::Vec3::from(n.max)));
         let reach = lights::scene_reach(&desc.volume, surfaces);
         // The scene's lights, then its glowing meshes (receivers that emit light).
-        let glowing = mesh_lights::mesh_lights(&desc.receivers);
         let triangle_size = std::mem::size_of::<crate::gpu::types::LightTriangle>() as u64;
-        let triangle_bytes = glowing.triangles.len() as u64 * triangle_size;
-        if triangle_bytes > self.binding_limit() {
+        let max_triangles = (self.binding_limit() / triangle_size) as usize;
+        if let Err(count) = self.glowing.update(&desc.receivers, max_triangles) {
             bail!(
-                "the glowing meshes (emissive materials) have {} triangles in all, and {} holds at most {} in one buffer: \
-                 simplify them or turn their emission off",
-                glowing.triangles.len(),
+                "the glowing meshes (emissive materials) have {count} triangles in all, and {} holds at most \
+                 {max_triangles} in one buffer: simplify them or turn their emission off",
                 self.ctx.info.name,
-                self.binding_limit() / triangle_size
             );
         }
-        let all_lights: Vec<LightDesc> = desc.lights.iter().chain(&glowing.lights).cloned().collect();
+        let all_lights: Vec<LightDesc> = desc.lights.iter().chain(&self.glowing.built.lights).cloned().collect();
         let media: Vec<[u32; 2]> =
             all_lights.iter().map(|l| interfaces::media_at(desc, lights::photon_start(l, &desc.volume))).collect();
         // The environment's caustic photons matter only where glass or a medium bends or
@@ -427,7 +427,8 @@ impl Renderer {
             integral: self.environment.light.integral * env_light::scale(&desc.environment),
             caustics: !desc.fields.is_empty() || !desc.meshes.is_empty() || desc.fog.is_some(),
         };
-        self.lights.update(&self.ctx, &all_lights, &glowing.triangles, &media, &desc.volume, env, reach, desc.traces_bounces());
+        let new_triangles = if self.glowing.changed { &self.glowing.built.triangles[..] } else { &[] };
+        self.lights.update(&self.ctx, &all_lights, new_triangles, &media, &desc.volume, env, reach, desc.traces_bounces());
         let radiance_dims = if self.deposits(desc) { desc.volume.dims } else { UVec3::ONE };
         if self.radiance.as_ref().is_none_or(|r| r.dims != radiance_dims) {
             self.radiance = Some(RadianceGrid::new(&self.ctx, radiance_dims)?);

@@ -219,7 +219,12 @@ class MATERIAL_PT_refrakt(PropertiesPanel, bpy.types.Panel):
         material = context.material
         s = material.refrakt
         layout = self.layout
-        _show_reading(layout, material_reading.read(material))
+        reading = material_reading.read(material)
+        _show_reading(layout, reading)
+        if reading.kind != "glass":
+            # Medium, boundary, sheet and dispersion belong to glass: an opaque receiver has none.
+            layout.label(text="Glass settings show for a transmissive material (Transmission > 0)", icon="INFO")
+            return
         layout.use_property_split = True
         layout.prop(s, "medium")
         if s.medium == "CUSTOM":

@@ -137,6 +137,9 @@ def test_material_panel_shows_refrakts_reading_of_the_principled_bsdf(addon):
     glass.node_tree.links.remove(glass.node_tree.nodes["Material Output"].inputs["Volume"].links[0])
     reading = submodule("material_reading").read(glass)
     assert reading.kind == "receiver" and reading.rows == [("Base Color", "0.9 0.8 0.7", "albedo")]
+    shown = draw("MATERIAL_PT_refrakt", Context(material=glass))
+    assert not [name for kind, name in shown if kind == "prop"], "glass settings on an opaque receiver"
+    assert ("label", "Glass settings show for a transmissive material (Transmission > 0)") in shown
     bsdf.inputs["Emission Color"].default_value = (1.0, 0.5, 0.25, 1.0)
     bsdf.inputs["Emission Strength"].default_value = 3.0
     reading = submodule("material_reading").read(glass)

@@ -27,15 +27,18 @@ pub struct MeshLights {
 
 /// What identifies a glowing receiver's light: its mesh by pointer, placement, emission and
 /// emission texture by pointer.
-type GlowingKey = (usize, glam::Mat4, Vec3, usize);
+fn key_of(r: &Receiver) -> (usize, glam::Mat4, Vec3, usize) {
+    let texture = r.diffuse.emission_texture.as_ref().map_or(0, |t| Arc::as_ptr(t) as usize);
+    (Arc::as_ptr(&r.mesh) as usize, r.world, r.diffuse.emitted(), texture)
+}
 
 /// The glowing meshes of the frames so far, built again only when a glowing receiver's mesh,
 /// placement or emission changes (an animation's glass moving under a still lamp keeps them).
 #[derive(Debug, Default)]
 pub struct GlowingMeshes {
-    key: Vec<GlowingKey>,
-    /// The glowing receivers of `key`, held so that the addresses it compares are not reused.
-    held: Vec<Receiver>,
+    /// The glowing receivers they were built from (held, so the addresses `key_of` compares are
+    /// not reused).
+    built_from: Vec<Receiver>,
     pub built: MeshLights,
     /// Whether the last [`update`](Self::update) built them anew (their triangles need uploading).
     pub changed: bool,
@@ -47,14 +50,7 @@ impl GlowingMeshes {
     /// `Err` holds their count.
     pub fn update(&mut self, receivers: &[Receiver], max_triangles: usize) -> Result<(), usize> {
         let glowing: Vec<&Receiver> = receivers.iter().filter(|r| r.diffuse.emitted().max_element() > 0.0).collect();
-        let key: Vec<GlowingKey> = glowing
-            .iter()
-            .map(|r| {
-                let texture = r.diffuse.emission_texture.as_ref().map_or(0, |t| Arc::as_ptr(t) as usize);
-                (Arc::as_ptr(&r.mesh) as usize, r.world, r.diffuse.emitted(), texture)
-            })
-            .collect();
-        self.changed = key != self.key;
+        self.changed = !glowing.iter().map(|r| key_of(r)).eq(self.built_from.iter().map(key_of));
         if !self.changed {
             return Ok(());
         }
@@ -63,8 +59,7 @@ impl GlowingMeshes {
             return Err(count);
         }
         self.built = mesh_lights(glowing.iter().copied());
-        self.held = glowing.into_iter().cloned().collect();
-        self.key = key;
+        self.built_from = glowing.into_iter().cloned().collect();
         Ok(())
     }
 }

@@ -352,8 +352,8 @@ impl LightBuffers {
 
     /// Uploads this frame's lights and their emitters, the environment's last in each set, and
     /// the glowing meshes' `triangles` where they changed (empty: the last ones stand).
-    /// `media[i]`: the sharp interfaces around light i; `reach`: [`scene_reach`]; `bounce`: whether the frame traces bounced light (else no
-    /// bounce emitters).
+    /// `media[i]`: the sharp interfaces around light i; `reach`: [`scene_reach`]; `bounce`:
+    /// whether the frame traces bounced light (else no bounce emitters).
     #[allow(clippy::too_many_arguments)]
     pub fn update(
         &mut self,

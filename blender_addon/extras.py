@@ -159,6 +159,8 @@ def material_extras(material, warnings):
         out["boundary"] = s.boundary
     if s.surface != "AUTO":
         out["thin"] = s.surface == "THIN"
+    if s.priority != 0:
+        out["priority"] = s.priority
     return out or None
 
 
@@ -354,6 +356,7 @@ def scene_extras(scene, directory, warnings):
         "margin": s.volume_margin,
         "boundary": s.volume_boundary,
         "step": s.volume_step,
+        "contact": s.volume_contact,
     }
     if s.volume_bounds is not None:
         volume["min"], volume["max"] = _world_box(s.volume_bounds)

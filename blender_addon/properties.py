@@ -69,6 +69,18 @@ class RefraktSceneSettings(bpy.types.PropertyGroup):
         min=0.05,
         max=4.0,
     )
+    volume_contact: FloatProperty(
+        name="Contact",
+        description="Surfaces of two glass or liquid objects closer than this are one interface between their "
+        "media (water against its glass, with no air between), however they were modelled: touching, "
+        "overlapping or a hair apart. 0: every surface on its own",
+        default=0.00025,
+        min=0.0,
+        soft_max=0.005,
+        subtype="DISTANCE",
+        unit="LENGTH",
+        precision=5,
+    )
     volume_bounds: PointerProperty(
         name="Bounds",
         type=bpy.types.Object,
@@ -281,6 +293,14 @@ class RefraktMaterialSettings(bpy.types.PropertyGroup):
             ("THIN", "Thin Sheet", "A window pane or a bubble: a thin slab's reflection, light passes undeviated"),
         ),
         default="AUTO",
+    )
+    priority: IntProperty(
+        name="Priority",
+        description="Where glass and liquid objects overlap (water modelled into its glass's wall, ice in water), "
+        "the medium of higher priority holds there; at equal priority, the smaller object's",
+        default=0,
+        min=-1000,
+        max=1000,
     )
     # Neither Blender 4.x nor 5.0 has a dispersion setting on its glass BSDFs (checked with bpy
     # 4.5.15 and 5.0.1), so it lives here and goes out as KHR_materials_dispersion.

@@ -93,6 +93,7 @@ class RENDER_PT_refrakt_volume(RefraktSubPanel, bpy.types.Panel):
         col.prop(s, "volume_margin")
         layout.prop(s, "volume_boundary")
         layout.prop(s, "volume_step")
+        layout.prop(s, "volume_contact")
 
 
 class RENDER_PT_refrakt_fog(RefraktSubPanel, bpy.types.Panel):
@@ -238,6 +239,7 @@ class MATERIAL_PT_refrakt(PropertiesPanel, bpy.types.Panel):
                 layout.label(text=w, icon="ERROR")
         layout.prop(s, "boundary")
         layout.prop(s, "surface")
+        layout.prop(s, "priority")
         layout.prop(s, "abbe")
 
 

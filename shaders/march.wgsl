@@ -386,10 +386,11 @@ fn march_path(photon: Photon, start_flux: vec3<f32>, key: u32, deposit_radiance:
             events++;
             let facet = vec2<f32>(random01(params.seed, index, 96u + 2u * events), random01(params.seed, index, 97u + 2u * events));
             let surface = glass_surface_at(hit);
-            let c = cross_interface(d, hit, surface, media, facet);
+            let c = cross_interface(p, d, hit, surface, media, facet);
             // Light straight through a polished thin sheet is the shadow rays' (view.wgsl,
             // sheet_transmittance): such a photon stays direct light unless it was bent before.
             var passed_sheet = (interfaces[hit.interface_id].kind & INTERFACE_THIN) != 0u && surface.roughness == 0.0;
+            let incoming = d;
             if random01(params.seed, index, 16u + events) < c.reflectance {
                 d = c.reflected;
                 flux *= c.reflected_share;
@@ -399,8 +400,9 @@ fn march_path(photon: Photon, start_flux: vec3<f32>, key: u32, deposit_radiance:
                 flux *= at_wavelength(c.tint) * c.transmitted_share;
             }
             media = media_along(c, d, media);
-            refracted = refracted || !passed_sheet;
-            s = ray_start(ior_grid, grid_sampler, grid, leave_surface(p, c.geometric, d, 1e-3 * grid.voxel_size), d);
+            refracted = refracted || (!passed_sheet && c.seen);
+            events -= u32(!c.seen);
+            s = ray_start(ior_grid, grid_sampler, grid, crossing_exit(c, p, incoming, d, 1e-3 * grid.voxel_size), d);
             ahead_of.valid = false;
             if events >= MAX_EVENTS || path > params.max_path {
                 return absorbed(n_steps + 1u); // trapped by total internal reflection (march.rs)

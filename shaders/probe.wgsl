@@ -47,7 +47,7 @@ fn cross_surface(s: ptr<function, RayState>, media: ptr<function, Media>, hit: S
     let d = normalize((*s).v);
     let p = (*s).x + d * hit.t;
     // (On a rough surface the probe follows the microfacet its first pair of numbers picks.)
-    let c = cross_interface(d, hit, plain_surface(hit.interface_id), *media, vec2<f32>(0.0));
+    let c = cross_interface(p, d, hit, plain_surface(hit.interface_id), *media, vec2<f32>(0.0));
     var w = c.reflected;
     if c.reflectance < 1.0 {
         w = c.transmitted;
@@ -55,12 +55,12 @@ fn cross_surface(s: ptr<function, RayState>, media: ptr<function, Media>, hit: S
     *media = media_along(c, w, *media);
     // (v = n·dir with the grid's n: a sharp object's own n is not in the grid, and straight
     // travel inside it needs none.)
-    *s = ray_start(ior_grid, grid_sampler, params.grid, leave_surface(p, c.geometric, w, 1e-3 * params.grid.voxel_size), w);
+    *s = ray_start(ior_grid, grid_sampler, params.grid, crossing_exit(c, p, d, w, 1e-3 * params.grid.voxel_size), w);
 }
 
 fn advance(s: ptr<function, RayState>, media: ptr<function, Media>) {
     let len = step_length(*s);
-    let hit = surface_hit((*s).x, normalize((*s).v), 0.0, len);
+    let hit = surface_hit((*s).x, normalize((*s).v), 0.0, len, NO_INTERFACE);
     if hit.interface_id != NO_INTERFACE {
         cross_surface(s, media, hit);
         return;

@@ -208,7 +208,7 @@ fn analytic_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
     var passed = vec3<f32>(1.0);
     var t_min = 1e-4;
     for (var i = 0u; i < MAX_SEE_THROUGH; i++) {
-        let hit = analytic_hit(p, w, t_min, no_surface(dist));
+        let hit = analytic_hit(p, w, t_min, no_surface(dist), NO_INTERFACE);
         if hit.t >= dist {
             return passed;
         }
@@ -228,7 +228,7 @@ fn receivers_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
     var t_min = 1e-4;
     var passed = vec3<f32>(1.0);
     for (var i = 0u; i < MAX_SEE_THROUGH; i++) {
-        let b = bvh_closest_hit(p, w, t_min, dist);
+        let b = bvh_closest_hit(p, w, t_min, dist, 0xffffffffu);
         if b.triangle == 0xffffffffu {
             return passed;
         }
@@ -731,13 +731,13 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                     continue;
                 }
                 first_depth(out, s.x);
-                let c = cross_interface(b.d, hit, glass_surface_at(hit), b.media, facet_numbers(k, b.path));
-                b.events++;
+                let c = cross_interface(s.x, b.d, hit, glass_surface_at(hit), b.media, facet_numbers(k, b.path));
+                b.events += u32(c.seen);
                 var next = b.d;
                 if c.reflectance < 1.0 {
                     var reflected = Branch(s.x, c.reflected, b.weight * (c.reflectance * c.reflected_share), media_along(c, c.reflected, b.media), b.events, 2u * b.path + 1u);
                     if max(reflected.weight.r, max(reflected.weight.g, reflected.weight.b)) > MIN_WEIGHT && *top < BRANCH_STACK {
-                        reflected.x = leave_surface(s.x, c.geometric, c.reflected, 1e-3 * grid.voxel_size);
+                        reflected.x = crossing_exit(c, s.x, b.d, c.reflected, 1e-3 * grid.voxel_size);
                         (*stack)[*top] = reflected;
                         *top += 1u;
                     }
@@ -752,8 +752,8 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                 if b.events >= MAX_EVENTS || max(b.weight.r, max(b.weight.g, b.weight.b)) < MIN_WEIGHT {
                     return;
                 }
+                s = ray_start(ior_grid, grid_sampler, grid, crossing_exit(c, s.x, b.d, next, 1e-3 * grid.voxel_size), next);
                 b.d = next;
-                s = ray_start(ior_grid, grid_sampler, grid, leave_surface(s.x, c.geometric, next, 1e-3 * grid.voxel_size), next);
                 ahead_of.valid = false;
                 continue;
             }

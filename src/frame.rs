@@ -97,6 +97,9 @@ pub struct VolumeDesc {
     pub dims: UVec3,
     /// Arc length of one viewing-pass step, metres.
     pub step: f32,
+    /// Surfaces of two sharp solids closer than this along a ray are crossed as one interface
+    /// (`VolumeSettings::contact`), metres.
+    pub contact: f32,
 }
 
 impl VolumeDesc {
@@ -208,6 +211,8 @@ pub struct FieldDesc {
     pub thin: bool,
     /// KHR dispersion, 20/V_d (`Glass::dispersion`); 0: none.
     pub dispersion: f32,
+    /// Which medium holds where sharp solids overlap (`Glass::priority`).
+    pub priority: i32,
 }
 
 impl FieldDesc {

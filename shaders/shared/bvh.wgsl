@@ -53,7 +53,9 @@ fn moller_trumbore(k: u32, o: vec3<f32>, d: vec3<f32>) -> BvhHit {
 // distance — so every node is read once, a missed child is never pushed, and a pushed one that
 // lies beyond the closest hit found meanwhile is dropped without being read again. This is the
 // pass's hot loop: every branch of a view ray and every photon casts it at each interface.
-fn bvh_closest_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> BvhHit {
+// Triangles whose receiver word is `skip` are passed over (a contact partner's search skips the
+// surface it starts from; 0xffffffff skips none).
+fn bvh_closest_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, skip: u32) -> BvhHit {
     var hit = BvhHit(t_max, 0xffffffffu, 0.0, 0.0);
     let inv = 1.0 / d;
     var node = bvh_nodes[0];
@@ -94,7 +96,7 @@ fn bvh_closest_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> BvhHit
         } else {
             for (var k = node.first; k < node.first + node.count; k++) {
                 let h = moller_trumbore(k, o, d);
-                if h.t > t_min && h.t < hit.t {
+                if h.t > t_min && h.t < hit.t && bvh_triangles[k].receiver != skip {
                     hit = h;
                 }
             }

@@ -6,9 +6,15 @@
 //
 // Spheres and boxes are intersected exactly in their local frame; meshes are triangles of the
 // receivers' BVH whose `receiver` word carries INTERFACE_BIT | interface index, shaded with
-// interpolated corner normals. Which medium a path is in is tracked by a small stack of the
-// interfaces it has entered (crossing a surface of the object on top leaves it; any other
-// enters it), so nested objects (ice in water) work to a depth of MEDIA_DEPTH.
+// interpolated corner normals. Which medium a path is in is tracked by the set of solids it is
+// inside (crossing a solid's surface leaves it when it is in the set, else enters it), up to
+// MEDIA_DEPTH; where solids overlap, the one of highest rank holds (nested dielectrics with
+// priorities: the liquid that overlaps its glass is liquid there). A surface that does not
+// change which medium holds — the glass's inner wall inside the liquid that overlaps it — is
+// not there for light at all. Another solid's surface within the first one's `contact`
+// distance is crossed with it as one interface: water against glass meets glass/water
+// Fresnel, with no film of air between, however the two were modelled (coincident,
+// overlapping, or a hair apart).
 //
 // With dispersion, the index of each medium is the one at the path's wavelength
 // (shared/spectrum.wgsl: `path_wavelength`, 0 for an RGB path, which keeps `ior` exactly).
@@ -97,8 +103,9 @@ fn normal_to_world(f: Interface, n: vec3<f32>) -> vec3<f32> {
     return normalize(transpose(m) * n);
 }
 
-// The closest analytic interface surface along o + t·d, t in (t_min, best.t).
-fn analytic_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, best: SurfaceHit) -> SurfaceHit {
+// The closest analytic interface surface along o + t·d, t in (t_min, best.t), but for interface
+// `skip` (NO_INTERFACE: none).
+fn analytic_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, best: SurfaceHit, skip: u32) -> SurfaceHit {
     var hit = best;
     let count = arrayLength(&interfaces);
     for (var i = 0u; i < count; i++) {
@@ -108,7 +115,7 @@ fn analytic_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, best: SurfaceHit) -> Sur
             break;
         }
         let s = analytic_span(f, o, d);
-        if s.t0 > s.t1 {
+        if s.t0 > s.t1 || i == skip {
             continue;
         }
         if s.t0 > t_min && s.t0 < hit.t {
@@ -127,9 +134,9 @@ fn shading_normal(k: u32, u: f32, v: f32) -> vec3<f32> {
 }
 
 // The next surface of any kind — receiver, mesh interface or analytic interface — along
-// o + t·d for t in (t_min, t_max).
-fn surface_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> SurfaceHit {
-    let b = bvh_closest_hit(o, d, t_min, t_max);
+// o + t·d for t in (t_min, t_max), but for interface `skip` (NO_INTERFACE: none).
+fn surface_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, skip: u32) -> SurfaceHit {
+    let b = bvh_closest_hit(o, d, t_min, t_max, select(INTERFACE_BIT | skip, 0xffffffffu, skip == NO_INTERFACE));
     var hit = no_surface(b.t);
     if b.triangle != 0xffffffffu {
         let word = bvh_triangles[b.triangle].receiver;
@@ -137,43 +144,52 @@ fn surface_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> SurfaceHit
         let normal = select(bvh_triangle_normal(b.triangle), shading_normal(b.triangle, b.u, b.v), is_interface);
         hit = SurfaceHit(b.t, b.triangle, select(NO_INTERFACE, word & ~INTERFACE_BIT, is_interface), normal, b.u, b.v);
     }
-    return analytic_hit(o, d, t_min, hit);
+    return analytic_hit(o, d, t_min, hit, skip);
 }
 
 // Whether any analytic interface lies along o + t·d, t in (t_min, t_max) (shadow rays).
 fn analytic_any_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> bool {
-    return analytic_hit(o, d, t_min, no_surface(t_max)).t < t_max;
+    return analytic_hit(o, d, t_min, no_surface(t_max), NO_INTERFACE).t < t_max;
 }
 
-// The interfaces a path is inside, innermost last: up to MEDIA_DEPTH interface indices + 1
-// (0: an empty slot) in 16 bits each, two to a word — so the stack lives in registers, not in
-// memory a marching loop would read every step — and the innermost medium's index and
-// absorption, kept at hand. Lights and the camera inside glass start with the media the CPU
-// found around them (`pipeline::interfaces::media_at`).
+// The solids a path is inside, in the order entered: up to MEDIA_DEPTH interface indices + 1
+// (0: an empty slot) in 16 bits each, two to a word — so the set lives in registers, not in
+// memory a marching loop would read every step — and the medium that holds there (the one of
+// highest rank; NO_INTERFACE in air) with its index and absorption, kept at hand. Lights and
+// the camera inside glass start with the media the CPU found around them
+// (`pipeline::interfaces::media_at`).
 struct Media {
     ids: vec2<u32>,
     depth: u32,
+    holder: u32,
     ior: f32,
     absorption: vec3<f32>,
 }
 
 fn no_media() -> Media {
-    return Media(vec2<u32>(0u), 0u, 1.0, vec3<f32>(0.0));
+    return Media(vec2<u32>(0u), 0u, NO_INTERFACE, 1.0, vec3<f32>(0.0));
 }
 
 fn media_id(m: Media, slot: u32) -> u32 {
     return ((m.ids[slot / 2u] >> (16u * (slot % 2u))) & 0xffffu) - 1u;
 }
 
-// The innermost medium's optics, from the top of the stack.
+// The medium that holds among m's solids — the highest rank — and its optics.
 fn media_top(m: Media) -> Media {
     var out = m;
+    out.holder = NO_INTERFACE;
     out.ior = 1.0;
     out.absorption = vec3<f32>(0.0);
-    if out.depth > 0u {
-        let f = interfaces[media_id(out, out.depth - 1u)];
-        out.ior = interface_ior(f);
-        out.absorption = f.absorption;
+    var rank = 0u;
+    for (var slot = 0u; slot < out.depth; slot++) {
+        let i = media_id(out, slot);
+        let f = interfaces[i];
+        if out.holder == NO_INTERFACE || f.rank > rank {
+            out.holder = i;
+            rank = f.rank;
+            out.ior = interface_ior(f);
+            out.absorption = f.absorption;
+        }
     }
     return out;
 }
@@ -186,23 +202,36 @@ fn media_unpacked(ids: vec2<u32>) -> Media {
             depth = slot + 1u;
         }
     }
-    return media_top(Media(ids, depth, 1.0, vec3<f32>(0.0)));
+    return media_top(Media(ids, depth, NO_INTERFACE, 1.0, vec3<f32>(0.0)));
 }
 
-// The media after crossing interface i: leaving it if it is the innermost, else entering it.
+// The media after crossing interface i: leaving it if the path is inside it, else entering it.
+// (Leaving one that is not the last entered closes the gap: the later ones move down a slot.)
 fn media_crossed(m: Media, i: u32) -> Media {
     var out = m;
-    if m.depth > 0u && media_id(m, m.depth - 1u) == i {
+    var found = false;
+    for (var slot = 0u; slot < m.depth; slot++) {
+        found = found || media_id(m, slot) == i;
+        if found && slot + 1u < m.depth {
+            out = media_with(out, slot, media_id(m, slot + 1u));
+        }
+    }
+    if found {
+        out = media_with(out, m.depth - 1u, NO_INTERFACE);
         out.depth -= 1u;
-        let shift = 16u * (out.depth % 2u);
-        out.ids[out.depth / 2u] &= ~(0xffffu << shift);
     } else if m.depth < MEDIA_DEPTH {
-        let word = out.depth / 2u;
-        let shift = 16u * (out.depth % 2u);
-        out.ids[word] = (out.ids[word] & ~(0xffffu << shift)) | (((i + 1u) & 0xffffu) << shift);
+        out = media_with(out, m.depth, i);
         out.depth += 1u;
     }
     return media_top(out);
+}
+
+// m with interface i in a slot (NO_INTERFACE: emptied).
+fn media_with(m: Media, slot: u32, i: u32) -> Media {
+    var out = m;
+    let shift = 16u * (slot % 2u);
+    out.ids[slot / 2u] = (out.ids[slot / 2u] & ~(0xffffu << shift)) | (((i + 1u) & 0xffffu) << shift);
+    return out;
 }
 
 // An interface's index at the path's wavelength.
@@ -254,6 +283,13 @@ struct Crossing {
     geometric: vec3<f32>,
     reflected_share: f32,
     transmitted_share: f32,
+    // How far along the incoming direction the last surface crossed lies (a contact partner's;
+    // 0 for one surface): the transmitted branch starts past it (`crossing_exit`).
+    through: f32,
+    // Whether light sees a surface here at all: not where the same medium, or one of the same
+    // index, holds on both sides (a wall inside the liquid that overlaps it). Such a crossing
+    // passes straight and counts as no event.
+    seen: bool,
 }
 
 // An orthonormal basis (t, b, n) around unit n (Duff et al. 2017, "Building an Orthonormal
@@ -304,14 +340,40 @@ fn smith_g1(c: f32, alpha: f32) -> f32 {
     return 2.0 / (1.0 + sqrt(1.0 + alpha * alpha * (1.0 - c2) / c2));
 }
 
-// The crossing of interface `hit`, whose surface there is `surface`, by direction d from
+// Another solid's surface within the contact distance of interface `hit` met at p along d — a
+// liquid against its glass — ahead of p, or behind by no more than rounding: it is crossed with
+// `hit` as one interface. The distance is the gap's, across it: along a ray at θ from the
+// normal a gap is 1/cos θ longer (up to 16 times: grazing rays search 16 contact distances).
+// NO_INTERFACE when there is none (`interfaces::table` sets `contact` to 0 where a frame has
+// only one solid).
+fn contact_partner(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit) -> SurfaceHit {
+    let gap = interfaces[hit.interface_id].contact;
+    var partner = no_surface(0.0);
+    if gap > 0.0 {
+        var normal = hit.normal;
+        if hit.triangle != 0xffffffffu {
+            normal = bvh_triangle_normal(hit.triangle);
+        }
+        let reach = gap / max(abs(dot(d, normal)), 1.0 / 16.0);
+        // (From 1 % of the gap behind p: a coincident surface may round to either side.)
+        let back = 0.01 * gap;
+        partner = surface_hit(p - d * back, d, 0.0, back + reach, hit.interface_id);
+        partner.t -= back;
+        if partner.interface_id != NO_INTERFACE && (interfaces[partner.interface_id].kind & INTERFACE_THIN) != 0u {
+            partner.interface_id = NO_INTERFACE;
+        }
+    }
+    return partner;
+}
+
+// The crossing of interface `hit` at p, whose surface there is `surface`, by direction d from
 // `media`, with two uniform numbers u that pick a microfacet on a rough surface (unused on a
 // polished one). A solid's surface refracts
 // into the medium beyond; a thin sheet reflects the Fresnel of a thin slab summed over its
 // inner reflections (2R / (1 + R) per polarization, averaged), and passes the rest straight through — the light
 // refracted in and back out leaves parallel to how it came (on a rough sheet: the reflection
 // mirrored through the sheet, as glTF's thin-walled transmission has it).
-fn cross_interface(d: vec3<f32>, hit: SurfaceHit, surface: GlassSurface, media: Media, u: vec2<f32>) -> Crossing {
+fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSurface, media: Media, u: vec2<f32>) -> Crossing {
     let f = interfaces[hit.interface_id];
     let thin = (f.kind & INTERFACE_THIN) != 0u;
     // A sheet's far side is the medium it stands in; its own glass sets the reflectance.
@@ -320,16 +382,25 @@ fn cross_interface(d: vec3<f32>, hit: SurfaceHit, surface: GlassSurface, media: 
     if f.dispersion > 0.0 && path_wavelength > 0.0 {
         path_dispersed = true;
     }
+    var through = 0.0;
     if !thin {
         beyond = media_crossed(media, hit.interface_id);
+        let partner = contact_partner(p, d, hit);
+        if partner.interface_id != NO_INTERFACE {
+            beyond = media_crossed(beyond, partner.interface_id);
+            through = max(partner.t, 0.0);
+        }
         eta = beyond.ior / media.ior;
     }
-    let n = select(hit.normal, -hit.normal, dot(hit.normal, d) > 0.0);
     var geometric = hit.normal;
     if hit.triangle != 0xffffffffu {
         geometric = bvh_triangle_normal(hit.triangle);
     }
     geometric = select(geometric, -geometric, dot(geometric, d) > 0.0);
+    if !thin && (beyond.holder == media.holder || beyond.ior == media.ior) {
+        return Crossing(d, d, 0.0, vec3<f32>(1.0), beyond, geometric, 1.0, 1.0, through, false);
+    }
+    let n = select(hit.normal, -hit.normal, dot(hit.normal, d) > 0.0);
     let alpha = surface.roughness * surface.roughness;
     var m = n;
     if alpha > 0.0 {
@@ -355,7 +426,7 @@ fn cross_interface(d: vec3<f32>, hit: SurfaceHit, surface: GlassSurface, media: 
         reflected_share = smith_g1(max(cr, 0.0), alpha) * step(0.0, cr);
         transmitted_share = smith_g1(max(ct, 0.0), alpha) * step(0.0, ct);
     }
-    return Crossing(reflected, transmitted, reflectance, surface.tint, beyond, geometric, reflected_share, transmitted_share);
+    return Crossing(reflected, transmitted, reflectance, surface.tint, beyond, geometric, reflected_share, transmitted_share, through, true);
 }
 
 // The media of a branch that leaves crossing c along w: the media beyond only if w passes
@@ -377,6 +448,13 @@ fn leave_surface(p: vec3<f32>, facing: vec3<f32>, w: vec3<f32>, eps: f32) -> vec
     return p + select(-facing, facing, dot(w, facing) > 0.0) * eps;
 }
 
+// Where a branch leaving crossing c (met at p along d) along w starts: just off the surface,
+// and past every surface the crossing took when w goes through it.
+fn crossing_exit(c: Crossing, p: vec3<f32>, d: vec3<f32>, w: vec3<f32>, eps: f32) -> vec3<f32> {
+    let past = select(0.0, c.through, dot(w, c.geometric) < 0.0);
+    return leave_surface(p + d * past, c.geometric, w, eps);
+}
+
 // The surface ahead of a marching path: `hit` along the straight line from `origin` (the BVH and
 // the analytic interfaces), valid while the path has not bent since it was cast. Casting the
 // BVH costs a traversal, so after a bend it waits until a step could reach the BVH's box;
@@ -388,7 +466,7 @@ struct Lookahead {
 }
 
 fn look_from(x: vec3<f32>, d: vec3<f32>) -> Lookahead {
-    return Lookahead(x, surface_hit(x, d, 0.0, 3.4e38), true);
+    return Lookahead(x, surface_hit(x, d, 0.0, 3.4e38, NO_INTERFACE), true);
 }
 
 // Distance from x0 along d to the next surface if it lies within `jump` (then `la.hit` is that
@@ -401,7 +479,7 @@ fn surface_within(la: ptr<function, Lookahead>, x0: vec3<f32>, d: vec3<f32>, jum
         *la = look_from(x0, d);
         return (*la).hit.t;
     }
-    let h = analytic_hit(x0, d, 0.0, no_surface(jump));
+    let h = analytic_hit(x0, d, 0.0, no_surface(jump), NO_INTERFACE);
     if h.t < jump {
         (*la).origin = x0;
         (*la).hit = h;

@@ -52,6 +52,18 @@ pub fn slab_transmittance(eta: f32) -> f32 {
     (1.0 - r) / (1.0 + r)
 }
 
+/// Reflectance and transmittance of a stack of clear, parallel interfaces (glass on water: air/
+/// glass, glass/water, water/air) at normal incidence, given each interface's Fresnel R, with
+/// every reflection between them summed incoherently. A clear interface reflects R from either
+/// side, so two stacks a and b add as R = R_a + T_a² R_b / (1 − R_a R_b), T = T_a T_b / (1 −
+/// R_a R_b) (the adding method; one interface: R, 1 − R).
+pub fn stack_of_interfaces(reflectances: &[f64]) -> (f64, f64) {
+    reflectances.iter().fold((0.0, 1.0), |(ra, ta), &rb| {
+        let inner = 1.0 - ra * rb;
+        (ra + ta * ta * rb / inner, ta * (1.0 - rb) / inner)
+    })
+}
+
 /// Reflectance of a thin sheet of clear glass of index ratio `eta` for light at cos θᵢ = `cos_i`:
 /// per polarization, the first reflection plus every one that leaves after bouncing inside,
 /// R + T²R / (1 − R²) = 2R / (1 + R) (incoherent sums: a pane, not a soap film's interference),
@@ -112,6 +124,15 @@ mod tests {
 
     /// Closed forms: R₀ = ((η − 1)/(η + 1))² at normal incidence, zero p-reflectance at
     /// Brewster's angle (tan θ_B = η), so R = R_s / 2 there.
+    #[test]
+    fn a_stack_of_two_interfaces_is_a_slab() {
+        let r = fresnel_dielectric(1.0, 1.5) as f64;
+        let (reflected, transmitted) = stack_of_interfaces(&[r, r]);
+        assert!((transmitted - slab_transmittance(1.5) as f64).abs() < 1e-6);
+        assert!((reflected + transmitted - 1.0).abs() < 1e-12, "a clear stack loses nothing");
+        assert_eq!(stack_of_interfaces(&[r]), (r, 1.0 - r));
+    }
+
     #[test]
     fn fresnel_matches_the_closed_forms() {
         let eta = 1.5f32;

@@ -55,6 +55,8 @@ pub struct VolumeExtras {
     pub margin: Option<f32>,
     pub boundary: Option<f32>,
     pub step: Option<f32>,
+    /// Metres (`VolumeSettings::contact`).
+    pub contact: Option<f32>,
     pub min: Option<[f32; 3]>,
     pub max: Option<[f32; 3]>,
 }
@@ -107,6 +109,7 @@ pub fn scene_extras(scene: &gltf::Scene, file: &str, warnings: &mut Collector) -
         check(v.margin.is_none_or(|m| m.is_finite() && m >= 0.0), file, &what, "volume.margin", "≥ 0 (metres)")?;
         check(v.boundary.is_none_or(|b| (0.0..=16.0).contains(&b)), file, &what, "volume.boundary", "from 0 to 16 (voxels)")?;
         check(v.step.is_none_or(|b| (0.01..=8.0).contains(&b)), file, &what, "volume.step", "from 0.01 to 8 (voxels)")?;
+        check(v.contact.is_none_or(|c| c.is_finite() && c >= 0.0), file, &what, "volume.contact", "≥ 0 (metres)")?;
         check(v.min.is_some() == v.max.is_some(), file, &what, "volume.min", "given together with volume.max")?;
     }
     if let Some(e) = &s.environment {
@@ -282,9 +285,11 @@ pub struct MediumExtras {
     pub boundary: Option<f32>,
     /// A thin sheet (true) or a solid (false), overriding what KHR_materials_volume says.
     pub thin: Option<bool>,
+    /// Which medium holds where solids overlap (`Glass::priority`).
+    pub priority: Option<i32>,
 }
 
-const MATERIAL_KEYS: &[&str] = &["absorption", "scattering", "g", "boundary", "thin"];
+const MATERIAL_KEYS: &[&str] = &["absorption", "scattering", "g", "boundary", "thin", "priority"];
 
 pub fn medium(material: &gltf::Material, file: &str, what: &str, warnings: &mut Collector) -> Result<Option<MediumExtras>> {
     let Some(m) = refrakt_object::<MediumExtras>(material.extras(), file, what, MATERIAL_KEYS, warnings)? else { return Ok(None) };
@@ -292,6 +297,7 @@ pub fn medium(material: &gltf::Material, file: &str, what: &str, warnings: &mut 
     check(non_negative(m.scattering), file, what, "scattering", "three numbers ≥ 0 (per metre)")?;
     check(m.g.is_none_or(|g| (-0.99..=0.99).contains(&g)), file, what, "g", "from −0.99 to 0.99")?;
     check(m.boundary.is_none_or(|b| (0.0..=16.0).contains(&b)), file, what, "boundary", "from 0 to 16 (voxels)")?;
+    check(m.priority.is_none_or(|p| (-1000..=1000).contains(&p)), file, what, "priority", "a whole number from -1000 to 1000")?;
     Ok(Some(m))
 }
 

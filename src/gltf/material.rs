@@ -195,6 +195,7 @@ impl<'a> Materials<'a> {
             glass.g = g;
         }
         glass.dispersion = dispersion(m, file, what)?;
+        glass.priority = medium.priority.unwrap_or(0);
         let mut uv = None;
         if transmission > 0.0 {
             glass.roughness = transmission_roughness(m, file, what)?;

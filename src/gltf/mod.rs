@@ -124,6 +124,7 @@ fn apply_volume(s: &mut VolumeSettings, v: &extras::VolumeExtras) {
     s.margin = v.margin.unwrap_or(s.margin);
     s.boundary = v.boundary.unwrap_or(s.boundary);
     s.step = v.step.unwrap_or(s.step);
+    s.contact = v.contact.unwrap_or(s.contact);
     if let (Some(lo), Some(hi)) = (v.min, v.max) {
         s.bounds = Some((Vec3::from(lo), Vec3::from(hi)));
     }

@@ -293,8 +293,13 @@ gpu_struct! {
         pub roughness: f32,
         /// KHR dispersion, 20/V_d: the index at wavelength λ is `cpu::spectrum::ior_at`; 0: none.
         pub dispersion: f32,
-        pub _pad0: u32,
-        pub _pad1: u32,
+        /// Which medium holds where solids overlap: of the interfaces a path is inside, the one
+        /// of highest rank (`interfaces::table`: the glass's `priority`, then the smaller
+        /// object). Unique per solid.
+        pub rank: u32,
+        /// How far along a ray another solid's surface may lie from this one's and still be
+        /// crossed with it as one interface (world units; 0: never) — a liquid against its glass.
+        pub contact: f32,
         pub _pad2: u32,
         /// A glass mesh's roughness texture (green channel × `roughness`), as a receiver's
         /// textures are given: (first texel, width, height, encoding | wrap); zeros for none.

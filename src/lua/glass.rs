@@ -8,7 +8,7 @@ use super::convert::{self as cv, FieldName, error_at};
 use super::objects::{Obj, construct, number_value, vec_value};
 use crate::scene::{Glass, Material};
 
-pub const FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin", "dispersion", "abbe"];
+pub const FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin", "dispersion", "abbe", "priority"];
 
 /// Glass field `key` of `g`; None when glass has no such field.
 pub fn get(lua: &Lua, g: &Glass, key: &str) -> Option<mlua::Result<Value>> {
@@ -21,6 +21,7 @@ pub fn get(lua: &Lua, g: &Glass, key: &str) -> Option<mlua::Result<Value>> {
         "roughness" => Ok(number_value(g.roughness)),
         "thin" => Ok(g.thin.map_or(Value::Nil, Value::Boolean)),
         "dispersion" => Ok(number_value(g.dispersion)),
+        "priority" => Ok(Value::Integer(g.priority as i64)),
         // The Abbe number V_d = 20/dispersion; nil without dispersion.
         "abbe" => Ok(if g.dispersion > 0.0 { number_value(20.0 / g.dispersion) } else { Value::Nil }),
         // Transmittance over one metre (the color a 1 m thick piece has).
@@ -74,6 +75,9 @@ fn set_field(lua: &Lua, g: &mut Glass, key: &str, value: Value) -> mlua::Result<
                 _ => cv::number_in(lua, name, &value, Some(1.0), Some(1e6), "an Abbe number V_d ≥ 1 (crown glass 59, flint 36, diamond 55), or nil for none")?,
             };
             g.dispersion = crate::cpu::spectrum::dispersion_from_abbe(abbe as f32);
+        }
+        "priority" => {
+            g.priority = cv::integer(lua, name, &value, -1000, 1000)? as i32;
         }
         "g" => {
             g.g = cv::number_in(lua, name, &value, Some(-0.99), Some(0.99), "a number from −0.99 to 0.99")? as f32

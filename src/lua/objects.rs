@@ -748,7 +748,7 @@ impl LuaObject for Environment {
 // ---------------------------------------------------------------------------------------------
 // Volume settings.
 
-const VOLUME_FIELDS: &[&str] = &["resolution", "margin", "min", "max", "boundary", "step"];
+const VOLUME_FIELDS: &[&str] = &["resolution", "margin", "min", "max", "boundary", "step", "contact"];
 
 impl LuaObject for VolumeSettings {
     fn kind(&self) -> &'static str {
@@ -765,6 +765,7 @@ impl LuaObject for VolumeSettings {
             "max" => self.bounds.map_or(Ok(Value::Nil), |b| vec_value(lua, b.1)),
             "boundary" => Ok(number_value(self.boundary)),
             "step" => Ok(number_value(self.step)),
+            "contact" => Ok(number_value(self.contact)),
             _ => Err(unknown_field(lua, "volume", key, VOLUME_FIELDS)),
         }
     }
@@ -788,6 +789,7 @@ impl LuaObject for VolumeSettings {
                 self.step =
                     cv::number_in(lua, name, &value, Some(0.01), Some(8.0), "a step in voxels from 0.01 to 8")? as f32
             }
+            "contact" => self.contact = cv::non_negative(lua, name, &value)?,
             _ => return Err(unknown_field(lua, "volume", key, VOLUME_FIELDS)),
         }
         Ok(())

@@ -29,7 +29,8 @@ pub const MARK_WIDTH_VOXELS: f32 = 1.75;
 /// The sharp objects of a frame as interface records: the analytic ones first, then the
 /// meshes, then one `NONE` record that ends the analytic list even when there is no mesh.
 /// `textures`: each sharp mesh's (roughness, tint) texture in the texel atlas
-/// (`receivers::layout`; zeros for none).
+/// (`receivers::layout`; zeros for none). Each solid gets its rank among the overlapping
+/// (`ranks`) and, where there is more than one solid, the contact distance.
 pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; 2]]) -> Vec<Interface> {
     let analytic = desc.fields.iter().filter(|f| f.sharp).map(analytic_record);
     let meshes = sharp_meshes(desc).enumerate().map(|(j, m)| Interface {
@@ -44,7 +45,47 @@ pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; 2]]) -> Vec<Interface> {
         tint_texture: textures.get(j).map_or([0; 4], |t| t[1]),
         ..Default::default()
     });
-    analytic.chain(meshes).chain(std::iter::once(Interface::default())).collect()
+    let mut table: Vec<Interface> = analytic.chain(meshes).collect();
+    let solids = solids(desc);
+    let contact = if solids.iter().filter(|s| s.solid).count() > 1 { desc.volume.contact } else { 0.0 };
+    for ((record, rank), solid) in table.iter_mut().zip(ranks(&solids)).zip(&solids) {
+        record.rank = rank;
+        record.contact = if solid.solid { contact } else { 0.0 };
+    }
+    table.push(Interface::default());
+    table
+}
+
+/// What decides which medium holds where sharp objects overlap, per interface in table order.
+struct Solid {
+    /// Not a thin sheet: it has an inside.
+    solid: bool,
+    priority: i32,
+    /// The volume of its world box.
+    size: f32,
+}
+
+fn solids(desc: &FrameDesc) -> Vec<Solid> {
+    let size = |(lo, hi): (Vec3, Vec3)| (hi - lo).element_product();
+    let analytic = desc.fields.iter().filter(|f| f.sharp).map(|f| Solid { solid: !f.thin, priority: f.priority, size: size(f.bounds) });
+    let meshes = sharp_meshes(desc).map(|m| Solid { solid: !m.thin, priority: m.glass.priority, size: size(m.bounds) });
+    analytic.chain(meshes).collect()
+}
+
+/// Each solid's rank (1 = holds least; thin sheets 0): by priority, higher first, then the
+/// smaller object — a liquid modelled into its glass's wall is liquid there, ice in water is
+/// ice — then the later in the table, so no two share one.
+fn ranks(solids: &[Solid]) -> Vec<u32> {
+    let mut order: Vec<usize> = (0..solids.len()).filter(|&i| solids[i].solid).collect();
+    order.sort_by(|&a, &b| {
+        let (sa, sb) = (&solids[a], &solids[b]);
+        sa.priority.cmp(&sb.priority).then(sb.size.total_cmp(&sa.size)).then(a.cmp(&b))
+    });
+    let mut ranks = vec![0; solids.len()];
+    for (rank, i) in order.into_iter().enumerate() {
+        ranks[i] = rank as u32 + 1;
+    }
+    ranks
 }
 
 fn analytic_record(f: &FieldDesc) -> Interface {
@@ -160,6 +201,19 @@ pub fn mesh_key(desc: &FrameDesc) -> Vec<MeshKey> {
 mod tests {
     use super::*;
     use crate::scene::mesh;
+
+    #[test]
+    fn the_higher_priority_then_the_smaller_solid_holds_and_sheets_have_no_rank() {
+        let solid = |priority, size| Solid { solid: true, priority, size };
+        let glass = solid(0, 8.0);
+        let water = solid(0, 6.0);
+        let ice = solid(0, 0.1);
+        let pane = Solid { solid: false, priority: 9, size: 0.01 };
+        assert_eq!(ranks(&[glass, water, ice, pane]), [1, 2, 3, 0], "the smaller holds");
+        let (glass, water) = (solid(1, 8.0), solid(0, 6.0));
+        assert_eq!(ranks(&[glass, water]), [2, 1], "priority first");
+        assert_eq!(ranks(&[solid(0, 1.0), solid(0, 1.0)]), [1, 2], "ties: the later");
+    }
 
     #[test]
     fn smooth_normals_follow_a_sphere_and_keep_a_cubes_edges() {

@@ -282,6 +282,7 @@ fn field_of(node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) 
         roughness: glass.roughness,
         thin,
         dispersion: glass.dispersion,
+        priority: glass.priority,
         bounds: world_bounds(&world, half_size),
     }
 }
@@ -378,7 +379,7 @@ fn fit_volume(objects: &[(Vec3, Vec3, Option<f32>)], s: &super::VolumeSettings, 
     let dims = (extent / voxel_size).ceil().as_uvec3().max(UVec3::splat(4));
     // Centre the voxel grid on the box (rounding up may add a fraction of a voxel).
     let min = 0.5 * (lo + hi) - 0.5 * dims.as_vec3() * voxel_size;
-    Ok(VolumeDesc { min, voxel_size, dims, step: s.step * voxel_size })
+    Ok(VolumeDesc { min, voxel_size, dims, step: s.step * voxel_size, contact: s.contact })
 }
 
 /// The nodes that carry a camera, in evaluation order: what `--camera INDEX` counts (and

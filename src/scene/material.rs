@@ -38,6 +38,10 @@ pub struct Glass {
     /// A base colour texture (glTF, sRGB): its rgb multiplies `tint` where a ray crosses the
     /// surface — a sharp mesh with texture coordinates only.
     pub tint_texture: Option<Arc<Texture2d>>,
+    /// Which medium holds where solids overlap (a liquid modelled into its glass's wall): the
+    /// higher priority; at equal priority, the smaller object. Like the dielectric priority of
+    /// Arnold and Redshift, with higher numbers winning. Sharp interfaces only.
+    pub priority: i32,
 }
 
 impl Glass {
@@ -52,7 +56,7 @@ impl Glass {
 impl Default for Glass {
     fn default() -> Self {
         Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0, tint: Vec3::ONE, roughness: 0.0, thin: None, dispersion: 0.0,
-               roughness_texture: None, tint_texture: None }
+               roughness_texture: None, tint_texture: None, priority: 0 }
     }
 }
 

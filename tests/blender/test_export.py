@@ -238,11 +238,15 @@ def test_roughness_and_thin_glass_reach_the_gltf(addon, saved_blend):
     bsdf.inputs["Transmission Weight" if "Transmission Weight" in bsdf.inputs else "Transmission"].default_value = 1.0
     bsdf.inputs["Roughness"].default_value = 0.0
     pane.refrakt.surface = "THIN"
+    frosted.refrakt.priority = 2
+    bpy.context.scene.refrakt.volume_contact = 0.001
     bpy.ops.mesh.primitive_plane_add(size=1.0, location=(0.0, 0.0, 2.0))
     bpy.context.object.data.materials.append(pane)
     _, gltf = export(saved_blend)
     glass = gltf.material("Glass")
     assert glass["pbrMetallicRoughness"]["roughnessFactor"] == pytest.approx(0.35, rel=1e-6)
+    assert glass["extras"]["refrakt"]["priority"] == 2
+    assert gltf.json["scenes"][0]["extras"]["refrakt"]["volume"]["contact"] == pytest.approx(0.001)
     thin = gltf.material("Pane")
     assert thin["extras"]["refrakt"]["thin"] is True
     assert "KHR_materials_volume" not in thin.get("extensions", {})

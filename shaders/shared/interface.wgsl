@@ -344,8 +344,8 @@ fn smith_g1(c: f32, alpha: f32) -> f32 {
 // liquid against its glass — ahead of p, or behind by no more than rounding: it is crossed with
 // `hit` as one interface. The distance is the gap's, across it: along a ray at θ from the
 // normal a gap is 1/cos θ longer (up to 16 times: grazing rays search 16 contact distances).
-// NO_INTERFACE when there is none (`interfaces::table` sets `contact` to 0 where a frame has
-// only one solid).
+// NO_INTERFACE when there is none (`interfaces::table` sets `contact` to 0 on a solid that no
+// other comes that near).
 fn contact_partner(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit) -> SurfaceHit {
     let gap = interfaces[hit.interface_id].contact;
     var partner = no_surface(0.0);

@@ -30,7 +30,8 @@ pub const MARK_WIDTH_VOXELS: f32 = 1.75;
 /// meshes, then one `NONE` record that ends the analytic list even when there is no mesh.
 /// `textures`: each sharp mesh's (roughness, tint) texture in the texel atlas
 /// (`receivers::layout`; zeros for none). Each solid gets its rank among the overlapping
-/// (`ranks`) and, where there is more than one solid, the contact distance.
+/// (`ranks`) and the contact distance where another solid's box comes that close to its own
+/// (elsewhere 0: no crossing searches for a partner that cannot be there).
 pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; 2]]) -> Vec<Interface> {
     let analytic = desc.fields.iter().filter(|f| f.sharp).map(analytic_record);
     let meshes = sharp_meshes(desc).enumerate().map(|(j, m)| Interface {
@@ -47,10 +48,10 @@ pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; 2]]) -> Vec<Interface> {
     });
     let mut table: Vec<Interface> = analytic.chain(meshes).collect();
     let solids = solids(desc);
-    let contact = if solids.iter().filter(|s| s.solid).count() > 1 { desc.volume.contact } else { 0.0 };
-    for ((record, rank), solid) in table.iter_mut().zip(ranks(&solids)).zip(&solids) {
+    let contact = desc.volume.contact;
+    for (i, (record, rank)) in table.iter_mut().zip(ranks(&solids)).enumerate() {
         record.rank = rank;
-        record.contact = if solid.solid { contact } else { 0.0 };
+        record.contact = if has_neighbour(&solids, i, contact) { contact } else { 0.0 };
     }
     table.push(Interface::default());
     table
@@ -61,15 +62,30 @@ struct Solid {
     /// Not a thin sheet: it has an inside.
     solid: bool,
     priority: i32,
-    /// The volume of its world box.
-    size: f32,
+    /// Its world box.
+    bounds: (Vec3, Vec3),
+}
+
+impl Solid {
+    fn size(&self) -> f32 {
+        (self.bounds.1 - self.bounds.0).element_product()
+    }
 }
 
 fn solids(desc: &FrameDesc) -> Vec<Solid> {
-    let size = |(lo, hi): (Vec3, Vec3)| (hi - lo).element_product();
-    let analytic = desc.fields.iter().filter(|f| f.sharp).map(|f| Solid { solid: !f.thin, priority: f.priority, size: size(f.bounds) });
-    let meshes = sharp_meshes(desc).map(|m| Solid { solid: !m.thin, priority: m.glass.priority, size: size(m.bounds) });
+    let analytic = desc.fields.iter().filter(|f| f.sharp).map(|f| Solid { solid: !f.thin, priority: f.priority, bounds: f.bounds });
+    let meshes = sharp_meshes(desc).map(|m| Solid { solid: !m.thin, priority: m.glass.priority, bounds: m.bounds });
     analytic.chain(meshes).collect()
+}
+
+/// Whether solid i has another solid's box within `contact` of its own: only then can a
+/// surface of another lie that close to one of its own.
+fn has_neighbour(solids: &[Solid], i: usize, contact: f32) -> bool {
+    let (lo, hi) = solids[i].bounds;
+    let (lo, hi) = (lo - Vec3::splat(contact), hi + Vec3::splat(contact));
+    solids[i].solid
+        && contact > 0.0
+        && solids.iter().enumerate().any(|(j, s)| j != i && s.solid && s.bounds.0.cmple(hi).all() && s.bounds.1.cmpge(lo).all())
 }
 
 /// Each solid's rank (1 = holds least; thin sheets 0): by priority, higher first, then the
@@ -79,7 +95,7 @@ fn ranks(solids: &[Solid]) -> Vec<u32> {
     let mut order: Vec<usize> = (0..solids.len()).filter(|&i| solids[i].solid).collect();
     order.sort_by(|&a, &b| {
         let (sa, sb) = (&solids[a], &solids[b]);
-        sa.priority.cmp(&sb.priority).then(sb.size.total_cmp(&sa.size)).then(a.cmp(&b))
+        sa.priority.cmp(&sb.priority).then(sb.size().total_cmp(&sa.size())).then(a.cmp(&b))
     });
     let mut ranks = vec![0; solids.len()];
     for (rank, i) in order.into_iter().enumerate() {
@@ -204,15 +220,25 @@ mod tests {
 
     #[test]
     fn the_higher_priority_then_the_smaller_solid_holds_and_sheets_have_no_rank() {
-        let solid = |priority, size| Solid { solid: true, priority, size };
-        let glass = solid(0, 8.0);
-        let water = solid(0, 6.0);
-        let ice = solid(0, 0.1);
-        let pane = Solid { solid: false, priority: 9, size: 0.01 };
+        let cube = |side: f32| (Vec3::ZERO, Vec3::splat(side));
+        let solid = |priority, side| Solid { solid: true, priority, bounds: cube(side) };
+        let glass = solid(0, 2.0);
+        let water = solid(0, 1.8);
+        let ice = solid(0, 0.4);
+        let pane = Solid { solid: false, priority: 9, bounds: cube(0.2) };
         assert_eq!(ranks(&[glass, water, ice, pane]), [1, 2, 3, 0], "the smaller holds");
         let (glass, water) = (solid(1, 8.0), solid(0, 6.0));
         assert_eq!(ranks(&[glass, water]), [2, 1], "priority first");
         assert_eq!(ranks(&[solid(0, 1.0), solid(0, 1.0)]), [1, 2], "ties: the later");
+    }
+
+    #[test]
+    fn only_solids_whose_boxes_come_within_the_contact_distance_search_for_partners() {
+        let at = |x: f32, thin: bool| Solid { solid: !thin, priority: 0, bounds: (Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 1.0, 1.0)) };
+        let solids = [at(0.0, false), at(1.0005, false), at(3.0, false), at(4.0, true)];
+        let searching: Vec<bool> = (0..4).map(|i| has_neighbour(&solids, i, 0.001)).collect();
+        assert_eq!(searching, [true, true, false, false], "the pair 0.5 mm apart; a lone solid and a sheet never");
+        assert!(!has_neighbour(&solids, 0, 0.0), "contact 0 turns it off");
     }
 
     #[test]

@@ -33,6 +33,10 @@ where the image's sun puts them. 65536 light paths per pixel (with control varia
 `hdri_reference`); 632 s on a 2-core machine shared with a build (565 s of it the
 particle tracer, twice; 54 s the direct light, 8192 spp, twice).
 
+`resting` (`resting_scene`): the ball (r = 0.5 m) resting on the floor, touching it at the
+origin, under a vertical sun: its caustic converges under it, inside its shadow, and the floor
+between the caustic and the shadow's edge is dark (tests/contact.rs).
+
 `white_room` (`white_room_reference`): a closed white room (4 × 3 × 4 m, albedo 0.75) with a glass
 ball (r = 0.4 m, 0.2 m above the floor) under a spot of 300 cd pointing down past it, seen by a
 pinhole camera from a corner: the radiance of every pixel that sees a receiver directly (Mitsuba's
@@ -143,6 +147,17 @@ def the_ball():
 def ball_scene():
     s = under_the_sun(floor_and_camera())
     s["ball"] = the_ball()
+    return s
+
+
+# Shared with tests/contact.rs: the ball resting on the floor under a vertical sun.
+RESTING = dict(centre=[0.0, 0.5, 0.0], radius=0.5)
+
+
+def resting_scene():
+    s = floor_and_camera()
+    s["sun"] = {"type": "directional", "direction": [0.0, -1.0, 0.0], "irradiance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}
+    s["ball"] = {"type": "sphere", "center": RESTING["centre"], "radius": RESTING["radius"], "bsdf": glass()}
     return s
 
 
@@ -593,7 +608,7 @@ def white_room_reference(spp):
     return np.concatenate([img, mask[..., None]], axis=-1)
 
 
-SPP = {"ball": 16384, "facets": 16384, "bunny": 16384, "hdri": 65536, "white_room": 16384}
+SPP = {"ball": 16384, "facets": 16384, "bunny": 16384, "hdri": 65536, "white_room": 16384, "resting": 16384}
 
 
 def main():
@@ -601,7 +616,7 @@ def main():
     parser.add_argument("--spp", type=int, help=f"particle tracer samples per pixel (light paths / pixel; default {SPP})")
     parser.add_argument("--only", choices=list(SPP), help="render one reference")
     args = parser.parse_args()
-    scenes = {"ball": ball_scene, "facets": facets_scene, "bunny": bunny_scene}
+    scenes = {"ball": ball_scene, "facets": facets_scene, "bunny": bunny_scene, "resting": resting_scene}
     for name in [args.only] if args.only else SPP:
         spp = args.spp or SPP[name]
         started = time.time()

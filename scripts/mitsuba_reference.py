@@ -37,6 +37,10 @@ particle tracer, twice; 54 s the direct light, 8192 spp, twice).
 origin, under a vertical sun: its caustic converges under it, inside its shadow, and the floor
 between the caustic and the shadow's edge is dark (tests/contact.rs).
 
+`seen_through` (`seen_through_reference`): that resting ball on a grey floor (albedo 0.5) under a
+small spherical light (r = 5 cm, 2000 cd), seen from 45° by a pinhole camera: Mitsuba's path
+tracer's radiance, 64², with alpha marking the pixels that see the floor through the ball.
+
 `white_room` (`white_room_reference`): a closed white room (4 × 3 × 4 m, albedo 0.75) with a glass
 ball (r = 0.4 m, 0.2 m above the floor) under a spot of 300 cd pointing down past it, seen by a
 pinhole camera from a corner: the radiance of every pixel that sees a receiver directly (Mitsuba's
@@ -608,7 +612,58 @@ def white_room_reference(spp):
     return np.concatenate([img, mask[..., None]], axis=-1)
 
 
-SPP = {"ball": 16384, "facets": 16384, "bunny": 16384, "hdri": 65536, "white_room": 16384, "resting": 16384}
+# Shared with tests/contact.rs (`seen_through_scene`).
+THROUGH_FLOOR_ALBEDO = 0.5
+THROUGH_LIGHT = dict(position=[0.6, 2.2, -0.4], radius=0.05, candela=2000.0)
+THROUGH_CAMERA = dict(position=[0.0, 1.6, 1.6], target=[0.0, 0.3, 0.0], fov=36.0, pixels=64)
+
+
+def seen_through_scene():
+    light = THROUGH_LIGHT
+    # A sphere of radius r and radiance L has intensity L·πr² toward every direction.
+    radiance = light["candela"] / 683.0 / (math.pi * light["radius"] ** 2)
+    cam = THROUGH_CAMERA
+    return {
+        "type": "scene",
+        "floor": {
+            "type": "rectangle",
+            "to_world": mi.ScalarTransform4f.rotate([1, 0, 0], -90).scale(3.0),
+            "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [THROUGH_FLOOR_ALBEDO] * 3}},
+        },
+        "ball": {"type": "sphere", "center": RESTING["centre"], "radius": RESTING["radius"], "bsdf": glass()},
+        "bulb": {
+            "type": "sphere",
+            "center": light["position"],
+            "radius": light["radius"],
+            "emitter": {"type": "area", "radiance": {"type": "rgb", "value": [radiance] * 3}},
+        },
+        "sensor": {
+            "type": "perspective",
+            "fov": cam["fov"],
+            "fov_axis": "y",
+            "to_world": mi.ScalarTransform4f.look_at(origin=cam["position"], target=cam["target"], up=[0, 1, 0]),
+            "film": {"type": "hdrfilm", "width": cam["pixels"], "height": cam["pixels"], "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+            "sampler": {"type": "independent"},
+        },
+        "integrator": {"type": "path", "max_depth": 64, "hide_emitters": True},
+    }
+
+
+def seen_through_reference(spp):
+    """The resting ball (`RESTING`) on a grey floor under a small spherical light, seen from 45°:
+    the radiance of every pixel, by Mitsuba's path tracer (64 bounces: what the floor's direct,
+    caustic and bounced light look like through the glass), in W/m²/sr; alpha marks the pixels
+    whose centre ray meets the ball well inside its outline (radius × 0.95): the floor seen
+    through it."""
+    started = time.time()
+    img = np.array(mi.render(mi.load_dict(seen_through_scene()), spp=spp), dtype=np.float32)
+    print(f"  path tracer, {spp} spp: {time.time() - started:.0f} s")
+    through = 1.0 - ball_mask(THROUGH_CAMERA, RESTING, 0.95)
+    print(f"  mean radiance through the ball {img[through == 1].mean():.5f} W/m²/sr over {int(through.sum())} pixels")
+    return np.concatenate([img, through[..., None]], axis=-1)
+
+
+SPP = {"ball": 16384, "facets": 16384, "bunny": 16384, "hdri": 65536, "white_room": 16384, "resting": 16384, "seen_through": 65536}
 
 
 def main():
@@ -624,8 +679,8 @@ def main():
             write(name, hdri_reference(spp))
             print(f"  {name}: {time.time() - started:.0f} s")
             continue
-        if name == "white_room":
-            rgba = white_room_reference(spp)
+        if name in ("white_room", "seen_through"):
+            rgba = white_room_reference(spp) if name == "white_room" else seen_through_reference(spp)
             path = os.path.join(OUT, name + ".exr")
             mi.Bitmap(rgba, pixel_format=mi.Bitmap.PixelFormat.RGBA).write(path)
             print(f"wrote {path}  {name}: {time.time() - started:.0f} s")

@@ -561,6 +561,18 @@ def ball_mask(cam, ball, margin):
     return (disc < 0).astype(np.float32)
 
 
+def pinhole_sensor(cam):
+    """A Mitsuba camera that is refrakt's pinhole `cam` (vertical fov, square, box-filtered pixels)."""
+    return {
+        "type": "perspective",
+        "fov": cam["fov"],
+        "fov_axis": "y",
+        "to_world": mi.ScalarTransform4f.look_at(origin=cam["position"], target=cam["target"], up=[0, 1, 0]),
+        "film": {"type": "hdrfilm", "width": cam["pixels"], "height": cam["pixels"], "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+        "sampler": {"type": "independent"},
+    }
+
+
 def white_room_scene():
     lo, hi = np.array(ROOM["lo"]), np.array(ROOM["hi"])
     spot, cam = ROOM_SPOT, ROOM_CAMERA
@@ -582,14 +594,7 @@ def white_room_scene():
             "cutoff_angle": spot["angle"],
             "beam_width": spot["angle"] * (1 - spot["blend"]),
         },
-        "sensor": {
-            "type": "perspective",
-            "fov": cam["fov"],
-            "fov_axis": "y",
-            "to_world": mi.ScalarTransform4f.look_at(origin=cam["position"], target=cam["target"], up=[0, 1, 0]),
-            "film": {"type": "hdrfilm", "width": cam["pixels"], "height": cam["pixels"], "rfilter": {"type": "box"}, "pixel_format": "rgb"},
-            "sampler": {"type": "independent"},
-        },
+        "sensor": pinhole_sensor(cam),
         "integrator": {"type": "ptracer", "max_depth": 66, "hide_emitters": True, "samples_per_pass": 256},
     }
 
@@ -637,14 +642,7 @@ def seen_through_scene():
             "radius": light["radius"],
             "emitter": {"type": "area", "radiance": {"type": "rgb", "value": [radiance] * 3}},
         },
-        "sensor": {
-            "type": "perspective",
-            "fov": cam["fov"],
-            "fov_axis": "y",
-            "to_world": mi.ScalarTransform4f.look_at(origin=cam["position"], target=cam["target"], up=[0, 1, 0]),
-            "film": {"type": "hdrfilm", "width": cam["pixels"], "height": cam["pixels"], "rfilter": {"type": "box"}, "pixel_format": "rgb"},
-            "sampler": {"type": "independent"},
-        },
+        "sensor": pinhole_sensor(cam),
         "integrator": {"type": "path", "max_depth": 64, "hide_emitters": True},
     }
 

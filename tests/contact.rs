@@ -258,29 +258,11 @@ fn seen_through_scene() -> refrakt::frame::FrameDesc {
 /// under half the reference's radiance — half their samples see no light; not understood yet.)
 #[test]
 fn the_floor_seen_through_a_resting_ball_matches_mitsuba() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mitsuba/seen_through.exr");
-    let reference = refrakt::output::exr::read(&path).unwrap_or_else(|e| panic!("{}: {e:#}", path.display()));
     let n = 64usize;
-    assert_eq!((reference.width as usize, reference.height as usize), (n, n));
-    let reference = &reference.layers[0];
-    let exact: Vec<f32> = reference.data.chunks(4).map(|p| (p[0] + p[1] + p[2]) / 3.0).collect();
-    let through: Vec<bool> = reference.data.chunks(4).map(|p| p[3] > 0.5).collect();
+    let (exact, through) = masked_reference("seen_through", n);
     let image = shared_renderer().frame(&seen_through_scene()).unwrap();
     let got: Vec<f32> = image.layer("beauty").expect("beauty").data.chunks(4).map(|p| (p[0] + p[1] + p[2]) / 3.0).collect();
-    let mean = |img: &[f32]| img.iter().zip(&through).filter(|(_, c)| **c).map(|(v, _)| *v as f64).sum::<f64>() / through.iter().filter(|&&c| c).count() as f64;
-    let (mean_got, mean_exact) = (mean(&got), mean(&exact));
-    let (mut l1, mut total) = (0.0f64, 0.0f64);
-    for block in 0..(n / 8) * (n / 8) {
-        let (bx, by) = (block % (n / 8), block / (n / 8));
-        let pixels: Vec<usize> = (0..64).map(|k| (by * 8 + k / 8) * n + bx * 8 + k % 8).filter(|&i| through[i]).collect();
-        if pixels.len() < 32 {
-            continue;
-        }
-        let sum = |img: &[f32]| pixels.iter().map(|&i| img[i] as f64).sum::<f64>();
-        l1 += (sum(&got) - sum(&exact)).abs();
-        total += sum(&exact);
-    }
-    let l1 = l1 / total;
+    let (mean_got, mean_exact, l1) = masked_means_and_block_l1(&got, &exact, &through, n);
     eprintln!("the floor through a resting ball vs Mitsuba 3: mean radiance {mean_got:.5} vs {mean_exact:.5} ({:+.2} %); 8×8 blocks' relative L1 {l1:.4}", 100.0 * (mean_got / mean_exact - 1.0));
     let dark = (0..n * n).filter(|&i| through[i] && exact[i] > 0.05 && got[i] < 0.5 * exact[i]).count();
     eprintln!("pixels seen through the ball under half the reference's radiance: {dark} of {}", through.iter().filter(|&&c| c).count());

@@ -338,32 +338,12 @@ fn white_room_scene() -> refrakt::frame::FrameDesc {
 /// it (over 30 %).
 #[test]
 fn a_white_room_lit_by_a_spot_matches_mitsuba() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mitsuba/white_room.exr");
-    let reference = refrakt::output::exr::read(&path).unwrap_or_else(|e| panic!("{}: {e:#}", path.display()));
     let n = 64usize;
-    assert_eq!((reference.width as usize, reference.height as usize), (n, n));
-    let reference = &reference.layers[0];
-    let exact: Vec<f32> = reference.data.chunks(4).map(|p| (p[0] + p[1] + p[2]) / 3.0).collect();
-    let compared: Vec<bool> = reference.data.chunks(4).map(|p| p[3] > 0.5).collect();
+    let (exact, compared) = masked_reference("white_room", n);
     let image = shared_renderer().frame(&white_room_scene()).unwrap();
     let beauty = image.layer("beauty").expect("beauty");
     let got: Vec<f32> = beauty.data.chunks(4).map(|p| (p[0] + p[1] + p[2]) / 3.0).collect();
-    let mean = |img: &[f32]| img.iter().zip(&compared).filter(|(_, c)| **c).map(|(v, _)| *v as f64).sum::<f64>() / compared.iter().filter(|&&c| c).count() as f64;
-    let (mean_got, mean_exact) = (mean(&got), mean(&exact));
-    // 8×8 blocks of compared pixels (blocks with fewer than half their pixels compared are skipped).
-    let (mut l1, mut total) = (0.0f64, 0.0f64);
-    for by in 0..n / 8 {
-        for bx in 0..n / 8 {
-            let pixels: Vec<usize> = (0..64).map(|k| (by * 8 + k / 8) * n + bx * 8 + k % 8).filter(|&i| compared[i]).collect();
-            if pixels.len() < 32 {
-                continue;
-            }
-            let block = |img: &[f32]| pixels.iter().map(|&i| img[i] as f64).sum::<f64>();
-            l1 += (block(&got) - block(&exact)).abs();
-            total += block(&exact);
-        }
-    }
-    let l1 = l1 / total;
+    let (mean_got, mean_exact, l1) = masked_means_and_block_l1(&got, &exact, &compared, n);
     println!("white room vs Mitsuba 3: mean radiance {mean_got:.5} vs {mean_exact:.5} ({:+.2} %); 8×8 blocks' relative L1 {l1:.4}", 100.0 * (mean_got / mean_exact - 1.0));
     assert!((mean_got / mean_exact - 1.0).abs() < 0.02, "mean {mean_got} vs {mean_exact}");
     assert!(l1 < 0.04, "blocks' relative L1 {l1}");

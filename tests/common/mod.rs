@@ -107,3 +107,32 @@ pub fn chart(r: &refrakt::pipeline::Renderer, index: usize, slot: usize) -> (ref
 pub fn texel_centre(c: &refrakt::gpu::types::Chart, i: u32, j: u32) -> glam::Vec2 {
     glam::Vec2::from(c.origin) + (glam::Vec2::new(i as f32, j as f32) + 0.5) * c.texel
 }
+
+/// A Mitsuba reference of n × n pixels whose alpha marks the pixels to compare: each pixel's
+/// mean of r, g, b, and the mask.
+pub fn masked_reference(name: &str, n: usize) -> (Vec<f32>, Vec<bool>) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("tests/data/mitsuba/{name}.exr"));
+    let reference = refrakt::output::exr::read(&path).unwrap_or_else(|e| panic!("{}: {e:#}", path.display()));
+    assert_eq!((reference.width as usize, reference.height as usize), (n, n));
+    let rgba = &reference.layers[0].data;
+    (rgba.chunks(4).map(|p| (p[0] + p[1] + p[2]) / 3.0).collect(), rgba.chunks(4).map(|p| p[3] > 0.5).collect())
+}
+
+/// `got` against `exact` (n × n) over the `compared` pixels: both means, and the relative L1 of
+/// each 8×8 block's sum (blocks with fewer than half their pixels compared are skipped).
+pub fn masked_means_and_block_l1(got: &[f32], exact: &[f32], compared: &[bool], n: usize) -> (f64, f64, f64) {
+    let count = compared.iter().filter(|&&c| c).count() as f64;
+    let mean = |img: &[f32]| img.iter().zip(compared).filter(|(_, c)| **c).map(|(v, _)| *v as f64).sum::<f64>() / count;
+    let (mut l1, mut total) = (0.0f64, 0.0f64);
+    for block in 0..(n / 8) * (n / 8) {
+        let (bx, by) = (block % (n / 8), block / (n / 8));
+        let pixels: Vec<usize> = (0..64).map(|k| (by * 8 + k / 8) * n + bx * 8 + k % 8).filter(|&i| compared[i]).collect();
+        if pixels.len() < 32 {
+            continue;
+        }
+        let sum = |img: &[f32]| pixels.iter().map(|&i| img[i] as f64).sum::<f64>();
+        l1 += (sum(got) - sum(exact)).abs();
+        total += sum(exact);
+    }
+    (mean(got), mean(exact), l1 / total)
+}

@@ -9,7 +9,7 @@ use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 
 use refrakt::gltf::ImportOptions;
-use refrakt::output::{Format, Layers};
+use refrakt::output::{Format, LayerSet, Layers};
 use refrakt::output::png::{PngOptions, ToneMap};
 use refrakt::progress::ProgressMode;
 use refrakt::output::exr::{ExrCodec, ExrSettings};
@@ -241,6 +241,10 @@ struct FlowArgs {
     /// Store EXR colors as 16-bit half floats (depth stays 32-bit): half the size and time.
     #[arg(long)]
     exr_half: bool,
+    /// The EXR's layers: all, or some of beauty, depth, caustic, direct, volume, indirect (comma
+    /// separated): fewer make smaller files, written sooner.
+    #[arg(long, value_name = "all|LAYER,…", default_value = "all")]
+    layers: LayerSet,
     /// Frames on the GPU at once, each read back while the next ones render (1 to 4).
     #[arg(long, value_name = "N", default_value_t = 3, value_parser = |s: &str| parse_whole(s, 1, refrakt::pipeline::MAX_FRAMES_IN_FLIGHT as u32))]
     frames_in_flight: u32,
@@ -256,7 +260,7 @@ impl FlowArgs {
         FrameFlow {
             frames_in_flight: self.frames_in_flight as usize,
             writers: self.writers.map_or_else(refrakt::render::frames::default_writers, |w| w as usize),
-            exr: ExrSettings { codec: self.exr_compression, half: self.exr_half, parallel: false },
+            exr: ExrSettings { codec: self.exr_compression, half: self.exr_half, parallel: false, layers: self.layers },
             split: None,
         }
     }

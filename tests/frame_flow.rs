@@ -58,7 +58,7 @@ fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
 }
 
 fn flow(frames_in_flight: usize, writers: usize, codec: ExrCodec) -> FrameFlow {
-    FrameFlow { frames_in_flight, writers, exr: ExrSettings { codec, half: false, parallel: false }, split: None }
+    FrameFlow { frames_in_flight, writers, exr: ExrSettings { codec, half: false, parallel: false, layers: Default::default() }, split: None }
 }
 
 #[test]
@@ -171,7 +171,7 @@ fn every_lossless_exr_codec_reads_back_exactly_and_dwaa_close() {
     for codec in [ExrCodec::Zip, ExrCodec::Zips, ExrCodec::Piz, ExrCodec::Rle, ExrCodec::Dwaa, ExrCodec::None] {
         for half in [false, true] {
             let path = dir.path().join(format!("{codec:?}-{half}.exr"));
-            let settings = ExrSettings { codec, half, parallel: false };
+            let settings = ExrSettings { codec, half, parallel: false, layers: Default::default() };
             let bytes = refrakt::output::exr::encode(&image, settings).unwrap();
             // Compressing on all cores gives the same file.
             assert!(refrakt::output::exr::encode(&image, ExrSettings { parallel: true, ..settings }).unwrap() == bytes, "{codec:?}");
@@ -199,4 +199,40 @@ fn every_lossless_exr_codec_reads_back_exactly_and_dwaa_close() {
     // Half floats are smaller than full ones, and compression smaller than none.
     assert!(sizes[&("None".into(), true)] < sizes[&("None".into(), false)], "{sizes:?}");
     assert!(sizes[&("Zip".into(), false)] < sizes[&("None".into(), false)], "{sizes:?}");
+}
+
+/// `render --layers`: the EXR keeps the layers named and no others, each as the full frame has
+/// it; the beauty layer alone is all the GPU brings back.
+#[test]
+fn an_exr_keeps_only_the_layers_asked_for() {
+    let image = noisy_image();
+    let dir = tempfile::tempdir().unwrap();
+    for (codec, names) in [(ExrCodec::Zip, "caustic,beauty"), (ExrCodec::None, "depth"), (ExrCodec::Piz, "beauty , depth")] {
+        let settings = ExrSettings { codec, half: false, parallel: false, layers: names.parse().unwrap() };
+        let path = dir.path().join(format!("{codec:?}.exr"));
+        std::fs::write(&path, refrakt::output::exr::encode(&image, settings).unwrap()).unwrap();
+        let back = refrakt::output::exr::read(&path).unwrap();
+        let kept: Vec<&str> = back.layers.iter().map(|l| l.name.as_str()).collect();
+        let wanted: Vec<&str> = image.layers.iter().map(|l| l.name.as_str()).filter(|n| names.contains(n)).collect();
+        assert_eq!(kept.len(), wanted.len(), "{codec:?} {names}: {kept:?}");
+        for layer in &back.layers {
+            assert!(*layer == *image.layer(&layer.name).unwrap(), "{codec:?}: layer {} changed", layer.name);
+        }
+    }
+    let err = "beauty,albedo".parse::<refrakt::output::LayerSet>().unwrap_err();
+    assert!(err.contains("no layer \"albedo\"") && err.contains("indirect"), "{err}");
+
+    let (dir, scene) = write_script("ball.lua", ROLLING_BALL);
+    let render = |name: &str, layers: &str| {
+        let out = dir.path().join(name);
+        let mut flow = flow(2, 2, ExrCodec::Zip);
+        flow.exr.layers = layers.parse().unwrap();
+        refrakt::render::run(&scene, &RenderOptions { formats: vec![Format::Exr], ..options(&out, flow) }).unwrap();
+        refrakt::output::exr::read(&out.join("ball.0003.exr")).unwrap()
+    };
+    let all = render("all", "all");
+    let beauty = render("beauty", "beauty");
+    assert_eq!(all.layers.len(), refrakt::output::LAYER_NAMES.len());
+    assert_eq!(beauty.layers.len(), 1);
+    assert!(beauty.layers[0] == all.layers[0], "the beauty layer alone is the full frame's");
 }

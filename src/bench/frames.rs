@@ -29,7 +29,7 @@ struct Flow {
 /// The flows measured: the previous flow's shape (two frames in flight, one writer compressing
 /// each EXR on all cores), then the pipelined one with each EXR codec, half floats, and PNG alone.
 fn flows(quick: bool) -> Vec<Flow> {
-    let exr = |codec, half| ExrSettings { codec, half, parallel: false };
+    let exr = |codec, half| ExrSettings { codec, half, parallel: false, layers: Default::default() };
     let pipelined = |exr| FrameFlow { exr, ..FrameFlow::default() };
     let mut flows = vec![Flow {
         name: "exr zip, 2 in flight, 1 writer (as before)".into(),
@@ -146,7 +146,7 @@ fn encode_costs(scene: &std::path::Path, eval: &EvalOptions, opts: &BenchOptions
     let mut rows = Vec::new();
     for codec in [ExrCodec::None, ExrCodec::Rle, ExrCodec::Zips, ExrCodec::Zip, ExrCodec::Piz, ExrCodec::Dwaa] {
         for half in [false, true] {
-            let settings = ExrSettings { codec, half, parallel: false };
+            let settings = ExrSettings { codec, half, parallel: false, layers: Default::default() };
             let (ms, bytes) = time(&|| crate::output::exr::encode(&image, settings))?;
             rows.push(json!({ "format": "exr", "compression": codec_name(codec), "half": half, "encode_ms": ms, "mb": bytes as f64 / 1e6 }));
         }

@@ -11,9 +11,9 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use exr::prelude::*;
 
-use super::Image;
+use super::{Image, LayerSet};
 
-mod uncompressed;
+mod scanlines;
 
 /// An EXR codec (`--exr-compression`): the lossless ones every OpenEXR reader knows, and DWAA
 /// (lossy, for previews and dailies).
@@ -60,6 +60,8 @@ pub struct ExrSettings {
     /// Compress the blocks of one file on all cores (a still, a preview); off where frames are
     /// encoded side by side on a pool of their own ([`super::pool`]). The bytes are the same.
     pub parallel: bool,
+    /// The image's layers the file keeps (others are left out).
+    pub layers: LayerSet,
 }
 
 impl Default for ExrSettings {
@@ -71,8 +73,8 @@ impl Default for ExrSettings {
 impl From<super::ExrCompression> for ExrSettings {
     fn from(c: super::ExrCompression) -> Self {
         match c {
-            super::ExrCompression::Small => Self { codec: ExrCodec::Zip, half: false, parallel: true },
-            super::ExrCompression::Fast => Self { codec: ExrCodec::None, half: true, parallel: false },
+            super::ExrCompression::Small => Self { codec: ExrCodec::Zip, half: false, parallel: true, layers: LayerSet::default() },
+            super::ExrCompression::Fast => Self { codec: ExrCodec::None, half: true, parallel: false, layers: LayerSet::default() },
         }
     }
 }
@@ -91,10 +93,10 @@ pub fn channel_name(layer: &str, channel: &str) -> String {
     if layer == "beauty" { channel.to_string() } else { format!("{layer}.{channel}") }
 }
 
-/// The image's channels, planar, as `exr` takes them.
-fn channels(image: &Image, half: bool) -> Vec<AnyChannel<FlatSamples>> {
+/// The channels of the image's `layers`, planar, as `exr` takes them.
+fn channels(image: &Image, half: bool, layers: LayerSet) -> Vec<AnyChannel<FlatSamples>> {
     let mut channels = Vec::new();
-    for layer in &image.layers {
+    for layer in image.layers.iter().filter(|l| layers.contains(&l.name)) {
         let n = layer.channels.len();
         for (c, name) in layer.channels.iter().enumerate() {
             let values = layer.data.iter().skip(c).step_by(n).copied();
@@ -111,19 +113,23 @@ fn channels(image: &Image, half: bool) -> Vec<AnyChannel<FlatSamples>> {
 
 /// The EXR file of `image`, in memory.
 pub fn encode(image: &Image, settings: ExrSettings) -> Result<Vec<u8>> {
-    if settings.codec == ExrCodec::None {
-        return Ok(uncompressed::encode(image, settings.half));
-    }
-    encode_with_exr_crate(image, settings)
+    let codec = match settings.codec {
+        ExrCodec::None => scanlines::Codec::None,
+        ExrCodec::Zips => scanlines::Codec::Zips,
+        ExrCodec::Zip => scanlines::Codec::Zip,
+        ExrCodec::Piz | ExrCodec::Rle | ExrCodec::Dwaa => return encode_with_exr_crate(image, settings),
+    };
+    Ok(scanlines::encode(image, &settings, codec))
 }
 
-/// The EXR file of `image` as the `exr` crate writes it (every codec).
+/// The EXR file of `image` as the `exr` crate writes it (every codec; refrakt's own writer takes
+/// none, ZIPS and ZIP).
 fn encode_with_exr_crate(image: &Image, settings: ExrSettings) -> Result<Vec<u8>> {
     let size = (image.width as usize, image.height as usize);
     let attributes =
         LayerAttributes { software_name: Some(Text::from(SOFTWARE)), ..Default::default() };
     let encoding = Encoding { compression: settings.codec.compression(), blocks: Blocks::ScanLines, line_order: LineOrder::Increasing };
-    let channels = AnyChannels::sort(channels(image, settings.half).into());
+    let channels = AnyChannels::sort(channels(image, settings.half, settings.layers).into());
     let exr_image = exr::image::Image::from_layer(exr::image::Layer::new(size, attributes, encoding, channels));
     let mut bytes = Cursor::new(Vec::new());
     let written = if settings.parallel {

@@ -56,6 +56,51 @@ pub enum Layers {
     Beauty,
 }
 
+/// Every layer a frame has, in the order of its planes (`pipeline::resources::plane_layer`).
+pub const LAYER_NAMES: [&str; 6] = ["beauty", "depth", "caustic", "direct", "volume", "indirect"];
+
+/// The layers an EXR frame keeps (`render --layers`): all of them by default; fewer make smaller
+/// files, encoded sooner.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LayerSet(u8);
+
+impl Default for LayerSet {
+    fn default() -> Self {
+        Self((1 << LAYER_NAMES.len()) - 1)
+    }
+}
+
+impl LayerSet {
+    pub fn contains(self, layer: &str) -> bool {
+        LAYER_NAMES.iter().position(|n| *n == layer).is_some_and(|k| self.0 & (1 << k) != 0)
+    }
+
+    /// The layers the GPU must bring back for these: the beauty plane alone, or every plane.
+    pub fn readback(self) -> Layers {
+        if self.0 == 1 { Layers::Beauty } else { Layers::All }
+    }
+}
+
+impl std::str::FromStr for LayerSet {
+    type Err = String;
+
+    /// `all`, or layer names separated by commas (`beauty,depth,caustic`).
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s.trim() == "all" {
+            return Ok(Self::default());
+        }
+        let mut set = 0;
+        for name in s.split(',').map(str::trim) {
+            let k = LAYER_NAMES
+                .iter()
+                .position(|n| *n == name)
+                .ok_or_else(|| format!("no layer \"{name}\" (layers: all, or some of {})", LAYER_NAMES.join(", ")))?;
+            set |= 1 << k;
+        }
+        Ok(Self(set))
+    }
+}
+
 /// Output formats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Format {

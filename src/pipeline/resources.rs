@@ -10,7 +10,7 @@ use glam::UVec3;
 
 use crate::gpu::GpuContext;
 use crate::gpu::readback::{Mapped, Staging};
-use crate::output::{Image, Layer, Layers};
+use crate::output::{Image, LAYER_NAMES, Layer, Layers};
 use crate::scene::{EnvImage, Environment};
 
 use super::env_light::EnvLightTable;
@@ -293,7 +293,7 @@ impl EnvironmentTexture {
 
 /// Planes of vec4 per pixel the view stage writes: beauty, depth, caustic, direct, volume,
 /// indirect.
-pub const FRAME_PLANES: u64 = 6;
+pub const FRAME_PLANES: u64 = LAYER_NAMES.len() as u64;
 
 /// Where the view stage writes the image, and the staging buffer it comes home through. The
 /// planes lie one after another in one buffer, each bound on its own (a binding must start at a
@@ -468,22 +468,19 @@ impl FrameTarget {
     }
 }
 
-/// The layer of frame plane `k` (vec4 per pixel): beauty RGBA, depth, then the caustic, direct,
-/// volume and indirect (bounced) light (RGB).
+/// The layer of frame plane `k` (vec4 per pixel), named by [`LAYER_NAMES`]: beauty RGBA, depth,
+/// then the caustic, direct, volume and indirect (bounced) light (RGB).
 fn plane_layer(k: usize, plane: &[f32]) -> Layer {
-    // (flat_map's size hint is unknown, so reserve the exact length up front)
-    let rgb = |name: &str| {
-        let mut out = Vec::with_capacity(plane.len() / 4 * 3);
-        out.extend(plane.chunks_exact(4).flat_map(|c| [c[0], c[1], c[2]]));
-        Layer::new(name, &["R", "G", "B"], out)
-    };
+    let name = LAYER_NAMES[k];
     match k {
-        0 => Layer::new("beauty", &["R", "G", "B", "A"], plane.to_vec()),
-        1 => Layer::new("depth", &["Z"], plane.chunks_exact(4).map(|c| c[0]).collect()),
-        2 => rgb("caustic"),
-        3 => rgb("direct"),
-        4 => rgb("volume"),
-        _ => rgb("indirect"),
+        0 => Layer::new(name, &["R", "G", "B", "A"], plane.to_vec()),
+        1 => Layer::new(name, &["Z"], plane.chunks_exact(4).map(|c| c[0]).collect()),
+        _ => {
+            // (flat_map's size hint is unknown, so reserve the exact length up front)
+            let mut out = Vec::with_capacity(plane.len() / 4 * 3);
+            out.extend(plane.chunks_exact(4).flat_map(|c| [c[0], c[1], c[2]]));
+            Layer::new(name, &["R", "G", "B"], out)
+        }
     }
 }
 

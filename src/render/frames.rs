@@ -166,7 +166,7 @@ fn renderer_for(opts: &RenderOptions) -> Result<Renderer> {
     let mut renderer = Renderer::new(ctx)?;
     renderer.set_frames_in_flight(opts.flow.frames_in_flight)?;
     // PNG frames show the beauty pass: read the other layers back only for EXR.
-    renderer.layers = if opts.formats.contains(&Format::Exr) { Layers::All } else { Layers::Beauty };
+    renderer.layers = if opts.formats.contains(&Format::Exr) { opts.flow.exr.layers.readback() } else { Layers::Beauty };
     if opts.flow.split.is_some() {
         renderer.profiler.enable(&renderer.ctx);
     }

@@ -3,7 +3,9 @@ hooks adding refrakt's extras) and a Lua wrapper next to it that the user may ex
 
 import hashlib
 import json
+import math
 import os
+import re
 import struct
 import tempfile
 from dataclasses import dataclass
@@ -78,7 +80,9 @@ def gltf_options(scene):
     """Blender glTF exporter settings for refrakt: cameras, punctual lights in the standard
     photometric units (refrakt divides by 683 lm/W as Blender's importer does; area lights,
     which glTF lacks, go out as node extras in the same units), Y up, and one animation baked
-    from the scene's frame range, sampled every frame."""
+    from the scene's frame range, sampled every frame — with animated light power and colour,
+    spot cones, camera field of view and material factors as KHR_animation_pointer channels
+    (their light intensities put right by `fix_light_intensity_channels`)."""
     return dict(
         export_format="GLB",
         use_active_scene=True,
@@ -94,19 +98,71 @@ def gltf_options(scene):
         export_frame_range=True,
         export_force_sampling=True,
         export_frame_step=1,
+        export_pointer_animation=True,
     )
+
+
+LIGHT_INTENSITY = re.compile(r"^/extensions/KHR_lights_punctual/lights/(\d+)/intensity$")
+
+
+def _glb_chunks(data, path):
+    """(json, offset of the BIN chunk's data) of a .glb's bytes."""
+    magic, _version, _length = struct.unpack_from("<4sII", data, 0)
+    if magic != b"glTF":
+        raise ExportError(f"{path} is not a binary glTF file")
+    json_length, _ = struct.unpack_from("<I4s", data, 12)
+    doc = json.loads(data[20:20 + json_length])
+    bin_at = 20 + json_length
+    bin_length, bin_type = struct.unpack_from("<I4s", data, bin_at) if bin_at + 8 <= len(data) else (0, b"")
+    return doc, (bin_at + 8 if bin_type == b"BIN\0" and bin_length else None)
+
+
+def _float_accessor(doc, bin_data, index):
+    """(byte offset in the file, count) of a float accessor's tightly packed values."""
+    accessor = doc["accessors"][index]
+    view = doc["bufferViews"][accessor["bufferView"]]
+    width = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}[accessor["type"]]
+    if accessor.get("componentType") != 5126 or view.get("byteStride", 4 * width) != 4 * width:
+        raise ExportError(f"animation accessor {index} is not packed floats")
+    return bin_data + view.get("byteOffset", 0) + accessor.get("byteOffset", 0), accessor["count"] * width
+
+
+def fix_light_intensity_channels(path):
+    """Blender's exporter (4.5 and 5.0) writes an animated point or spot light's intensity as
+    watts × 683 — 4π times the candela of its static `intensity`, watts / 4π · 683 — and a
+    sun's as W/m², without the 683 lm/W of its static lux; both without the light's exposure.
+    Each such channel is put into the static value's units (`tests/blender/test_export.py`
+    compares them at every frame, and fails should an exporter fix this itself)."""
+    with open(path, "r+b") as f:
+        data = bytearray(f.read())
+        doc, bin_data = _glb_chunks(data, path)
+        if bin_data is None:
+            return
+        lights = doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
+        scaled = set()
+        for animation in doc.get("animations", []):
+            for channel in animation.get("channels", []):
+                pointer = channel["target"].get("extensions", {}).get("KHR_animation_pointer", {}).get("pointer", "")
+                match = LIGHT_INTENSITY.match(pointer)
+                output = animation["samplers"][channel["sampler"]]["output"]
+                if not match or output in scaled:
+                    continue
+                scaled.add(output)
+                light = lights[int(match.group(1))]
+                blender_light = bpy.data.lights.get(light.get("name", ""))
+                exposure = 2.0 ** blender_light.exposure if blender_light is not None else 1.0
+                factor = (683.0 if light.get("type") == "directional" else 1.0 / (4 * math.pi)) * exposure
+                at, n = _float_accessor(doc, bin_data, output)
+                values = struct.unpack_from(f"<{n}f", data, at)
+                struct.pack_into(f"<{n}f", data, at, *(v * factor for v in values))
+        f.seek(0)
+        f.write(data)
 
 
 def read_glb_json(path):
     """The JSON chunk of a .glb file."""
     with open(path, "rb") as f:
-        magic, _version, _length = struct.unpack("<4sII", f.read(12))
-        if magic != b"glTF":
-            raise ExportError(f"{path} is not a binary glTF file")
-        chunk_length, chunk_type = struct.unpack("<I4s", f.read(8))
-        if chunk_type != b"JSON":
-            raise ExportError(f"{path} does not start with a JSON chunk")
-        return json.loads(f.read(chunk_length))
+        return _glb_chunks(f.read(), path)[0]
 
 
 def export(context, target=None):
@@ -126,6 +182,7 @@ def export(context, target=None):
         if gltf_hooks.failures:
             raise ExportError("refrakt's glTF export hook failed (a bug in the add-on, please report it): "
                               + "; ".join(gltf_hooks.failures))
+        fix_light_intensity_channels(tmp)
         data = read_glb_json(tmp)
         if not any("refrakt" in (s.get("extras") or {}) for s in data.get("scenes", [])):
             raise ExportError(

@@ -1,8 +1,10 @@
 """The export operator: what the .glb says (checked with an independent glTF evaluator against
 Blender's own data) and the Lua wrapper next to it."""
 
+import json
 import math
 import os
+import subprocess
 import tempfile
 
 import bpy
@@ -79,6 +81,66 @@ def test_lights_camera_and_glass(addon, saved_blend):
     assert transmitted == pytest.approx([math.exp(-s) for s in sigma], rel=1e-6)
     for name in ("KHR_materials_ior", "KHR_materials_transmission", "KHR_materials_volume", "KHR_lights_punctual"):
         assert name in gltf.json["extensionsUsed"]
+
+
+def pointer_channel(gltf, pointer):
+    """The sampler of the channel aimed at `pointer` (KHR_animation_pointer)."""
+    for anim in gltf.json.get("animations", []):
+        for channel in anim["channels"]:
+            if channel["target"].get("extensions", {}).get("KHR_animation_pointer", {}).get("pointer") == pointer:
+                return anim["samplers"][channel["sampler"]]
+    raise AssertionError(f"no channel aims at {pointer}")
+
+
+def test_animated_light_power_and_colour_reach_the_gltf_in_its_units(addon, saved_blend, real_refrakt):
+    """A point light's power, a sun's strength, a light's colour and a camera's focal length keyed
+    over the frames go out
+    as KHR_animation_pointer channels that say, at every frame, what a still export of that
+    frame says (W / 4π · 683 cd, W/m² · 683 lux); Blender 4.5's own channels were 4π (point)
+    and 1/683 (sun) off. (The still `intensity` is the first frame's: the exporter gathers it
+    while sampling the range.) refrakt reads them back as the power Blender has at each frame."""
+    scene = scenes.round_trip_scene()
+    scene.frame_start, scene.frame_end = 1, 5
+    point = bpy.data.lights.new("Bulb", "POINT")
+    bpy.context.collection.objects.link(bpy.data.objects.new("Bulb", point))
+    sun = bpy.data.objects["Sun"].data
+    for frame, watts, strength, green in ((1, 100.0, 2.0, 1.0), (5, 400.0, 6.0, 0.25)):
+        point.energy, sun.energy, point.color = watts, strength, (1.0, green, 0.5)
+        for prop in ("energy", "color"):
+            point.keyframe_insert(prop, frame=frame)
+        sun.keyframe_insert("energy", frame=frame)
+        camera = bpy.data.objects["Camera"]
+        camera.data.lens = 50.0 if frame == 1 else 25.0
+        camera.data.keyframe_insert("lens", frame=frame)
+    scene.frame_set(3)
+    paths, gltf = export(saved_blend)
+    assert scene.frame_current == 3, "exporting leaves the current frame as it was"
+    fps = scene.render.fps / scene.render.fps_base
+    lights = gltf.json["extensions"]["KHR_lights_punctual"]["lights"]
+    index = {name: gltf.node(name)["extensions"]["KHR_lights_punctual"]["light"] for name in ("Bulb", "Sun")}
+    channel = {name: pointer_channel(gltf, f"/extensions/KHR_lights_punctual/lights/{i}/intensity") for name, i in index.items()}
+    colour = pointer_channel(gltf, f"/extensions/KHR_lights_punctual/lights/{index['Bulb']}/color")
+    yfov = pointer_channel(gltf, f"/cameras/{gltf.node('Camera')['camera']}/perspective/yfov")
+    powers = []
+    for frame in range(1, 6):
+        scene.frame_set(frame)
+        t = frame / fps
+        powers.append(point.energy)
+        assert gltf._sample(channel["Bulb"], t)[0] == pytest.approx(point.energy / (4 * math.pi) * 683, rel=1e-4), frame
+        assert gltf._sample(channel["Sun"], t)[0] == pytest.approx(sun.energy * 683, rel=1e-4), frame
+        assert gltf._sample(colour, t) == pytest.approx(list(point.color), abs=1e-5), frame
+        assert gltf._sample(yfov, t)[0] == pytest.approx(scenes.camera_fov_y(camera, scene), rel=1e-4), frame
+    assert powers[0] == pytest.approx(100.0) and powers[-1] == pytest.approx(400.0), "the power really changes"
+    assert lights[index["Bulb"]]["intensity"] == pytest.approx(min(powers) / (4 * math.pi) * 683, rel=1e-5)
+    done = subprocess.run([real_refrakt, "dump", paths.glb, "--frames", "1..5", "--fps", str(fps), "--size", "32x18"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    for doc in map(json.loads, done.stdout.splitlines()):
+        scene.frame_set(doc["frame"])
+        bulb = next(light for light in doc["lights"] if light["node"] == "Bulb")
+        # radiant intensity, W/sr, times the colour: P / 4π for a point light.
+        want = [c * point.energy / (4 * math.pi) for c in point.color]
+        assert bulb["radiant"] == pytest.approx(want, rel=1e-4), doc["frame"]
 
 
 def test_an_object_without_a_material_keeps_cycles_default_surface(addon, saved_blend):

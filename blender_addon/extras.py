@@ -264,6 +264,33 @@ def node_extras(obj, scene, warnings=None):
     return out
 
 
+# --- cameras -------------------------------------------------------------------------------
+
+def camera_extras(camera, scene, warnings):
+    """A camera's depth of field as refrakt's thin lens, the way Cycles sets its up: the
+    aperture's diameter is the focal length over the f-stop, the plane in focus at the *Focus
+    Distance* or — with a *Focus Object* — at that object's distance along the view (from the
+    first camera object using this camera, at the exported frame). None without depth of field
+    (and for orthographic cameras, which refrakt keeps sharp)."""
+    dof = camera.dof
+    if not dof.use_dof or camera.type != "PERSP":
+        return None
+    out = {"aperture": camera.lens * 1e-3 / dof.aperture_fstop, "focus": dof.focus_distance}
+    if dof.focus_object is not None:
+        holder = next((o for o in scene.objects if o.data == camera), None)
+        if holder is not None:
+            view = holder.matrix_world.to_3x3() @ Vector((0.0, 0.0, -1.0))
+            target = dof.focus_object.matrix_world.translation - holder.matrix_world.translation
+            out["focus"] = max(target.dot(view.normalized()), 1e-3)
+    if dof.aperture_blades >= 3:
+        out["blades"] = dof.aperture_blades
+        out["blade_rotation"] = math.degrees(dof.aperture_rotation)
+    if abs(dof.aperture_ratio - 1.0) > 1e-6:
+        warnings.add(f"Camera '{camera.name}': its aperture ratio {dof.aperture_ratio:g} (anamorphic bokeh) is not carried; "
+                     "refrakt's aperture is round or a regular polygon")
+    return out
+
+
 # --- scene ---------------------------------------------------------------------------------
 
 def _world_box(obj):

@@ -67,6 +67,10 @@ class RefraktGltfExtension:
             _set_refrakt_extras(gltf2_node, extras.node_extras(blender_object, bpy.context.scene, warnings))
 
     @_guarded
+    def gather_camera_hook(self, gltf2_camera, blender_camera, export_settings):
+        _set_refrakt_extras(gltf2_camera, extras.camera_extras(blender_camera, bpy.context.scene, warnings))
+
+    @_guarded
     def gather_mesh_hook(self, gltf2_mesh, blender_mesh, blender_object, vertex_groups, modifiers, materials, export_settings):
         # A face without a material is shaded by Cycles with its default surface, a diffuse BSDF
         # of colour 0.8. glTF's default material (spec §3.9.6) is a rough metal instead, which

@@ -126,6 +126,53 @@ fn camera_origin(pixel: vec2<f32>) -> vec3<f32> {
     return cam.position + ndc.x * cam.right + ndc.y * cam.up;
 }
 
+// A point of the aperture (metres along the camera's right and up) for a uniform u: on the disc
+// by Shirley and Chiu's concentric map, or on the regular polygon of `blades` corners, a corner's
+// triangle chosen by u.x — CameraDesc::aperture_point.
+fn aperture_point(u: vec2<f32>) -> vec2<f32> {
+    let cam = params.camera;
+    if cam.blades >= 3u {
+        let n = f32(cam.blades);
+        let corner = min(floor(u.x * n), n - 1.0);
+        var ab = vec2<f32>(u.x * n - corner, u.y);
+        if ab.x + ab.y > 1.0 {
+            ab = 1.0 - ab;
+        }
+        let a0 = cam.blade_rotation + TAU * corner / n;
+        let a1 = cam.blade_rotation + TAU * (corner + 1.0) / n;
+        return cam.lens_radius * (ab.x * vec2<f32>(cos(a0), sin(a0)) + ab.y * vec2<f32>(cos(a1), sin(a1)));
+    }
+    let p = 2.0 * u - 1.0;
+    if p.x == 0.0 && p.y == 0.0 {
+        return vec2<f32>(0.0);
+    }
+    var r = p.y;
+    var theta = 0.5 * PI - 0.25 * PI * (p.x / p.y);
+    if abs(p.x) > abs(p.y) {
+        r = p.x;
+        theta = 0.25 * PI * (p.y / p.x);
+    }
+    return cam.lens_radius * r * vec2<f32>(cos(theta), sin(theta));
+}
+
+// The camera ray of sample k through a point of the image: the pinhole's, or a thin lens's
+// (pbrt-v4 §5.2.3) leaving a random point of the aperture toward where the pinhole ray meets
+// the plane in focus — CameraDesc::lens_ray_through. (The aperture point is a pure function
+// of the pixel and the sample: no flicker between frames.)
+fn camera_ray_through_lens(pixel: vec2<f32>, k: u32) -> array<vec3<f32>, 2> {
+    let cam = params.camera;
+    let origin = camera_origin(pixel);
+    let dir = camera_ray(pixel);
+    if cam.lens_radius <= 0.0 {
+        return array<vec3<f32>, 2>(origin, dir);
+    }
+    let u = vec2<f32>(random01(0x1e35a7bdu, pixel_key, 2u * k), random01(0x1e35a7bdu, pixel_key, 2u * k + 1u));
+    let lens = aperture_point(u);
+    let in_focus = origin + dir * (cam.focus_distance / dot(dir, cam.forward));
+    let start = origin + lens.x * cam.right + lens.y * cam.up;
+    return array<vec3<f32>, 2>(start, normalize(in_focus - start));
+}
+
 fn has(flag: u32) -> bool {
     return (params.flags & flag) != 0u;
 }
@@ -838,12 +885,12 @@ fn spectral_sample(s: ViewSample) -> ViewSample {
 }
 
 fn trace_view(pixel: vec2<f32>, k: u32, j: u32) -> ViewSample {
-    let dir0 = camera_ray(pixel);
+    let ray = camera_ray_through_lens(pixel, k);
     sample_wavelength_of(k, j);
     var out = no_light();
     var stack: array<Branch, BRANCH_STACK>;
     var top = 0u;
-    var branch = Branch(camera_origin(pixel), dir0, vec3<f32>(1.0), media_unpacked(vec2<u32>(params.camera_media_lo, params.camera_media_hi)), 0u, 1u);
+    var branch = Branch(ray[0], ray[1], vec3<f32>(1.0), media_unpacked(vec2<u32>(params.camera_media_lo, params.camera_media_hi)), 0u, 1u);
     // (One call site: the branch tracer is the pass's largest function.)
     loop {
         trace_branch(&out, branch, &stack, &top, k);

@@ -91,6 +91,7 @@ pub fn frame_json(scene: &Scene, desc: &FrameDesc, frame: Option<i64>) -> Result
             "yfov": c.fov_y,
             "orthographic": c.orthographic,
             "size": [c.width, c.height],
+            "lens": { "aperture": c.aperture, "focus": c.focus, "blades": c.blades, "blade_rotation": c.blade_rotation.to_degrees() },
         },
         "cameras": cameras,
         "lights": lights,

@@ -22,6 +22,14 @@ pub struct CameraDesc {
     /// Orthographic: the view's height in metres (its rays parallel to `forward`, starting on
     /// the plane through `position`); `None`: a pinhole.
     pub orthographic: Option<f32>,
+    /// A thin lens ([`crate::scene::Lens`]): the aperture's diameter (0: a pinhole), metres …
+    pub aperture: f32,
+    /// … the distance along the view to the plane in focus, metres …
+    pub focus: f32,
+    /// … and the diaphragm: a regular polygon of `blades` corners (0: round) turned by
+    /// `blade_rotation` radians.
+    pub blades: u32,
+    pub blade_rotation: f32,
 }
 
 impl CameraDesc {
@@ -40,8 +48,34 @@ impl CameraDesc {
             up: up.into(),
             ortho_half_height: self.orthographic.map_or(0.0, |h| 0.5 * h),
             forward: self.forward().into(),
+            lens_radius: if self.orthographic.is_some() { 0.0 } else { 0.5 * self.aperture },
+            focus_distance: self.focus,
+            blades: self.blades,
+            blade_rotation: self.blade_rotation,
             ..Default::default()
         }
+    }
+
+    /// A point of the aperture for a uniform `u` in [0, 1)², in metres along the camera's right
+    /// and up from its centre: uniform over the disc (Shirley and Chiu's concentric map keeps
+    /// strata apart) or over the regular polygon of `blades` corners — the CPU twin of
+    /// view.wgsl's `aperture_point`.
+    pub fn aperture_point(&self, u: glam::Vec2) -> glam::Vec2 {
+        aperture_point(u, 0.5 * self.aperture, self.blades, self.blade_rotation)
+    }
+
+    /// The thin-lens camera ray through a point of the image leaving aperture point `lens`
+    /// (metres, [`Self::aperture_point`]): (origin, unit direction). Every such ray of a pixel
+    /// passes through the point the pinhole ray meets on the plane in focus — the CPU twin of
+    /// view.wgsl's `camera_ray_through_lens`.
+    pub fn lens_ray_through(&self, pixel: glam::Vec2, lens: glam::Vec2) -> (Vec3, Vec3) {
+        let (origin, dir) = (self.origin_through(pixel), self.ray_through(pixel));
+        if self.orthographic.is_some() || self.aperture <= 0.0 {
+            return (origin, dir);
+        }
+        let in_focus = origin + dir * (self.focus / dir.dot(self.forward()));
+        let start = origin + lens.x * (self.orientation * Vec3::X) + lens.y * (self.orientation * Vec3::Y);
+        (start, (in_focus - start).normalize())
     }
 
     /// The angle (radians) one pixel spans at the image's centre: the cone a camera ray
@@ -87,6 +121,30 @@ impl CameraDesc {
         let (nx, ny) = (nx * t, ny * t);
         (self.forward() + nx * (self.orientation * Vec3::X) + ny * (self.orientation * Vec3::Y)).normalize()
     }
+}
+
+/// A point of an aperture of `radius` for a uniform `u` in [0, 1)²: on the disc by Shirley and
+/// Chiu's concentric map, or on the regular polygon of `blades` (≥ 3) corners on that circle,
+/// turned by `rotation` — a corner's triangle chosen by `u.x`, a point of it uniformly.
+pub fn aperture_point(u: glam::Vec2, radius: f32, blades: u32, rotation: f32) -> glam::Vec2 {
+    use std::f32::consts::{FRAC_PI_4, TAU};
+    if blades >= 3 {
+        let n = blades as f32;
+        let scaled = u.x * n;
+        let corner = scaled.floor().min(n - 1.0);
+        let (mut a, mut b) = (scaled - corner, u.y);
+        if a + b > 1.0 {
+            (a, b) = (1.0 - a, 1.0 - b);
+        }
+        let at = |k: f32| glam::Vec2::from_angle(rotation + TAU * k / n);
+        return radius * (a * at(corner) + b * at(corner + 1.0));
+    }
+    let p = 2.0 * u - glam::Vec2::ONE;
+    if p == glam::Vec2::ZERO {
+        return glam::Vec2::ZERO;
+    }
+    let (r, theta) = if p.x.abs() > p.y.abs() { (p.x, FRAC_PI_4 * (p.y / p.x)) } else { (p.y, 2.0 * FRAC_PI_4 - FRAC_PI_4 * (p.x / p.y)) };
+    radius * r * glam::Vec2::from_angle(theta)
 }
 
 /// The voxel volume: an axis-aligned box of cubic voxels.
@@ -466,5 +524,63 @@ impl FrameDesc {
 fn share_if_equal<T: PartialEq>(value: &mut Arc<T>, candidates: &[&Arc<T>]) {
     if let Some(same) = candidates.iter().find(|c| Arc::ptr_eq(c, value) || c.as_ref() == value.as_ref()) {
         *value = Arc::clone(same);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec2;
+    use std::f32::consts::TAU;
+
+    /// A 64×64 grid of uniform numbers.
+    fn grid() -> impl Iterator<Item = Vec2> {
+        (0..64 * 64).map(|i| Vec2::new((i % 64) as f32 + 0.5, (i / 64) as f32 + 0.5) / 64.0)
+    }
+
+    /// Aperture points cover the disc or polygon uniformly: none outside, and the mean squared
+    /// distance from the centre that of a uniform disc (R²/2) or regular n-gon
+    /// (R²·(2 + cos 2π/n)/6).
+    #[test]
+    fn aperture_points_are_uniform_over_the_disc_and_the_polygon() {
+        let r = 0.7f32;
+        for (blades, expected) in [(0u32, 0.5f32), (3, (2.0 + (TAU / 3.0).cos()) / 6.0), (6, (2.0 + (TAU / 6.0).cos()) / 6.0)] {
+            let points: Vec<Vec2> = grid().map(|u| aperture_point(u, r, blades, 0.3)).collect();
+            let mean_r2 = points.iter().map(|p| p.length_squared()).sum::<f32>() / points.len() as f32;
+            assert!((mean_r2 / (expected * r * r) - 1.0).abs() < 0.01, "{blades} blades: mean r² {mean_r2}");
+            assert!(points.iter().all(|p| p.length() <= r * 1.0001), "{blades} blades: a point outside the aperture");
+            let centroid = points.iter().copied().sum::<Vec2>() / points.len() as f32;
+            assert!(centroid.length() < 0.01 * r, "{blades} blades: centroid {centroid}");
+        }
+    }
+
+    /// Every thin-lens ray of a pixel passes through the point the pinhole ray meets on the plane
+    /// in focus; with no aperture the ray is the pinhole's.
+    #[test]
+    fn a_pixels_lens_rays_meet_on_the_plane_in_focus() {
+        let camera = CameraDesc {
+            position: Vec3::new(0.3, 1.0, 2.0),
+            orientation: glam::Quat::from_rotation_y(0.4) * glam::Quat::from_rotation_x(-0.2),
+            fov_y: 0.7,
+            width: 40,
+            height: 30,
+            orthographic: None,
+            aperture: 0.2,
+            focus: 3.0,
+            blades: 0,
+            blade_rotation: 0.0,
+        };
+        let pixel = Vec2::new(7.3, 21.6);
+        let pinhole = camera.ray_through(pixel);
+        let in_focus = camera.position + pinhole * (camera.focus / pinhole.dot(camera.forward()));
+        for u in grid().step_by(97) {
+            let (origin, dir) = camera.lens_ray_through(pixel, camera.aperture_point(u));
+            assert!((dir.length() - 1.0).abs() < 1e-5);
+            let t = (in_focus - origin).dot(camera.forward()) / dir.dot(camera.forward());
+            assert!((origin + t * dir - in_focus).length() < 1e-4, "a lens ray misses the point in focus");
+            assert!((origin - camera.position).dot(camera.forward()).abs() < 1e-6, "the aperture lies across the view");
+        }
+        let pinhole_camera = CameraDesc { aperture: 0.0, ..camera };
+        assert_eq!(pinhole_camera.lens_ray_through(pixel, Vec2::new(0.05, 0.0)), (camera.position, pinhole));
     }
 }

@@ -146,6 +146,24 @@ fn helper_errors_name_the_line_and_argument() {
     assert_error("r.slerp(r.euler{0, 0, 0}, \"up\", 0.5)", &["scene.lua:3:", "refrakt.slerp.b must be Euler angles"]);
     assert_error("r.glass{ color = {1.5, 0.5, 0.5} }", &["scene.lua:3:", "glass.color must have components in (0, 1]"]);
     assert_error("r.glass{ color = {0, 0.5, 0.5}, distance = 0.1 }", &["scene.lua:3:", "glass.color must have components in (0, 1]"]);
+    assert_error("r.camera{ aperture = -0.1 }", &["scene.lua:3:", "camera.aperture"]);
+    assert_error("r.camera{ blades = 2 }", &["scene.lua:3:", "camera.blades must be 0 (a round aperture) or a whole number from 3 to 64"]);
+    assert_error("r.camera{ focus = 0 }", &["scene.lua:3:", "camera.focus"]);
+}
+
+/// A camera's thin lens: set and read back, the focus defaulting to the target's distance.
+#[test]
+fn a_camera_lens_reads_back_and_focuses_on_its_target_by_default() {
+    let desc = frame_from_lua(
+        r#"local r = require("refrakt")
+        local cam = r.camera{ position = {0, 0, 4}, target = {0, 0, 1}, aperture = 0.02, blades = 7, blade_rotation = 10 }
+        assert(cam.aperture == 0.02 and cam.blades == 7 and math.abs(cam.blade_rotation - 10) < 1e-4, "fields read back")
+        assert(math.abs(cam.focus - 3) < 1e-6, "focus defaults to the target's distance: " .. cam.focus)
+        cam.focus = 1.5
+        assert(cam.focus == 1.5)
+        return r.scene{ camera = cam }"#,
+    );
+    assert_eq!((desc.camera.aperture, desc.camera.focus, desc.camera.blades), (0.02, 1.5, 7));
 }
 
 #[test]

@@ -19,6 +19,12 @@ struct Camera {
     // Half the view's height of an orthographic camera (metres); 0: a pinhole.
     ortho_half_height: f32,
     forward: vec3<f32>,
+    // A thin lens: aperture radius (0: a pinhole), distance to the plane in focus (metres),
+    // corners of the polygonal aperture (0: round) and its turn (radians).
+    lens_radius: f32,
+    focus_distance: f32,
+    blades: u32,
+    blade_rotation: f32,
     _pad1: f32,
 }
 

@@ -5,7 +5,8 @@
 //! - `nodes[i].extras.refrakt`: an analytic index field instead of the node's mesh, or
 //!   `{"role": "ignore"}`; `light_radius` for the node's point or spot light; `light`, an area
 //!   light KHR_lights_punctual has no type for (a `rect`: Blender's area lights);
-//! - `materials[i].extras.refrakt`: absorption, scattering, g and boundary of the medium.
+//! - `materials[i].extras.refrakt`: absorption, scattering, g and boundary of the medium;
+//! - `cameras[i].extras.refrakt`: a thin lens (aperture, focus, blades, blade_rotation).
 //!
 //! Unknown keys are skipped with a warning (a newer add-on may write more); values out of
 //! range are errors naming the object and key.
@@ -275,6 +276,37 @@ fn node_role(n: NodeExtras, file: &str, what: &str) -> Result<Option<NodeRole>> 
 
 // ---------------------------------------------------------------------------------------------
 // Materials.
+
+// ---------------------------------------------------------------------------------------------
+// Cameras.
+
+/// A camera's thin lens, as Lua's `r.camera{ aperture, focus, blades, blade_rotation }` (metres,
+/// metres, a count, degrees).
+#[derive(Debug, Default, Deserialize)]
+#[serde(default)]
+pub struct LensExtras {
+    pub aperture: Option<f32>,
+    pub focus: Option<f32>,
+    pub blades: Option<u32>,
+    pub blade_rotation: Option<f32>,
+}
+
+const CAMERA_KEYS: &[&str] = &["aperture", "focus", "blades", "blade_rotation"];
+
+/// The thin lens of glTF camera `camera` from its extras (a pinhole where there are none).
+pub fn lens(camera: &gltf::Camera, file: &str, what: &str, warnings: &mut Collector) -> Result<crate::scene::Lens> {
+    let mut lens = crate::scene::Lens::default();
+    let Some(e) = refrakt_object::<LensExtras>(camera.extras(), file, what, CAMERA_KEYS, warnings)? else { return Ok(lens) };
+    check(e.aperture.is_none_or(|a| (0.0..=100.0).contains(&a)), file, what, "aperture", "a diameter from 0 to 100 (metres)")?;
+    check(e.focus.is_none_or(|f| f.is_finite() && f > 0.0), file, what, "focus", "a distance > 0 (metres)")?;
+    check(e.blades.is_none_or(|b| b == 0 || (3..=64).contains(&b)), file, what, "blades", "0 (round) or 3 to 64")?;
+    check(e.blade_rotation.is_none_or(f32::is_finite), file, what, "blade_rotation", "an angle in degrees")?;
+    lens.aperture = e.aperture.unwrap_or(0.0);
+    lens.focus = e.focus;
+    lens.blades = e.blades.unwrap_or(0);
+    lens.blade_rotation = e.blade_rotation.unwrap_or(0.0).to_radians();
+    Ok(lens)
+}
 
 #[derive(Debug, Default, Deserialize)]
 #[serde(default)]

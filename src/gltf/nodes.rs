@@ -121,7 +121,7 @@ impl<'a> Builder<'a, '_> {
         let node = shared(node);
         self.graph.nodes[g.index()] = Rc::downgrade(&node);
         if role != Some(NodeRole::Ignore) {
-            self.camera(g, &node, &what);
+            self.camera(g, &node, &what)?;
             self.light(g, &node, settings.light_radius, settings.rect)?;
             match role {
                 Some(NodeRole::Field(f)) => self.field(g, &node, &f)?,
@@ -135,8 +135,9 @@ impl<'a> Builder<'a, '_> {
         Ok(node)
     }
 
-    fn camera(&mut self, g: &gltf::Node, node: &Shared<Node>, what: &str) {
-        let Some(cam) = g.camera() else { return };
+    fn camera(&mut self, g: &gltf::Node, node: &Shared<Node>, what: &str) -> Result<()> {
+        let Some(cam) = g.camera() else { return Ok(()) };
+        let lens = extras::lens(&cam, self.file(), &format!("cameras[{}]{}", cam.index(), mesh::quoted(cam.name())), self.warnings)?;
         match cam.projection() {
             gltf::camera::Projection::Perspective(p) => {
                 let size = match p.aspect_ratio() {
@@ -146,22 +147,23 @@ impl<'a> Builder<'a, '_> {
                 let fov_y = p.yfov();
                 if !(fov_y > 0.0 && fov_y < std::f32::consts::PI) {
                     self.warnings.about(format!("{what} (yfov {fov_y})"), "its camera's yfov is not an angle in (0, π); the camera is skipped");
-                    return;
+                    return Ok(());
                 }
-                self.place_camera(&cam, node, Camera { fov_y, size, ..Camera::default() });
+                self.place_camera(&cam, node, Camera { fov_y, size, lens, ..Camera::default() });
             }
             // §3.10.3: xmag and ymag are half the view's width and height.
             gltf::camera::Projection::Orthographic(o) => {
                 let (xmag, ymag) = (o.xmag(), o.ymag());
                 if !(xmag.is_finite() && ymag.is_finite() && xmag != 0.0 && ymag != 0.0) {
                     self.warnings.about(format!("{what} (xmag {xmag}, ymag {ymag})"), "its orthographic camera's xmag and ymag must be finite and non-zero; the camera is skipped");
-                    return;
+                    return Ok(());
                 }
                 let aspect = (xmag / ymag).abs();
                 let size = (((DEFAULT_HEIGHT as f32 * aspect).round() as u32).clamp(1, 16384), DEFAULT_HEIGHT);
                 self.place_camera(&cam, node, Camera { size, orthographic: Some(2.0 * ymag.abs()), ..Camera::default() });
             }
         }
+        Ok(())
     }
 
     /// Puts the camera made of glTF camera `cam` on `node`, noted for animation pointers.

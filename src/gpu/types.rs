@@ -41,7 +41,8 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// A pinhole camera: an orthonormal basis and the tangent of half the vertical field of view.
+    /// A camera: an orthonormal basis, the tangent of half the vertical field of view, and a thin
+    /// lens (a pinhole where its radius is 0).
     pub struct Camera {
         pub position: [f32; 3],
         pub tan_half_fov: f32,
@@ -51,6 +52,13 @@ gpu_struct! {
         /// Half the view's height (metres) of an orthographic camera; 0: a pinhole.
         pub ortho_half_height: f32,
         pub forward: [f32; 3],
+        /// A thin lens's aperture radius, metres; 0: a pinhole.
+        pub lens_radius: f32,
+        /// Distance along `forward` to the plane in focus, metres.
+        pub focus_distance: f32,
+        /// Corners of the polygonal aperture (0: round) and its turn, radians.
+        pub blades: u32,
+        pub blade_rotation: f32,
         pub _pad1: f32,
     }
 }

@@ -639,7 +639,7 @@ impl LuaObject for Fog {
 // ---------------------------------------------------------------------------------------------
 // Camera.
 
-const CAMERA_FIELDS: &[&str] = &["position", "target", "rotation", "up", "fov", "size", "orthographic"];
+const CAMERA_FIELDS: &[&str] = &["position", "target", "rotation", "up", "fov", "size", "orthographic", "aperture", "focus", "blades", "blade_rotation"];
 
 impl LuaObject for Camera {
     fn kind(&self) -> &'static str {
@@ -657,6 +657,10 @@ impl LuaObject for Camera {
             "fov" => Ok(number_value(self.fov_y.to_degrees())),
             "size" => lua.create_sequence_from([self.size.0, self.size.1])?.into_lua(lua),
             "orthographic" => Ok(self.orthographic.map_or(Value::Nil, number_value)),
+            "aperture" => Ok(number_value(self.lens.aperture)),
+            "focus" => Ok(number_value(self.focus_distance())),
+            "blades" => Ok(Value::Integer(self.lens.blades.into())),
+            "blade_rotation" => Ok(number_value(self.lens.blade_rotation.to_degrees())),
             _ => Err(unknown_field(lua, "camera", key, CAMERA_FIELDS)),
         }
     }
@@ -691,6 +695,21 @@ impl LuaObject for Camera {
                     v => Some(cv::number_in(lua, name, &v, Some(1e-6), Some(1e6), "the view's height in metres, > 0 (nil: a pinhole)")? as f32),
                 }
             }
+            "aperture" => self.lens.aperture = cv::number_in(lua, name, &value, Some(0.0), Some(100.0), "the aperture's diameter in metres, from 0 (a pinhole) to 100")? as f32,
+            "focus" => {
+                self.lens.focus = match value {
+                    Value::Nil => None,
+                    v => Some(cv::number_in(lua, name, &v, Some(1e-4), Some(1e6), "the distance to the plane in focus in metres, > 0 (nil: the target's)")? as f32),
+                }
+            }
+            "blades" => {
+                let blades = cv::number_in(lua, name, &value, Some(0.0), Some(64.0), "0 (a round aperture) or 3 to 64 blades")?;
+                if blades.fract() != 0.0 || (1.0..3.0).contains(&blades) {
+                    return Err(error_at(lua, format!("camera.blades must be 0 (a round aperture) or a whole number from 3 to 64, got {blades}")));
+                }
+                self.lens.blades = blades as u32;
+            }
+            "blade_rotation" => self.lens.blade_rotation = (cv::number_in(lua, name, &value, Some(-3600.0), Some(3600.0), "an angle in degrees")? as f32).to_radians(),
             _ => return Err(unknown_field(lua, "camera", key, CAMERA_FIELDS)),
         }
         Ok(())

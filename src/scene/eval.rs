@@ -395,7 +395,7 @@ fn camera_of(scene: &Scene, placed: &[Placed], opts: &EvalOptions) -> Result<Cam
         let node = p.node.borrow();
         let cam = node.camera.as_ref()?.borrow().clone();
         let (_, rotation, translation) = p.world.to_scale_rotation_translation();
-        Some(CameraDesc { position: translation, orientation: rotation, fov_y: cam.fov_y, width: cam.size.0, height: cam.size.1, orthographic: cam.orthographic })
+        Some(cam.desc(translation, rotation))
     };
     let mut desc = if let Some(chosen) = &opts.camera {
         let cameras = camera_nodes(placed);
@@ -410,19 +410,12 @@ fn camera_of(scene: &Scene, placed: &[Placed], opts: &EvalOptions) -> Result<Cam
         })?
     } else if let Some(cam) = &scene.camera {
         let cam = cam.borrow();
-        CameraDesc {
-            position: cam.position,
-            orientation: cam.orientation(),
-            fov_y: cam.fov_y,
-            width: cam.size.0,
-            height: cam.size.1,
-            orthographic: cam.orthographic,
-        }
+        cam.desc(cam.position, cam.orientation())
     } else if let Some(d) = placed.iter().find_map(node_camera) {
         d
     } else {
         let d = super::Camera::default();
-        CameraDesc { position: d.position, orientation: d.orientation(), fov_y: d.fov_y, width: d.size.0, height: d.size.1, orthographic: None }
+        d.desc(d.position, d.orientation())
     };
     if let Some((w, h)) = opts.size {
         desc.width = w;

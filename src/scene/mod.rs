@@ -81,6 +81,36 @@ pub struct Camera {
     pub size: (u32, u32),
     /// An orthographic camera: the height of the view, metres (parallel rays; `fov_y` unused).
     pub orthographic: Option<f32>,
+    /// A thin lens instead of the pinhole: depth of field.
+    pub lens: Lens,
+}
+
+/// A thin lens (pbrt-v4 §5.2.3): rays through a pixel leave every point of the aperture and meet
+/// on the plane in focus, so what lies nearer or farther blurs into the aperture's shape.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lens {
+    /// The aperture's diameter, metres (a lens of focal length f at f-number N: f / N); 0: a
+    /// pinhole, everything sharp.
+    pub aperture: f32,
+    /// Distance along the view to the plane in focus, metres; `None`: the camera's target's, else
+    /// [`Lens::DEFAULT_FOCUS`].
+    pub focus: Option<f32>,
+    /// Blades of the diaphragm: a regular polygon of this many corners (3 or more), or 0 for a
+    /// round aperture — the shape out-of-focus highlights (bokeh) take.
+    pub blades: u32,
+    /// The polygon's turn about the view, radians.
+    pub blade_rotation: f32,
+}
+
+impl Lens {
+    /// The focus distance of a camera with neither `focus` nor a target (Blender's default).
+    pub const DEFAULT_FOCUS: f32 = 10.0;
+}
+
+impl Default for Lens {
+    fn default() -> Self {
+        Self { aperture: 0.0, focus: None, blades: 0, blade_rotation: 0.0 }
+    }
 }
 
 impl Default for Camera {
@@ -93,6 +123,7 @@ impl Default for Camera {
             fov_y: 35f32.to_radians(),
             size: (1024, 576),
             orthographic: None,
+            lens: Lens::default(),
         }
     }
 }
@@ -105,6 +136,29 @@ impl Camera {
         }
         let target = self.target.unwrap_or(self.position - Vec3::Z);
         look_rotation((target - self.position).normalize_or(Vec3::NEG_Z), self.up)
+    }
+
+    /// The distance to the plane in focus: `lens.focus`, else the target's distance, else
+    /// [`Lens::DEFAULT_FOCUS`].
+    pub fn focus_distance(&self) -> f32 {
+        let to_target = self.target.map(|t| (t - self.position).length()).filter(|d| *d > 1e-6);
+        self.lens.focus.or(to_target).unwrap_or(Lens::DEFAULT_FOCUS)
+    }
+
+    /// The camera as a frame sees it, at `position` looking by `orientation`.
+    pub fn desc(&self, position: Vec3, orientation: Quat) -> crate::frame::CameraDesc {
+        crate::frame::CameraDesc {
+            position,
+            orientation,
+            fov_y: self.fov_y,
+            width: self.size.0,
+            height: self.size.1,
+            orthographic: self.orthographic,
+            aperture: self.lens.aperture,
+            focus: self.focus_distance(),
+            blades: self.lens.blades,
+            blade_rotation: self.lens.blade_rotation,
+        }
     }
 }
 

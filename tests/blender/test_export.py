@@ -143,6 +143,39 @@ def test_animated_light_power_and_colour_reach_the_gltf_in_its_units(addon, save
         assert bulb["radiant"] == pytest.approx(want, rel=1e-4), doc["frame"]
 
 
+def test_depth_of_field_reaches_refrakts_thin_lens(addon, saved_blend, real_refrakt):
+    """A camera's Depth of Field as Cycles sets up its lens: aperture = focal length / f-stop,
+    blades and their rotation, the focus distance or a focus object's distance along the view;
+    refrakt reads it back (`refrakt dump`)."""
+    scene = scenes.round_trip_scene()
+    camera = bpy.data.objects["Camera"]
+    dof = camera.data.dof
+    dof.use_dof, dof.aperture_fstop, dof.focus_distance = True, 2.8, 3.5
+    dof.aperture_blades, dof.aperture_rotation = 6, math.radians(15.0)
+    camera.data.lens = 50.0
+    paths, gltf = export(saved_blend)
+    lens = gltf.camera("Camera")["extras"]["refrakt"]
+    assert lens["aperture"] == pytest.approx(0.050 / 2.8, rel=1e-6)
+    assert lens["focus"] == pytest.approx(3.5, rel=1e-6)
+    assert lens["blades"] == 6 and lens["blade_rotation"] == pytest.approx(15.0, rel=1e-5)
+    # Focused on the ball instead: its distance along the camera's view.
+    ball = bpy.data.objects["Ball"]
+    dof.focus_object = ball
+    _, gltf = export(saved_blend)
+    view = camera.matrix_world.to_3x3() @ Vector((0, 0, -1))
+    along = (ball.matrix_world.translation - camera.matrix_world.translation).dot(view)
+    assert gltf.camera("Camera")["extras"]["refrakt"]["focus"] == pytest.approx(along, rel=1e-4)
+    done = subprocess.run([real_refrakt, "dump", paths.glb, "--camera", "Camera"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    got = json.loads(done.stdout.splitlines()[0])["camera"]["lens"]
+    assert got["aperture"] == pytest.approx(0.050 / 2.8, rel=1e-5) and got["blades"] == 6
+    assert got["focus"] == pytest.approx(along, rel=1e-4)
+    # Without Depth of Field: no lens, a pinhole.
+    dof.use_dof = False
+    _, gltf = export(saved_blend)
+    assert "refrakt" not in (gltf.camera("Camera").get("extras") or {})
+
+
 def test_an_object_without_a_material_keeps_cycles_default_surface(addon, saved_blend):
     """Cycles shades a mesh without a material with a diffuse BSDF of colour 0.8; glTF's default
     material is a rough metal (no diffuse light, no caustics on it). The export writes Cycles'."""

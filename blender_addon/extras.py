@@ -266,25 +266,33 @@ def node_extras(obj, scene, warnings=None):
 
 # --- cameras -------------------------------------------------------------------------------
 
+# The widest aperture refrakt reads (`cameras[i].extras.refrakt.aperture`), metres.
+MAX_APERTURE = 100.0
+
 def camera_extras(camera, scene, warnings):
-    """A camera's depth of field as refrakt's thin lens, the way Cycles sets its up: the
+    """A camera's depth of field as refrakt's thin lens, the way Cycles sets up its own: the
     aperture's diameter is the focal length over the f-stop, the plane in focus at the *Focus
     Distance* or — with a *Focus Object* — at that object's distance along the view (from the
-    first camera object using this camera, at the exported frame). None without depth of field
-    (and for orthographic cameras, which refrakt keeps sharp)."""
+    first camera object using this camera, when exported), the polygon turned as Cycles turns
+    it (a flat side toward *Rotation*, where refrakt puts a corner). None without depth of
+    field (and for orthographic cameras, which refrakt keeps sharp)."""
     dof = camera.dof
     if not dof.use_dof or camera.type != "PERSP":
         return None
-    out = {"aperture": camera.lens * 1e-3 / dof.aperture_fstop, "focus": dof.focus_distance}
+    aperture = camera.lens * 1e-3 / max(dof.aperture_fstop, 1e-5)
+    if aperture > MAX_APERTURE:
+        warnings.add(f"Camera '{camera.name}': an f-stop of {dof.aperture_fstop:g} makes an aperture of {aperture:.3g} m; "
+                     f"refrakt takes at most {MAX_APERTURE:g} m")
+    out = {"aperture": min(aperture, MAX_APERTURE), "focus": max(dof.focus_distance, 1e-3)}
     if dof.focus_object is not None:
         holder = next((o for o in scene.objects if o.data == camera), None)
         if holder is not None:
-            view = holder.matrix_world.to_3x3() @ Vector((0.0, 0.0, -1.0))
+            view = (holder.matrix_world.to_3x3() @ Vector((0.0, 0.0, -1.0))).normalized()
             target = dof.focus_object.matrix_world.translation - holder.matrix_world.translation
-            out["focus"] = max(target.dot(view.normalized()), 1e-3)
+            out["focus"] = max(abs(target.dot(view)), 1e-3)  # (Cycles: |distance| along the view)
     if dof.aperture_blades >= 3:
         out["blades"] = dof.aperture_blades
-        out["blade_rotation"] = math.degrees(dof.aperture_rotation)
+        out["blade_rotation"] = math.degrees(dof.aperture_rotation) + 180.0 / dof.aperture_blades
     if abs(dof.aperture_ratio - 1.0) > 1e-6:
         warnings.add(f"Camera '{camera.name}': its aperture ratio {dof.aperture_ratio:g} (anamorphic bokeh) is not carried; "
                      "refrakt's aperture is round or a regular polygon")

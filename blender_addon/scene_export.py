@@ -110,7 +110,9 @@ def _glb_chunks(data, path):
     magic, _version, _length = struct.unpack_from("<4sII", data, 0)
     if magic != b"glTF":
         raise ExportError(f"{path} is not a binary glTF file")
-    json_length, _ = struct.unpack_from("<I4s", data, 12)
+    json_length, json_type = struct.unpack_from("<I4s", data, 12)
+    if json_type != b"JSON":
+        raise ExportError(f"{path} does not start with a JSON chunk")
     doc = json.loads(data[20:20 + json_length])
     bin_at = 20 + json_length
     bin_length, bin_type = struct.unpack_from("<I4s", data, bin_at) if bin_at + 8 <= len(data) else (0, b"")

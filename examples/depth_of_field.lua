@@ -1,4 +1,4 @@
--- Depth of field: three glass balls at 1.8, 2.7 and 3.9 m, the camera's thin lens focused on the middle one
+-- Depth of field: three glass balls 1.9, 2.7 and 4.0 m away, the camera's thin lens focused on the middle one
 -- (`focus`: 2.5 m along the view, its near side) through an aperture of 6 cm (`aperture`: a 50 mm lens at
 -- about f/0.8) with six blades. The near ball and the far one blur into the aperture's shape,
 -- highlights into hexagons; the caustics on the floor blur with them. The blur converges with

@@ -78,6 +78,10 @@ fn a_gltf_cameras_lens_comes_from_its_extras() {
     let c = refrakt::scene::eval::evaluate(&source.scene, 0.0, &Default::default()).unwrap().camera;
     assert_eq!((c.aperture, c.focus, c.blades), (0.025, 2.5, 6));
     assert!((c.blade_rotation - 30f32.to_radians()).abs() < 1e-6);
+    // Without `focus`: 10 m (a glTF camera has no target).
+    g.json["cameras"][camera]["extras"]["refrakt"] = serde_json::json!({ "aperture": 0.025 });
+    let source = load(&g, "unfocused.glb").unwrap();
+    assert_eq!(refrakt::scene::eval::evaluate(&source.scene, 0.0, &Default::default()).unwrap().camera.focus, refrakt::scene::Lens::DEFAULT_FOCUS);
     g.json["cameras"][camera]["extras"]["refrakt"]["blades"] = serde_json::json!(2);
     let error = format!("{:#}", load(&g, "bad.glb").err().unwrap());
     assert!(error.contains("cameras[0] \"Lens\"") && error.contains("blades"), "{error}");

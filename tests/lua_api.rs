@@ -151,19 +151,30 @@ fn helper_errors_name_the_line_and_argument() {
     assert_error("r.camera{ focus = 0 }", &["scene.lua:3:", "camera.focus"]);
 }
 
-/// A camera's thin lens: set and read back, the focus defaulting to the target's distance.
+/// A camera's thin lens: set and read back; the scene camera's focus defaults to its target's
+/// distance, a node camera's (placed by its node, not a target) to 10 m.
 #[test]
 fn a_camera_lens_reads_back_and_focuses_on_its_target_by_default() {
-    let desc = frame_from_lua(
+    let lua = |focus: &str| {
+        frame_from_lua(&format!(
+            r#"local r = require("refrakt")
+            local cam = r.camera{{ position = {{0, 0, 4}}, target = {{0, 0, 1}}, aperture = 0.02, blades = 7, blade_rotation = 10 }}
+            assert(cam.aperture == 0.02 and cam.blades == 7 and math.abs(cam.blade_rotation - 10) < 1e-4, "fields read back")
+            assert(cam.focus == nil, "no focus set")
+            {focus}
+            return r.scene{{ camera = cam }}"#
+        ))
+    };
+    let c = lua("").camera;
+    assert_eq!((c.aperture, c.focus, c.blades), (0.02, 3.0, 7));
+    assert_eq!(lua("cam.focus = 1.5; assert(cam.focus == 1.5)").camera.focus, 1.5);
+    let on_node = frame_from_lua(
         r#"local r = require("refrakt")
-        local cam = r.camera{ position = {0, 0, 4}, target = {0, 0, 1}, aperture = 0.02, blades = 7, blade_rotation = 10 }
-        assert(cam.aperture == 0.02 and cam.blades == 7 and math.abs(cam.blade_rotation - 10) < 1e-4, "fields read back")
-        assert(math.abs(cam.focus - 3) < 1e-6, "focus defaults to the target's distance: " .. cam.focus)
-        cam.focus = 1.5
-        assert(cam.focus == 1.5)
-        return r.scene{ camera = cam }"#,
+        local scene = r.scene{}
+        scene:add(r.node{ translation = {0, 0, 2}, camera = r.camera{ aperture = 0.01 } })
+        return scene"#,
     );
-    assert_eq!((desc.camera.aperture, desc.camera.focus, desc.camera.blades), (0.02, 1.5, 7));
+    assert_eq!(on_node.camera.focus, refrakt::scene::Lens::DEFAULT_FOCUS);
 }
 
 #[test]

@@ -658,7 +658,7 @@ impl LuaObject for Camera {
             "size" => lua.create_sequence_from([self.size.0, self.size.1])?.into_lua(lua),
             "orthographic" => Ok(self.orthographic.map_or(Value::Nil, number_value)),
             "aperture" => Ok(number_value(self.lens.aperture)),
-            "focus" => Ok(number_value(self.focus_distance())),
+            "focus" => Ok(self.lens.focus.map_or(Value::Nil, number_value)),
             "blades" => Ok(Value::Integer(self.lens.blades.into())),
             "blade_rotation" => Ok(number_value(self.lens.blade_rotation.to_degrees())),
             _ => Err(unknown_field(lua, "camera", key, CAMERA_FIELDS)),

@@ -395,7 +395,7 @@ fn camera_of(scene: &Scene, placed: &[Placed], opts: &EvalOptions) -> Result<Cam
         let node = p.node.borrow();
         let cam = node.camera.as_ref()?.borrow().clone();
         let (_, rotation, translation) = p.world.to_scale_rotation_translation();
-        Some(cam.desc(translation, rotation))
+        Some(cam.desc(translation, rotation, true))
     };
     let mut desc = if let Some(chosen) = &opts.camera {
         let cameras = camera_nodes(placed);
@@ -410,12 +410,12 @@ fn camera_of(scene: &Scene, placed: &[Placed], opts: &EvalOptions) -> Result<Cam
         })?
     } else if let Some(cam) = &scene.camera {
         let cam = cam.borrow();
-        cam.desc(cam.position, cam.orientation())
+        cam.desc(cam.position, cam.orientation(), false)
     } else if let Some(d) = placed.iter().find_map(node_camera) {
         d
     } else {
         let d = super::Camera::default();
-        d.desc(d.position, d.orientation())
+        d.desc(d.position, d.orientation(), false)
     };
     if let Some((w, h)) = opts.size {
         desc.width = w;

@@ -92,13 +92,13 @@ pub struct Lens {
     /// The aperture's diameter, metres (a lens of focal length f at f-number N: f / N); 0: a
     /// pinhole, everything sharp.
     pub aperture: f32,
-    /// Distance along the view to the plane in focus, metres; `None`: the camera's target's, else
-    /// [`Lens::DEFAULT_FOCUS`].
+    /// Distance along the view to the plane in focus, metres; `None`: the scene camera's target's
+    /// distance, else [`Lens::DEFAULT_FOCUS`] ([`Camera::focus_distance`]).
     pub focus: Option<f32>,
     /// Blades of the diaphragm: a regular polygon of this many corners (3 or more), or 0 for a
     /// round aperture — the shape out-of-focus highlights (bokeh) take.
     pub blades: u32,
-    /// The polygon's turn about the view, radians.
+    /// The polygon's turn about the view, radians: 0 puts a corner toward the image's right.
     pub blade_rotation: f32,
 }
 
@@ -138,15 +138,16 @@ impl Camera {
         look_rotation((target - self.position).normalize_or(Vec3::NEG_Z), self.up)
     }
 
-    /// The distance to the plane in focus: `lens.focus`, else the target's distance, else
-    /// [`Lens::DEFAULT_FOCUS`].
-    pub fn focus_distance(&self) -> f32 {
-        let to_target = self.target.map(|t| (t - self.position).length()).filter(|d| *d > 1e-6);
+    /// The distance to the plane in focus: `lens.focus`, else — for the scene's camera, placed
+    /// by its `target` — the target's distance, else [`Lens::DEFAULT_FOCUS`].
+    pub fn focus_distance(&self, on_node: bool) -> f32 {
+        let to_target = self.target.filter(|_| !on_node).map(|t| (t - self.position).length()).filter(|d| *d > 1e-6);
         self.lens.focus.or(to_target).unwrap_or(Lens::DEFAULT_FOCUS)
     }
 
-    /// The camera as a frame sees it, at `position` looking by `orientation`.
-    pub fn desc(&self, position: Vec3, orientation: Quat) -> crate::frame::CameraDesc {
+    /// The camera as a frame sees it, at `position` looking by `orientation`: the scene's camera,
+    /// or one on a node (`on_node`: its own `position` and `target` unused).
+    pub fn desc(&self, position: Vec3, orientation: Quat, on_node: bool) -> crate::frame::CameraDesc {
         crate::frame::CameraDesc {
             position,
             orientation,
@@ -155,7 +156,7 @@ impl Camera {
             height: self.size.1,
             orthographic: self.orthographic,
             aperture: self.lens.aperture,
-            focus: self.focus_distance(),
+            focus: self.focus_distance(on_node),
             blades: self.lens.blades,
             blade_rotation: self.lens.blade_rotation,
         }

@@ -148,8 +148,8 @@ impl Codec {
 
 /// libdeflate's level for ZIP and ZIPS, chosen by measure on a frame of `seed` (1024×576, 17
 /// channels, 40 MB, one core of the dev machine): level 1 deflates it in 187 ms to 15.74 MB,
-/// level 6 in 232 ms to 15.54 MB, where miniz's level 4 (the `exr` crate's) took 495 ms for
-/// 15.56 MB. Rendered floats are mostly noise in their low bytes: higher levels find little.
+/// level 6 in 232 ms to 15.54 MB, where miniz's level 4 (the `exr` crate's) took 495–640 ms
+/// for 15.56 MB. Rendered floats are mostly noise in their low bytes: higher levels find little.
 pub const DEFLATE_LEVEL: i32 = 1;
 
 /// The scan lines `y0..y0 + lines` of every channel, as a block stores them before compression.

@@ -576,3 +576,32 @@ fn a_material_variant_gives_each_primitive_the_material_it_maps() {
     let m = node.borrow().material.clone().expect("a material");
     assert!(matches!(&*m.borrow(), refrakt::scene::Material::Diffuse(d) if d.color == Vec3::new(0.8, 0.1, 0.1)));
 }
+
+/// What refrakt does not read of a glass material is said, once each, naming the material:
+/// a transmissionTexture, a normal map, alpha MASK or BLEND, KHR_materials_specular.
+#[test]
+fn glass_textures_refrakt_does_not_read_are_said() {
+    let mut g = GltfBuilder::new();
+    let mut png = Vec::new();
+    image::RgbaImage::new(1, 1).write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).unwrap();
+    let view = g.view(&png);
+    let image = g.push("images", json!({ "bufferView": view, "mimeType": "image/png" }));
+    let texture = g.push("textures", json!({ "source": image }));
+    for ext in ["KHR_materials_transmission", "KHR_materials_specular"] {
+        g.uses(ext, false);
+    }
+    let glass = g.push("materials", json!({ "name": "Etched", "alphaMode": "MASK", "normalTexture": { "index": texture },
+        "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0, "transmissionTexture": { "index": texture } },
+                        "KHR_materials_specular": { "specularFactor": 0.5 } } }));
+    let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let mesh = g.mesh(&tri, &[[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], Some(glass));
+    let node = g.push("nodes", json!({ "mesh": mesh }));
+    g.scene("S", &[node]);
+    let dir = tempfile::tempdir().unwrap();
+    let w = warnings(&g.write_glb(&dir.path().join("etched.glb")));
+    for about in ["transmissionTexture", "normal map on glass", "alpha (MASK or BLEND)", "KHR_materials_specular"] {
+        let said: Vec<&String> = w.iter().filter(|w| w.contains(about)).collect();
+        assert_eq!(said.len(), 1, "{about}: {w:#?}");
+        assert!(said[0].contains("materials[0] \"Etched\""), "{}", said[0]);
+    }
+}

@@ -231,6 +231,12 @@ impl<'a> Materials<'a> {
         if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
             warnings.about(what, "refrakt does not cut glass by alpha (MASK or BLEND) yet: all of the glass is there");
         }
+        let specular = m.specular().filter(|s| {
+            s.specular_factor() != 1.0 || s.specular_color_factor() != [1.0; 3] || s.specular_texture().is_some() || s.specular_color_texture().is_some()
+        });
+        if specular.is_some() {
+            warnings.about(what, "refrakt's glass reflects by the Fresnel equations of its IOR: KHR_materials_specular's factors and textures are not read on glass");
+        }
         Ok(maps.first().map(|m| m.1))
     }
 

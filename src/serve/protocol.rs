@@ -301,6 +301,29 @@ pub struct SceneInfo {
     pub params: Vec<crate::lua::params::Param>,
     /// The centre of the volume box: what the page orbits around first.
     pub focus: [f32; 3],
+    /// The camera's thin lens, where it has one (kept as the page orbits).
+    pub lens: Option<LensInfo>,
+}
+
+/// A camera's thin lens as the page is told of it (`r.camera`'s fields and units).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct LensInfo {
+    pub aperture: f32,
+    pub focus: f32,
+    pub blades: u32,
+    /// Degrees.
+    pub blade_rotation: f32,
+}
+
+impl LensInfo {
+    pub fn of(camera: &CameraDesc) -> Option<Self> {
+        (camera.aperture > 0.0).then(|| Self {
+            aperture: camera.aperture,
+            focus: camera.focus,
+            blades: camera.blades,
+            blade_rotation: camera.blade_rotation.to_degrees(),
+        })
+    }
 }
 
 /// Where a frame's time went, milliseconds (GPU stages from timestamp queries where the

@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Result, anyhow};
 use glam::Vec3;
 
-use super::protocol::{CameraPose, FrameTimes, LightInfo, SceneInfo, ViewState};
+use super::protocol::{CameraPose, FrameTimes, LensInfo, LightInfo, SceneInfo, ViewState};
 use super::slot::Taken;
 use super::{Activity, Rendered, ServeOptions, Shared};
 use crate::frame::FrameDesc;
@@ -291,5 +291,6 @@ fn scene_info(path: &Path, desc: &FrameDesc, source: &SceneSource, fps: f64) -> 
         params: source.params(),
         fps,
         focus: focus.into(),
+        lens: LensInfo::of(&desc.camera),
     }
 }

@@ -224,8 +224,12 @@ fn lua_vec(v: [f32; 3]) -> String {
 pub fn edits_lua(state: &PageState, info: &SceneInfo) -> String {
     let mut out = vec![format!("-- refrakt serve: the page's edits of {}", info.name)];
     if let Some(c) = &state.camera {
+        // The page orbits with the scene's lens as it is (its focus distance too).
+        let lens = info.lens.map_or(String::new(), |l| {
+            format!(", aperture = {}, focus = {}, blades = {}, blade_rotation = {}", round(l.aperture), round(l.focus), l.blades, round(l.blade_rotation))
+        });
         out.push(format!(
-            "scene.camera = r.camera{{ position = {}, target = {}, fov = {}, size = {{{}, {}}} }}",
+            "scene.camera = r.camera{{ position = {}, target = {}, fov = {}, size = {{{}, {}}}{lens} }}",
             lua_vec(c.position),
             lua_vec(c.target),
             round(c.fov),
@@ -279,6 +283,7 @@ mod tests {
             fps: 24.0,
             params: vec![crate::lua::params::Param { name: "red".into(), value: 0.2, default: 0.2, min: 0.0, max: 1.0, step: 0.01 }],
             focus: [0.0; 3],
+            lens: Some(crate::serve::protocol::LensInfo { aperture: 0.02, focus: 2.5, blades: 6, blade_rotation: 15.0 }),
         }
     }
 
@@ -359,6 +364,8 @@ mod tests {
         };
         let (base, edited) = (desc("base.lua", script("")), desc("edited.lua", script(&lua)));
         assert_eq!(edited.camera.position, glam::Vec3::new(1.0, 0.5, 3.0));
+        let c = &edited.camera;
+        assert_eq!((c.aperture, c.focus, c.blades), (0.02, 2.5, 6), "the lens is kept: {lua}");
         let mut served = base.lights[0].clone();
         edit.apply(&mut served); // what the server renders
         let light = &edited.lights[0];

@@ -377,7 +377,6 @@ pub struct LightDesc {
     pub radius: f32,
 }
 
-
 /// A homogeneous scattering medium filling the volume box.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FogDesc {

@@ -16,6 +16,7 @@ use glam::{Vec2, Vec3};
 use serde::Deserialize;
 use serde::de::DeserializeOwned;
 
+use crate::scene::Lens;
 use crate::warnings::Collector;
 
 /// The `refrakt` object in an `extras`, parsed as `T`; `None` when there is none.
@@ -275,9 +276,6 @@ fn node_role(n: NodeExtras, file: &str, what: &str) -> Result<Option<NodeRole>> 
 }
 
 // ---------------------------------------------------------------------------------------------
-// Materials.
-
-// ---------------------------------------------------------------------------------------------
 // Cameras.
 
 /// A camera's thin lens, as Lua's `r.camera{ aperture, focus, blades, blade_rotation }` (metres,
@@ -294,12 +292,12 @@ pub struct LensExtras {
 const CAMERA_KEYS: &[&str] = &["aperture", "focus", "blades", "blade_rotation"];
 
 /// The thin lens of glTF camera `camera` from its extras (a pinhole where there are none).
-pub fn lens(camera: &gltf::Camera, file: &str, what: &str, warnings: &mut Collector) -> Result<crate::scene::Lens> {
-    let mut lens = crate::scene::Lens::default();
+pub fn lens(camera: &gltf::Camera, file: &str, what: &str, warnings: &mut Collector) -> Result<Lens> {
+    let mut lens = Lens::default();
     let Some(e) = refrakt_object::<LensExtras>(camera.extras(), file, what, CAMERA_KEYS, warnings)? else { return Ok(lens) };
-    check(e.aperture.is_none_or(|a| (0.0..=100.0).contains(&a)), file, what, "aperture", "a diameter from 0 to 100 (metres)")?;
+    check(e.aperture.is_none_or(|a| (0.0..=Lens::MAX_APERTURE).contains(&a)), file, what, "aperture", "a diameter from 0 to 100 (metres)")?;
     check(e.focus.is_none_or(|f| f.is_finite() && f > 0.0), file, what, "focus", "a distance > 0 (metres)")?;
-    check(e.blades.is_none_or(|b| b == 0 || (3..=64).contains(&b)), file, what, "blades", "0 (round) or 3 to 64")?;
+    check(e.blades.is_none_or(Lens::blades_are_valid), file, what, "blades", "0 (round) or 3 to 64")?;
     check(e.blade_rotation.is_none_or(f32::is_finite), file, what, "blade_rotation", "an angle in degrees")?;
     lens.aperture = e.aperture.unwrap_or(0.0);
     lens.focus = e.focus;
@@ -307,6 +305,9 @@ pub fn lens(camera: &gltf::Camera, file: &str, what: &str, warnings: &mut Collec
     lens.blade_rotation = e.blade_rotation.unwrap_or(0.0).to_radians();
     Ok(lens)
 }
+
+// ---------------------------------------------------------------------------------------------
+// Materials.
 
 #[derive(Debug, Default, Deserialize)]
 #[serde(default)]

@@ -15,7 +15,7 @@ use super::convert::{self as cv, FieldName, error_at, unknown_field};
 use super::sandbox::FileAccess;
 use crate::scene::environment::{self, EnvironmentSource};
 use crate::scene::light::LUMENS_PER_WATT;
-use crate::scene::{Camera, Environment, Fog, Light, LightKind, Material, Node, Origin, Scene, Shape, Shared, VolumeSettings, shared};
+use crate::scene::{Camera, Environment, Fog, Lens, Light, LightKind, Material, Node, Origin, Scene, Shape, Shared, VolumeSettings, shared};
 
 /// A scene-graph value a script can read and write field by field.
 pub trait LuaObject: Sized + 'static {
@@ -695,7 +695,9 @@ impl LuaObject for Camera {
                     v => Some(cv::number_in(lua, name, &v, Some(1e-6), Some(1e6), "the view's height in metres, > 0 (nil: a pinhole)")? as f32),
                 }
             }
-            "aperture" => self.lens.aperture = cv::number_in(lua, name, &value, Some(0.0), Some(100.0), "the aperture's diameter in metres, from 0 (a pinhole) to 100")? as f32,
+            "aperture" => {
+                self.lens.aperture = cv::number_in(lua, name, &value, Some(0.0), Some(Lens::MAX_APERTURE.into()), "the aperture's diameter in metres, from 0 (a pinhole) to 100")? as f32
+            }
             "focus" => {
                 self.lens.focus = match value {
                     Value::Nil => None,
@@ -703,8 +705,8 @@ impl LuaObject for Camera {
                 }
             }
             "blades" => {
-                let blades = cv::number_in(lua, name, &value, Some(0.0), Some(64.0), "0 (a round aperture) or 3 to 64 blades")?;
-                if blades.fract() != 0.0 || (1.0..3.0).contains(&blades) {
+                let blades = cv::number_in(lua, name, &value, Some(0.0), Some(Lens::MAX_BLADES.into()), "0 (a round aperture) or 3 to 64 blades")?;
+                if blades.fract() != 0.0 || !Lens::blades_are_valid(blades as u32) {
                     return Err(error_at(lua, format!("camera.blades must be 0 (a round aperture) or a whole number from 3 to 64, got {blades}")));
                 }
                 self.lens.blades = blades as u32;

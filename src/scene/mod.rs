@@ -105,6 +105,15 @@ pub struct Lens {
 impl Lens {
     /// The focus distance of a camera with neither `focus` nor a target (Blender's default).
     pub const DEFAULT_FOCUS: f32 = 10.0;
+    /// The widest aperture taken, metres.
+    pub const MAX_APERTURE: f32 = 100.0;
+    /// The most blades a diaphragm may have.
+    pub const MAX_BLADES: u32 = 64;
+
+    /// Whether `blades` makes an aperture: 0 (round) or a polygon of 3 to [`Self::MAX_BLADES`].
+    pub fn blades_are_valid(blades: u32) -> bool {
+        blades == 0 || (3..=Self::MAX_BLADES).contains(&blades)
+    }
 }
 
 impl Default for Lens {

@@ -38,9 +38,23 @@ def _inside(path, folder):
         return False
 
 
+def layers(scene):
+    """The EXR layers (`render --layers`) the scene's view layers ask for: the beauty, and each
+    pass on in a view layer that renders (Blender's Z pass is refrakt's depth; properties.py has
+    refrakt's). refrakt reads back and encodes only those: a frame with its passes off is written
+    sooner and smaller."""
+    used = [v for v in scene.view_layers if v.use] or list(scene.view_layers)
+
+    def asked(name):
+        return any(v.use_pass_z if name == "depth" else getattr(v.refrakt, f"use_pass_{name}") for v in used)
+
+    return ",".join(["beauty"] + [name for name in ("depth", "caustic", "direct", "volume", "indirect") if asked(name)])
+
+
 def render(binary, scene, paths, frames=None, resume=None):
-    """`refrakt render` of `frames` (first, last), by default the scene's range; `resume`
-    (default: the panel's Resume) skips frames whose files exist."""
+    """`refrakt render` of `frames` (first, last), by default the scene's range, with the layers
+    the view layers ask for; `resume` (default: the panel's Resume) skips frames whose files
+    exist."""
     first, last = frames or (scene.frame_start, scene.frame_end)
     args = [
         binary, "render", scene_file(scene, paths),
@@ -48,6 +62,7 @@ def render(binary, scene, paths, frames=None, resume=None):
         "--out", paths.frames,
         "--name", paths.name,
         "--format", "exr",
+        "--layers", layers(scene),
         "--progress", "json",
     ] + _common(scene, paths)
     if scene.refrakt.skip_existing if resume is None else resume:

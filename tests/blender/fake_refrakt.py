@@ -41,12 +41,17 @@ def option(args, name, default=None):
     return args[args.index(name) + 1] if name in args else default
 
 
-def frame_planes(k, w, h):
+def frame_planes(k, w, h, layers="all"):
+    """A frame's channels, only those of `layers` (`--layers`: `all` or names)."""
     n = w * h
-    planes = {"R": [float(k)] * n, "G": [0.5] * n, "B": [0.25] * n, "A": [float(os.environ.get("FAKE_REFRAKT_ALPHA", "1"))] * n, "depth.Z": [2.0] * n}
+    keep = None if layers == "all" else set(layers.split(","))
+    planes = {"R": [float(k)] * n, "G": [0.5] * n, "B": [0.25] * n, "A": [float(os.environ.get("FAKE_REFRAKT_ALPHA", "1"))] * n}
+    if keep is None or "depth" in keep:
+        planes["depth.Z"] = [2.0] * n
     for layer, value in (("caustic", 0.1), ("direct", 0.2), ("indirect", 0.15), ("volume", 0.3)):
         for c in "RGB":
-            planes[f"{layer}.{c}"] = [value] * n
+            if keep is None or layer in keep:
+                planes[f"{layer}.{c}"] = [value] * n
     return planes
 
 
@@ -92,7 +97,7 @@ def render(args):
             continue
         t0 = time.monotonic()
         time.sleep(delay)  # "rendering": a SIGTERM now ends the loop after this frame
-        exr_writer.write(path, w, h, frame_planes(k, w, h))
+        exr_writer.write(path, w, h, frame_planes(k, w, h, option(args, "--layers", "all")))
         emit(event="frame", frame=k, done=i + 1, total=total, seconds=time.monotonic() - t0, files=[path])
     emit(event="done", frames=total, seconds=time.monotonic() - started)
 

@@ -129,6 +129,28 @@ def test_film_transparent_decides_whether_f12_shows_the_world(fake_refrakt, tmp_
         assert np.all(alpha == (0.25 if transparent else 1.0)), (transparent, np.unique(alpha))
 
 
+def test_refrakt_writes_only_the_passes_the_view_layers_ask_for(fake_refrakt, tmp_path, saved_blend):
+    """Passes turned off in View Layer Properties are not read back or encoded by refrakt
+    (`--layers`); those on reach the Render Result as before. Every pass off: the beauty alone."""
+    scene = engine_scene(tmp_path)
+    layer = scene.view_layers[0]
+    layer.use_pass_z = False
+    layer.refrakt.use_pass_direct = layer.refrakt.use_pass_indirect = False
+    saved_blend()
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    calls = [json.loads(line) for line in fake_refrakt.read_text().splitlines()]
+    render = next(c for c in calls if c[0] == "render")
+    assert render[render.index("--layers") + 1] == "beauty,caustic,volume", render
+    paths = submodule("scene_export").paths(scene)
+    assert set(refrakt_exr(paths.frame(1))) == {"R", "G", "B", "A", *(f"{p}.{c}" for p in ("caustic", "volume") for c in "RGB")}
+    blenders = blender_exr_passes(tmp_path / "out" / "shot.exr")
+    assert np.all(blenders["caustic"] == np.float32(0.1)) and np.all(blenders["volume"] == np.float32(0.3)), sorted(blenders)
+    layer.refrakt.use_pass_caustic = layer.refrakt.use_pass_volume = False
+    assert submodule("cli").layers(scene) == "beauty"
+    layer.use = False  # a scene whose every view layer is off still renders its first
+    assert submodule("cli").layers(scene) == "beauty"
+
+
 def test_a_long_frame_prints_few_status_lines(fake_refrakt, tmp_path, saved_blend, monkeypatch, capfd):
     """Headless Blender prints a `Fra:` line for every status update; the engine polls refrakt
     every 50 ms but tells Blender only what changed (a 1 s frame gave ~20 lines before)."""

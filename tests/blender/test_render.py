@@ -20,11 +20,11 @@ def frame_paths(scene):
     return paths, [paths.frame(k) for k in range(scene.frame_start, scene.frame_end + 1)]
 
 
-def is_whole_fake_frame(path, k, size=(64, 36)):
-    """A frame the fake wrote completely: exactly the bytes of its EXR."""
+def is_whole_fake_frame(path, k, size=(64, 36), layers="all"):
+    """A frame the fake wrote completely, with `layers`: exactly the bytes of its EXR."""
     with open(path, "rb") as f:
         data = f.read()
-    return data == exr_writer.encode(*size, fake_refrakt.frame_planes(k, *size))
+    return data == exr_writer.encode(*size, fake_refrakt.frame_planes(k, *size, layers))
 
 
 def record_progress(monkeypatch):
@@ -50,7 +50,7 @@ def test_render_writes_all_frames_with_progress_from_0_to_100(fake_refrakt, save
 
     paths, files = frame_paths(scene)
     for k, f in zip(range(1, 7), files):
-        assert is_whole_fake_frame(f, k), f
+        assert is_whole_fake_frame(f, k, layers=submodule("cli").layers(scene)), f
     assert seen[0] == 0.0 and seen[-1] == 100.0
     assert seen == sorted(seen) and len(set(seen)) >= 4, seen
     state = bpy.context.window_manager.refrakt
@@ -118,7 +118,7 @@ def test_cancel_midway_leaves_only_whole_frames(fake_refrakt, saved_blend, monke
     assert 2 <= len(written) < len(files)
     assert written == files[: len(written)]  # in order, no gaps
     for k, f in enumerate(written, start=1):
-        assert is_whole_fake_frame(f, k), f
+        assert is_whole_fake_frame(f, k, layers=submodule("cli").layers(scene)), f
     assert not [n for n in os.listdir(paths.frames) if n.startswith(".")], "temporary files left"
     state = bpy.context.window_manager.refrakt
     assert state.status == f"Cancelled after {len(written)} frame(s); the frames written are whole"

@@ -18,7 +18,9 @@ Values are irradiance in W/m² for a sun of 1 W/m² across its beam (refrakt: 68
     python3 scripts/mitsuba_reference.py [--spp N]   # writes tests/data/mitsuba/{ball,facets,bunny,hdri}.exr
     python3 scripts/mitsuba_reference.py --only hdri # just one of them
 
-The bunny is read from ../shared/assets/bunny.obj (not part of this repository).
+The bunny is read from ../shared/assets/bunny.obj (not part of this repository), or from
+$REFRAKT_BUNNY; $REFRAKT_MITSUBA_VARIANT picks another variant (scripts/compare_mitsuba_gpu.py
+imports this file for its scenes with `cuda_ad_rgb`).
 
 `hdri` (`hdri_reference`): the ball lit only by an environment image that this script makes and
 writes as tests/data/mitsuba/hdri_sky.exr (256×128 half floats in refrakt's equirectangular
@@ -58,7 +60,8 @@ import time
 import mitsuba as mi
 import numpy as np
 
-mi.set_variant("llvm_ad_rgb")
+# (scripts/compare_mitsuba_gpu.py sets REFRAKT_MITSUBA_VARIANT=cuda_ad_rgb on a GPU machine.)
+mi.set_variant(os.environ.get("REFRAKT_MITSUBA_VARIANT", "llvm_ad_rgb"))
 import drjit as dr  # noqa: E402  (after the variant is set)
 
 
@@ -103,7 +106,7 @@ mi.register_bsdf("difftrans_py", lambda props: DiffuseTransmitter(props))
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 OUT = os.path.join(ROOT, "tests", "data", "mitsuba")
-BUNNY = os.path.join(ROOT, "..", "shared", "assets", "bunny.obj")
+BUNNY = os.environ.get("REFRAKT_BUNNY", os.path.join(ROOT, "..", "shared", "assets", "bunny.obj"))
 
 # Shared with tests/mitsuba_caustics.rs.
 HALF = 1.0  # the image covers x, z in [−HALF, HALF]

@@ -117,13 +117,15 @@ pub fn encode(image: &Image, settings: ExrSettings) -> Result<Vec<u8>> {
         ExrCodec::None => scanlines::Codec::None,
         ExrCodec::Zips => scanlines::Codec::Zips,
         ExrCodec::Zip => scanlines::Codec::Zip,
-        ExrCodec::Piz | ExrCodec::Rle | ExrCodec::Dwaa => return encode_with_exr_crate(image, settings),
+        ExrCodec::Piz => scanlines::Codec::Piz,
+        ExrCodec::Dwaa => scanlines::Codec::Dwaa,
+        ExrCodec::Rle => return encode_with_exr_crate(image, settings),
     };
     Ok(scanlines::encode(image, &settings, codec))
 }
 
 /// The EXR file of `image` as the `exr` crate writes it (every codec; refrakt's own writer takes
-/// none, ZIPS and ZIP).
+/// all but RLE).
 fn encode_with_exr_crate(image: &Image, settings: ExrSettings) -> Result<Vec<u8>> {
     let size = (image.width as usize, image.height as usize);
     let attributes =

@@ -119,12 +119,16 @@ fn write_line(c: &Channel, y: usize, width: usize, out: &mut [u8]) {
     }
 }
 
-/// How blocks of scan lines are stored: the codecs this module writes.
+/// How blocks of scan lines are stored: the codecs this module writes. PIZ and DWAA blocks are
+/// compressed by the `exr` crate's own block compressors (`Compression::compress_image_section_to_le`,
+/// the code its writer calls), here on blocks this module lays out, on all cores.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Codec {
     None,
     Zips,
     Zip,
+    Piz,
+    Dwaa,
 }
 
 impl Codec {
@@ -133,6 +137,7 @@ impl Codec {
         match self {
             Codec::None | Codec::Zips => 1,
             Codec::Zip => 16,
+            Codec::Piz | Codec::Dwaa => 32,
         }
     }
 
@@ -142,8 +147,34 @@ impl Codec {
             Codec::None => 0,
             Codec::Zips => 2,
             Codec::Zip => 3,
+            Codec::Piz => 4,
+            Codec::Dwaa => 8,
         }
     }
+
+    /// The `exr` crate's compressor for this codec's blocks, where it is not deflate.
+    fn crate_compression(self) -> Option<exr::compression::Compression> {
+        match self {
+            Codec::Piz => Some(exr::compression::Compression::PIZ),
+            Codec::Dwaa => Some(exr::compression::Compression::DWAA(None)),
+            Codec::None | Codec::Zips | Codec::Zip => None,
+        }
+    }
+}
+
+/// What the `exr` crate's block compressors read of a file: its channels, in order, with their
+/// sample types and pLinear flags as this module's header writes them.
+fn crate_header(channels: &[Channel], geometry: &Geometry, compression: exr::compression::Compression) -> exr::meta::header::Header {
+    use exr::meta::attribute::{ChannelDescription, SampleType};
+    let list = channels
+        .iter()
+        .map(|c| ChannelDescription::named(c.name.as_str(), if c.half { SampleType::F16 } else { SampleType::F32 }))
+        .collect();
+    exr::meta::header::Header::new("".into(), (geometry.width, geometry.height), list).with_encoding(
+        compression,
+        exr::meta::BlockDescription::ScanLines,
+        exr::meta::attribute::LineOrder::Increasing,
+    )
 }
 
 /// libdeflate's level for ZIP and ZIPS, chosen by measure on a frame of `seed` (1024×576, 17
@@ -180,16 +211,18 @@ fn predict(raw: &[u8], out: &mut Vec<u8>) {
 }
 
 /// Compresses blocks one after another, reusing its buffers.
-struct BlockWriter {
+struct BlockWriter<'h> {
     raw: Vec<u8>,
     predicted: Vec<u8>,
     deflate: libdeflater::Compressor,
+    /// For PIZ and DWAA: the file as the `exr` crate's compressors see it.
+    crate_header: Option<&'h exr::meta::header::Header>,
 }
 
-impl BlockWriter {
-    fn new() -> Self {
+impl<'h> BlockWriter<'h> {
+    fn new(crate_header: Option<&'h exr::meta::header::Header>) -> Self {
         let level = libdeflater::CompressionLvl::new(DEFLATE_LEVEL).expect("a valid libdeflate level");
-        Self { raw: Vec::new(), predicted: Vec::new(), deflate: libdeflater::Compressor::new(level) }
+        Self { raw: Vec::new(), predicted: Vec::new(), deflate: libdeflater::Compressor::new(level), crate_header }
     }
 
     /// Block `b`'s chunk: its first `y`, its byte count and its (compressed) data.
@@ -198,6 +231,9 @@ impl BlockWriter {
         let lines = geometry.codec.lines().min(geometry.height - y0);
         self.raw.resize(lines * geometry.line_bytes, 0);
         block_samples(channels, y0, lines, geometry.width, &mut self.raw);
+        if let Some(header) = self.crate_header {
+            return crate_chunk(header, &self.raw, y0, lines, geometry.width);
+        }
         predict(&self.raw, &mut self.predicted);
         let mut chunk = vec![0; 8 + self.deflate.zlib_compress_bound(self.raw.len())];
         let stored = match self.deflate.zlib_compress(&self.predicted, &mut chunk[8..]) {
@@ -213,6 +249,22 @@ impl BlockWriter {
         chunk[4..8].copy_from_slice(&(stored as i32).to_le_bytes());
         chunk
     }
+}
+
+/// A PIZ or DWAA block's chunk, compressed by the `exr` crate (which stores the block as it was
+/// where that is no larger). `raw` is little-endian, as the crate's native-endian input is on
+/// every target refrakt builds for.
+fn crate_chunk(header: &exr::meta::header::Header, raw: &[u8], y0: usize, lines: usize, width: usize) -> Vec<u8> {
+    let section = exr::meta::attribute::IntegerBounds::new((0, y0 as i32), (width, lines));
+    let data = header
+        .compression
+        .compress_image_section_to_le(header, raw.to_vec(), section)
+        .unwrap_or_else(|_| raw.to_vec());
+    let mut chunk = Vec::with_capacity(8 + data.len());
+    chunk.extend_from_slice(&(y0 as i32).to_le_bytes());
+    chunk.extend_from_slice(&(data.len() as i32).to_le_bytes());
+    chunk.extend_from_slice(&data);
+    chunk
 }
 
 /// The image's size and blocks.
@@ -260,8 +312,10 @@ pub fn encode(image: &Image, settings: &ExrSettings, codec: Codec) -> Vec<u8> {
 fn compress_blocks(channels: &[Channel], geometry: &Geometry, parallel: bool) -> Vec<Vec<u8>> {
     let blocks = geometry.blocks();
     let threads = if parallel { std::thread::available_parallelism().map_or(1, |n| n.get()).min(blocks) } else { 1 };
+    let header = geometry.codec.crate_compression().map(|c| crate_header(channels, geometry, c));
+    let header = header.as_ref();
     if threads <= 1 {
-        let mut writer = BlockWriter::new();
+        let mut writer = BlockWriter::new(header);
         return (0..blocks).map(|b| writer.chunk(channels, b, geometry)).collect();
     }
     let mut chunks = vec![Vec::new(); blocks];
@@ -269,7 +323,7 @@ fn compress_blocks(channels: &[Channel], geometry: &Geometry, parallel: bool) ->
         let per_thread: Vec<_> = (0..threads)
             .map(|t| {
                 scope.spawn(move || {
-                    let mut writer = BlockWriter::new();
+                    let mut writer = BlockWriter::new(header);
                     (t..blocks).step_by(threads).map(|b| (b, writer.chunk(channels, b, geometry))).collect::<Vec<_>>()
                 })
             })
@@ -324,18 +378,22 @@ mod tests {
         }
     }
 
-    /// The same bytes as the `exr` crate writes, at odd sizes, in 32- and 16-bit colors.
+    /// The same bytes as the `exr` crate writes, at odd sizes (one block, a part block, several),
+    /// in 32- and 16-bit colors: uncompressed, and PIZ and DWAA, whose blocks its compressors
+    /// fill (on all cores here, one by one there).
     #[test]
     fn writes_the_bytes_the_exr_crate_writes() {
-        for (w, h) in [(1, 1), (3, 2), (67, 53), (256, 17)] {
-            for half in [false, true] {
-                let img = image(w, h);
-                let settings = ExrSettings { codec: ExrCodec::None, half, parallel: false, layers: LayerSet::default() };
-                let crate_bytes = encode_with_exr_crate(&img, settings).unwrap();
-                let ours = encode(&img, &settings, Codec::None);
-                assert_eq!(ours.len(), crate_bytes.len(), "{w}×{h}, half {half}: file size");
-                let first = ours.iter().zip(&crate_bytes).position(|(a, b)| a != b);
-                assert!(first.is_none(), "{w}×{h}, half {half}: bytes differ from offset {first:?}");
+        for (codec, ours_codec) in [(ExrCodec::None, Codec::None), (ExrCodec::Piz, Codec::Piz), (ExrCodec::Dwaa, Codec::Dwaa)] {
+            for (w, h) in [(1, 1), (3, 2), (67, 53), (256, 17)] {
+                for half in [false, true] {
+                    let img = image(w, h);
+                    let settings = ExrSettings { codec, half, parallel: false, layers: LayerSet::default() };
+                    let crate_bytes = encode_with_exr_crate(&img, settings).unwrap();
+                    let ours = encode(&img, &ExrSettings { parallel: true, ..settings }, ours_codec);
+                    assert_eq!(ours.len(), crate_bytes.len(), "{codec:?} {w}×{h}, half {half}: file size");
+                    let first = ours.iter().zip(&crate_bytes).position(|(a, b)| a != b);
+                    assert!(first.is_none(), "{codec:?} {w}×{h}, half {half}: bytes differ from offset {first:?}");
+                }
             }
         }
     }

@@ -73,7 +73,8 @@ def render(binary, scene, paths, frames=None, resume=None):
 def cluster(farm, binary, scene, paths):
     """`refrakt-farm render` of the scene's frame range on the Ray cluster at the scene's
     address: frames come back into the same folder, named as `render` names them. The options
-    after `--` go to every refrakt (the farm passes those that choose files to `refrakt pack`)."""
+    after `--` go to every refrakt (the farm passes those that choose files to `refrakt pack`),
+    the layers the view layers ask for among them."""
     s = scene.refrakt
     args = [
         farm, "render", scene_file(scene, paths),
@@ -87,7 +88,7 @@ def cluster(farm, binary, scene, paths):
     ]
     if s.cluster_address.strip():
         args += ["--address", s.cluster_address.strip()]
-    return args + ["--"] + _common(scene, paths)
+    return args + ["--", "--layers", layers(scene)] + _common(scene, paths)
 
 
 def watch(binary, scene, paths):

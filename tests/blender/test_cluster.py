@@ -9,7 +9,7 @@ import bpy
 import pytest
 
 import scenes
-from conftest import HERE, prefs
+from conftest import HERE, prefs, submodule
 from test_render import frame_paths, is_whole_fake_frame, record_progress
 
 FAKE_FARM = HERE / "fake_refrakt_farm.py"
@@ -34,7 +34,7 @@ def test_render_on_cluster_runs_refrakt_farm_with_the_address(fake_farm, fake_re
 
     paths, files = frame_paths(scene)
     for k, f in zip(range(1, 7), files):
-        assert is_whole_fake_frame(f, k), f
+        assert is_whole_fake_frame(f, k, layers=submodule("cli").layers(scene)), f
     assert seen[-1] == 100.0 and len(set(seen)) >= 3, seen
     assert bpy.context.window_manager.refrakt.status.startswith("Rendered 6 frame(s)")
 
@@ -47,6 +47,7 @@ def test_render_on_cluster_runs_refrakt_farm_with_the_address(fake_farm, fake_re
     assert options["--refrakt"] == str(prefs().binary)
     extra_options = dict(zip(extra[::2], extra[1::2]))
     assert extra_options["--size"] == "64x36" and extra_options["--camera"] == "Camera" and extra_options["--fps"] == "24"
+    assert extra_options["--layers"] == submodule("cli").layers(scene)
     # Two chunks of the fake refrakt: 1..4 and 5..6.
     chunks = [json.loads(line) for line in fake_refrakt.read_text().splitlines()]
     assert [dict(zip(c[2::2], c[3::2]))["--frames"] for c in chunks] == ["1..4", "5..6"]

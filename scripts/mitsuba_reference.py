@@ -18,6 +18,11 @@ Values are irradiance in W/m² for a sun of 1 W/m² across its beam (refrakt: 68
     python3 scripts/mitsuba_reference.py [--spp N]   # writes tests/data/mitsuba/{ball,facets,bunny,hdri}.exr
     python3 scripts/mitsuba_reference.py --only hdri # just one of them
 
+The stored `ball` and `bunny` are finer than this script's default: 2²⁰ light paths per pixel from
+Mitsuba 3.9.1's `cuda_ad_rgb` on the GPU machine (`scripts/compare_mitsuba_gpu.py mitsuba`, which
+imports these scenes and writes `<scene>_reference.exr`; copied here as `<scene>.exr`). Mitsuba
+3.5.x's CUDA particle tracer is wrong (an open floor twice as bright); 3.9.1's is right.
+
 The bunny is read from ../shared/assets/bunny.obj (not part of this repository), or from
 $REFRAKT_BUNNY; $REFRAKT_MITSUBA_VARIANT picks another variant (scripts/compare_mitsuba_gpu.py
 imports this file for its scenes with `cuda_ad_rgb`).

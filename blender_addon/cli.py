@@ -2,14 +2,49 @@
 Blender's own settings, so what refrakt renders matches what F12 would."""
 
 import os
+import struct
 
 from . import extras, scene_export
 
 
 def render_size(scene):
+    """The frame's size in pixels as Blender's render pipeline takes it: the resolution times
+    the percentage, rounded down (`(size · resolution) / 100` in whole numbers)."""
     r = scene.render
-    k = r.resolution_percentage / 100.0
-    return max(1, round(r.resolution_x * k)), max(1, round(r.resolution_y * k))
+    return max(1, r.resolution_x * r.resolution_percentage // 100), max(1, r.resolution_y * r.resolution_percentage // 100)
+
+
+def render_region(scene):
+    """Blender's render region (Output ▸ Render Region, "border render") as refrakt's `--region`:
+    (x, y, width, height) in pixels from the frame's top-left corner — the pixels Blender renders
+    (the border's fractions of the frame, rounded down, y up from the bottom) — or None for the
+    whole frame. Blender places the region in the frame itself (or crops to it)."""
+    r = scene.render
+    if not r.use_border:
+        return None
+    w, h = render_size(scene)
+    x0, x1 = _pixel(r.border_min_x, w), _pixel(r.border_max_x, w)
+    y0, y1 = _pixel(r.border_min_y, h), _pixel(r.border_max_y, h)
+    if x1 <= x0 or y1 <= y0:
+        return None  # (Blender refuses to render so small a region before the engine runs)
+    return x0, h - y1, x1 - x0, y1 - y0
+
+
+def _pixel(fraction, size):
+    """A border's edge in pixels as Blender's C computes it: a float fraction times the size in
+    single precision, rounded down (so 20/48 of 48 is 20, where doubles would give 19)."""
+    return int(struct.unpack("f", struct.pack("f", fraction * size))[0])
+
+
+def image_size(scene):
+    """The size of the images refrakt writes for the scene: its render region's, or the frame's."""
+    region = render_region(scene)
+    return region[2:] if region else render_size(scene)
+
+
+def _region(scene):
+    region = render_region(scene)
+    return ["--region", ",".join(str(v) for v in region)] if region else []
 
 
 def scene_file(scene, paths):
@@ -53,8 +88,8 @@ def layers(scene):
 
 def render(binary, scene, paths, frames=None, resume=None):
     """`refrakt render` of `frames` (first, last), by default the scene's range, with the layers
-    the view layers ask for; `resume` (default: the panel's Resume) skips frames whose files
-    exist."""
+    the view layers ask for, of the render region where one is set; `resume` (default: the
+    panel's Resume) skips frames whose files exist."""
     first, last = frames or (scene.frame_start, scene.frame_end)
     args = [
         binary, "render", scene_file(scene, paths),
@@ -64,7 +99,7 @@ def render(binary, scene, paths, frames=None, resume=None):
         "--format", "exr",
         "--layers", layers(scene),
         "--progress", "json",
-    ] + _common(scene, paths)
+    ] + _common(scene, paths) + _region(scene)
     if scene.refrakt.skip_existing if resume is None else resume:
         args.append("--skip-existing")
     return args
@@ -88,7 +123,7 @@ def cluster(farm, binary, scene, paths):
     ]
     if s.cluster_address.strip():
         args += ["--address", s.cluster_address.strip()]
-    return args + ["--", "--layers", layers(scene)] + _common(scene, paths)
+    return args + ["--", "--layers", layers(scene)] + _common(scene, paths) + _region(scene)
 
 
 def watch(binary, scene, paths):

@@ -270,6 +270,26 @@ def node_extras(obj, scene, warnings=None):
 MAX_APERTURE = 100.0
 
 def camera_extras(camera, scene, warnings):
+    """A camera's lens shift and depth of field as refrakt's (None where it has neither)."""
+    out = {}
+    shift = camera_shift(camera, scene)
+    if shift != (0.0, 0.0):
+        out["shift"] = list(shift)
+    out.update(_thin_lens(camera, scene, warnings) or {})
+    return out or None
+
+
+def camera_shift(camera, scene):
+    """Shift X/Y in refrakt's unit, fractions of the frame's larger side. Blender's are fractions
+    of the side its sensor fits (Auto: the larger one; Horizontal: the width; Vertical: the
+    height), perspective and orthographic alike."""
+    w, h = scene.render.resolution_x, scene.render.resolution_y
+    fitted = {"HORIZONTAL": w, "VERTICAL": h}.get(camera.sensor_fit, max(w, h))
+    k = fitted / max(w, h)
+    return camera.shift_x * k, camera.shift_y * k
+
+
+def _thin_lens(camera, scene, warnings):
     """A camera's depth of field as refrakt's thin lens, the way Cycles sets up its own: the
     aperture's diameter is the focal length over the f-stop, the plane in focus at the *Focus
     Distance* or — with a *Focus Object* — at that object's distance along the view (from the

@@ -197,14 +197,15 @@ def render(engine, depsgraph):
 def _empty_result(engine, scene):
     """A frame left unrendered still hands Blender a (blank) result: Blender's writers expect
     one whenever `render` returns."""
-    w, h = cli.render_size(scene)
+    w, h = cli.image_size(scene)
     engine.end_result(engine.begin_result(0, 0, w, h))
 
 
 def write_result(engine, scene, planes):
     """refrakt's channels into the Render Result's passes (rows flipped: EXR's first row is the
-    top of the image, Blender's the bottom)."""
-    w, h = cli.render_size(scene)
+    top of the image, Blender's the bottom). With a render region both are the region's size:
+    Blender places it in the frame."""
+    w, h = cli.image_size(scene)
     got = next(iter(planes.values())).shape
     if got != (h, w):
         raise RenderError(f"refrakt's frame is {got[1]}×{got[0]}, Blender's render size {w}×{h}")

@@ -39,7 +39,8 @@ def view_camera(view_matrix, window_matrix, region_size, scale, perspective=True
     """refrakt's camera (Y up) for a viewport: where it is, what it looks at, which way is up,
     its vertical field of view and the image size (`scale` percent of the region's pixels). An
     orthographic view is an orthographic camera of the view's height (2 / the projection's
-    [1][1], which is 2 / (top − bottom))."""
+    [1][1], which is 2 / (top − bottom)); an off-centre projection (a camera view with lens
+    shift) gives the camera that shift."""
     world = view_matrix.inverted()
     position = world.translation
     forward = -world.col[2].xyz.normalized()
@@ -56,7 +57,23 @@ def view_camera(view_matrix, window_matrix, region_size, scale, perspective=True
     }
     if not perspective:
         camera["orthographic"] = round(2.0 / window_matrix[1][1], 6)
+    shift = view_shift(window_matrix, w / h, perspective)
+    if shift != (0.0, 0.0):
+        camera["shift"] = [round(x, 6) for x in shift]
     return camera
+
+
+def view_shift(window_matrix, aspect, perspective=True):
+    """The projection's off-centre part as refrakt's lens shift (fractions of the image's larger
+    side): a camera view with Shift X/Y, or panned in its frame. The view's centre lies at
+    (P[0][2] / P[0][0], P[1][2] / P[1][1]) on the plane at unit distance of a perspective
+    projection, at (−P[0][3] / P[0][0], −P[1][3] / P[1][1]) of an orthographic one; in units of
+    half the view's height that is (P[0][2]·aspect, P[1][2]) or (−P[0][3]·aspect, −P[1][3]),
+    and refrakt's shift moves it by twice the shift times the larger side."""
+    m = window_matrix
+    cx, cy = (m[0][2], m[1][2]) if perspective else (-m[0][3], -m[1][3])
+    side = 2.0 * max(aspect, 1.0)
+    return cx * aspect / side, cy / side
 
 
 def view_script_text(paths, settings, camera):

@@ -101,10 +101,12 @@ fn r2(k: u32) -> vec2<f32> {
     return fract(vec2<f32>(0.5) + f32(k) * vec2<f32>(0.7548776662, 0.5698402910));
 }
 
-// A point of the image on the image plane at unit distance: y from −1 (bottom) to 1 (top), x
-// scaled by the aspect ratio.
+// A point of the image on the image plane at unit distance: y from −1 (the frame's bottom) to 1
+// (its top), x scaled by the aspect ratio; the image a region of the frame, moved by the lens
+// shift — CameraDesc::image_window.
 fn image_plane(pixel: vec2<f32>) -> vec2<f32> {
-    return vec2<f32>((2.0 * pixel.x / f32(params.width) - 1.0) * params.camera.aspect, 1.0 - 2.0 * pixel.y / f32(params.height));
+    let w = params.camera.window;
+    return vec2<f32>(w.x + pixel.x * w.z, w.y - pixel.y * w.w);
 }
 
 // The camera ray's direction through a point of the image (parallel to the view for an
@@ -941,15 +943,19 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
     flush_steps(lane);
 }
 
-// The pixel being shaded (its index), which keys its random numbers.
+// The pixel being shaded (its index in the whole frame), which keys its random numbers.
 var<private> pixel_key: u32;
+
+fn key_of(p: vec2<u32>) -> u32 {
+    return params.pixel_key_first + p.x + p.y * params.pixel_key_stride;
+}
 
 // Traces this dispatch's camera rays of pixel `p` (samples sample_first… of `samples`) and
 // writes its six planes — or, after the first dispatch of a pixel's samples, adds to them;
 // returns the steps they took. (Splitting the samples keeps each invocation under lavapipe's
 // 65 535 loop iterations per shader, past which it silently ends every loop.)
 fn shade_pixel(p: vec2<u32>) -> u32 {
-    pixel_key = p.x + p.y * params.width;
+    pixel_key = key_of(p);
     var sum = no_light();
     var coverage = 0.0;
     for (var k = params.sample_first; k < params.sample_first + params.sample_count; k++) {
@@ -1027,7 +1033,7 @@ fn main_companions(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_
     let j = local.z;
     let k = params.sample_first;
     if inside {
-        pixel_key = id.x + id.y * params.width;
+        pixel_key = key_of(id.xy);
         tracing_companion = j == 1u;
         s = trace_view(vec2<f32>(id.xy) + r2(k), k, j);
         count_steps(s.steps);

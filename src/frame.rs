@@ -30,6 +30,21 @@ pub struct CameraDesc {
     /// `blade_rotation` radians.
     pub blades: u32,
     pub blade_rotation: f32,
+    /// Lens shift ([`crate::scene::Lens::shift`]): the image moved across the image plane, in
+    /// fractions of the frame's larger side.
+    pub shift: glam::Vec2,
+    /// A region of the frame (`render --region`, Blender's border render): this image, of
+    /// `width` × `height`, is that part of a larger frame. `None`: the whole frame.
+    pub crop: Option<Crop>,
+}
+
+/// Where an image lies in the frame it is a region of: the frame's size and the image's
+/// top-left pixel in it. The region's pixels are the frame's own — the same rays, the same
+/// random numbers — so a region renders exactly what the whole frame shows there.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Crop {
+    pub frame: (u32, u32),
+    pub origin: (u32, u32),
 }
 
 impl CameraDesc {
@@ -44,7 +59,6 @@ impl CameraDesc {
             position: self.position.into(),
             tan_half_fov: (0.5 * self.fov_y).tan(),
             right: right.into(),
-            aspect: self.width as f32 / self.height as f32,
             up: up.into(),
             ortho_half_height: self.orthographic.map_or(0.0, |h| 0.5 * h),
             forward: self.forward().into(),
@@ -52,8 +66,33 @@ impl CameraDesc {
             focus_distance: self.focus,
             blades: self.blades,
             blade_rotation: self.blade_rotation,
+            window: self.image_window().into(),
             ..Default::default()
         }
+    }
+
+    /// The whole frame's size, pixels: the image's own, or that of the frame it is a region of.
+    pub fn frame_size(&self) -> (u32, u32) {
+        self.crop.map_or((self.width, self.height), |c| c.frame)
+    }
+
+    /// Pixel (x, y) of the image as pixel (x + origin.0, y + origin.1) of the frame.
+    pub fn frame_origin(&self) -> (u32, u32) {
+        self.crop.map_or((0, 0), |c| c.origin)
+    }
+
+    /// Where the image lies on the image plane at unit distance (before the field of view
+    /// scales it): the point of image pixel (x, y) is (w.x + x·w.z, w.y − y·w.w), where the
+    /// frame spans y from −1 at its bottom to 1 at its top and x over ± the aspect ratio — the
+    /// frame's part the image is, moved by the lens shift (in units of the frame's larger
+    /// side, as Blender's Shift X/Y: the view's direction stays, so verticals stay straight).
+    pub fn image_window(&self) -> glam::Vec4 {
+        let (fw, fh) = self.frame_size();
+        let (ox, oy) = self.frame_origin();
+        let aspect = fw as f32 / fh as f32;
+        let shift = 2.0 * aspect.max(1.0) * self.shift;
+        let step = glam::Vec2::new(2.0 * aspect / fw as f32, 2.0 / fh as f32);
+        glam::Vec4::new(-aspect + ox as f32 * step.x + shift.x, 1.0 - oy as f32 * step.y + shift.y, step.x, step.y)
     }
 
     /// A point of the aperture for a uniform `u` in [0, 1)², in metres along the camera's right
@@ -84,7 +123,7 @@ impl CameraDesc {
     pub fn pixel_angle(&self) -> f32 {
         match self.orthographic {
             Some(_) => 0.0,
-            None => 2.0 * (0.5 * self.fov_y).tan() / self.height as f32,
+            None => 2.0 * (0.5 * self.fov_y).tan() / self.frame_size().1 as f32,
         }
     }
 
@@ -97,11 +136,10 @@ impl CameraDesc {
         self.position + 0.5 * height * (nx * (self.orientation * Vec3::X) + ny * (self.orientation * Vec3::Y))
     }
 
-    /// A point of the image as (x, y) on the image plane at unit distance, y from −1 at the
-    /// bottom to 1 at the top, x scaled by the aspect ratio.
+    /// A point of the image as (x, y) on the image plane at unit distance ([`Self::image_window`]).
     fn image_plane(&self, pixel: glam::Vec2) -> (f32, f32) {
-        let aspect = self.width as f32 / self.height as f32;
-        ((2.0 * pixel.x / self.width as f32 - 1.0) * aspect, 1.0 - 2.0 * pixel.y / self.height as f32)
+        let w = self.image_window();
+        (w.x + pixel.x * w.z, w.y - pixel.y * w.w)
     }
 
     /// The unit direction of the ray through pixel (x, y)'s centre — CPU twin of `camera_ray`.
@@ -553,22 +591,63 @@ mod tests {
         }
     }
 
+    fn camera(width: u32, height: u32) -> CameraDesc {
+        CameraDesc {
+            position: Vec3::new(0.3, 1.0, 2.0),
+            orientation: glam::Quat::from_rotation_y(0.4) * glam::Quat::from_rotation_x(-0.2),
+            fov_y: 0.7,
+            width,
+            height,
+            orthographic: None,
+            aperture: 0.0,
+            focus: 3.0,
+            blades: 0,
+            blade_rotation: 0.0,
+            shift: Vec2::ZERO,
+            crop: None,
+        }
+    }
+
+    /// A region's pixels are the frame's: the same rays (perspective and orthographic), the
+    /// same footprint.
+    #[test]
+    fn a_regions_rays_are_the_frames_own() {
+        for orthographic in [None, Some(1.5)] {
+            let frame = CameraDesc { orthographic, ..camera(40, 30) };
+            let region = CameraDesc { width: 12, height: 7, crop: Some(Crop { frame: (40, 30), origin: (25, 9) }), ..frame };
+            for (x, y) in [(0.5, 0.5), (11.5, 6.5), (3.25, 4.75)] {
+                let p = Vec2::new(x, y);
+                let q = p + Vec2::new(25.0, 9.0);
+                assert!(region.ray_through(p).abs_diff_eq(frame.ray_through(q), 1e-6), "{orthographic:?}: pixel {p}");
+                assert!(region.origin_through(p).abs_diff_eq(frame.origin_through(q), 1e-6), "{orthographic:?}: pixel {p}");
+            }
+            assert_eq!(region.pixel_angle(), frame.pixel_angle());
+        }
+    }
+
+    /// Lens shift moves the image by the shift times the frame's larger side (Blender's unit),
+    /// landscape and portrait: the shifted ray through a pixel is the unshifted one through the
+    /// pixel that far across, up being −y in pixels.
+    #[test]
+    fn a_lens_shift_moves_the_image_by_fractions_of_its_larger_side() {
+        for (w, h) in [(40, 30), (30, 40)] {
+            let plain = camera(w, h);
+            let shifted = CameraDesc { shift: Vec2::new(0.125, -0.25), ..plain };
+            let side = w.max(h) as f32;
+            for p in [Vec2::new(0.5, 0.5), Vec2::new(17.3, 12.9)] {
+                let moved = p + Vec2::new(0.125 * side, 0.25 * side);
+                assert!(shifted.ray_through(p).abs_diff_eq(plain.ray_through(moved), 1e-5), "{w}×{h}: pixel {p}");
+            }
+            // The view keeps its direction: no turn, verticals stay parallel.
+            assert_eq!(shifted.forward(), plain.forward());
+        }
+    }
+
     /// Every thin-lens ray of a pixel passes through the point the pinhole ray meets on the plane
     /// in focus; with no aperture the ray is the pinhole's.
     #[test]
     fn a_pixels_lens_rays_meet_on_the_plane_in_focus() {
-        let camera = CameraDesc {
-            position: Vec3::new(0.3, 1.0, 2.0),
-            orientation: glam::Quat::from_rotation_y(0.4) * glam::Quat::from_rotation_x(-0.2),
-            fov_y: 0.7,
-            width: 40,
-            height: 30,
-            orthographic: None,
-            aperture: 0.2,
-            focus: 3.0,
-            blades: 0,
-            blade_rotation: 0.0,
-        };
+        let camera = CameraDesc { aperture: 0.2, ..camera(40, 30) };
         let pixel = Vec2::new(7.3, 21.6);
         let pinhole = camera.ray_through(pixel);
         let in_focus = camera.position + pinhole * (camera.focus / pinhole.dot(camera.forward()));

@@ -14,7 +14,7 @@ use refrakt::output::png::{PngOptions, ToneMap};
 use refrakt::progress::ProgressMode;
 use refrakt::output::exr::{ExrCodec, ExrSettings};
 use refrakt::render::{self, FrameFlow, FrameRange, RenderOptions, SceneOptions};
-use refrakt::scene::eval::EvalOptions;
+use refrakt::scene::eval::{EvalOptions, Region};
 use refrakt::watch::{self, Moment, WatchOptions};
 
 #[derive(Parser)]
@@ -134,6 +134,10 @@ struct SceneArgs {
     /// Image size, overriding the camera's, e.g. 1920x1080.
     #[arg(long, value_name = "WxH", value_parser = parse_size, allow_hyphen_values = true)]
     size: Option<(u32, u32)>,
+    /// Render only this region of the frame, X,Y,W,H in pixels from its top-left corner (as
+    /// Blender's border render): the images are W×H, each pixel what the whole frame has there.
+    #[arg(long, value_name = "X,Y,W,H", value_parser = parse_region, allow_hyphen_values = true)]
+    region: Option<Region>,
     /// Voxels along the longest side of the volume (8 to 2048), overriding the scene's.
     #[arg(long, value_name = "N", value_parser = |s: &str| parse_whole(s, 8, 2048), allow_hyphen_values = true)]
     volume: Option<u32>,
@@ -371,6 +375,7 @@ impl SceneArgs {
             fps: self.fps,
             eval: EvalOptions {
                 size: self.size,
+                region: self.region,
                 resolution: self.volume,
                 camera: self.camera.clone(),
                 samples: self.samples,
@@ -434,6 +439,16 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
         return Err(format!("size {s}: width and height must be from 1 to 16384"));
     }
     Ok((w as u32, h as u32))
+}
+
+fn parse_region(s: &str) -> Result<Region, String> {
+    let err = || format!("\"{s}\" is not a region like 0,0,512,288 (x, y, width, height in pixels)");
+    let parts: Vec<i128> = s.split(',').map(|t| whole_number(t.trim())).collect::<Option<_>>().ok_or_else(err)?;
+    let [x, y, w, h] = parts[..] else { return Err(err()) };
+    if x < 0 || y < 0 || x >= 16384 || y >= 16384 || !(1..=16384).contains(&w) || !(1..=16384).contains(&h) {
+        return Err(format!("region {s}: x and y must be from 0, width and height from 1, all below 16384"));
+    }
+    Ok(Region { origin: (x as u32, y as u32), size: (w as u32, h as u32) })
 }
 
 /// A whole number as people write them: `70000`, `-1`, or `1e6` (exponent notation when the

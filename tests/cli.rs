@@ -128,6 +128,11 @@ fn bad_command_line_values_are_usage_errors() {
     let (code, _, err) = refrakt(&["render", "x.lua", "--frames", "5..2"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("must not run backwards"), "{err}");
+    for (region, says) in [("1,2,3", "is not a region like 0,0,512,288"), ("0,0,0,10", "width and height from 1")] {
+        let (code, _, err) = refrakt(&["render", "x.lua", "--region", region]);
+        assert_eq!(code, 2, "{err}");
+        assert!(err.contains(says), "{region}: {err}");
+    }
 }
 
 #[test]

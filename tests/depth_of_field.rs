@@ -3,6 +3,10 @@
 //! focused at 1 m through an aperture of A = 0.3 m, each point of it spreads over the circle of
 //! confusion, of diameter A·|d − F|/d on the plane in focus — 8.96 pixels in radius here; in
 //! focus it stays as sharp as through the pinhole; and the light in the image is the same.
+//!
+//! And the rest of the camera's framing: a region of the frame (`render --region`, Blender's
+//! border render) renders exactly what the whole frame shows there, and a lens shift moves the
+//! image across the image plane — a shifted frame is that region of a wider one.
 
 mod common;
 
@@ -67,7 +71,7 @@ fn a_thin_lens_blurs_what_is_out_of_focus_into_its_aperture_and_keeps_the_light(
 #[test]
 fn a_gltf_cameras_lens_comes_from_its_extras() {
     let mut g = common::gltf_builder::GltfBuilder::new();
-    let lens = serde_json::json!({ "aperture": 0.025, "focus": 2.5, "blades": 6, "blade_rotation": 30.0 });
+    let lens = serde_json::json!({ "aperture": 0.025, "focus": 2.5, "blades": 6, "blade_rotation": 30.0, "shift": [0.1, -0.2] });
     let camera = g.push("cameras", serde_json::json!({ "name": "Lens", "type": "perspective", "perspective": { "yfov": 0.6, "znear": 0.1 },
                                                         "extras": { "refrakt": lens } }));
     let node = g.push("nodes", serde_json::json!({ "name": "Cam", "camera": camera, "translation": [0.0, 0.0, 3.0] }));
@@ -76,7 +80,7 @@ fn a_gltf_cameras_lens_comes_from_its_extras() {
     let load = |g: &common::gltf_builder::GltfBuilder, name: &str| refrakt::render::GltfScene::load(&g.write_glb(&dir.path().join(name)), &[], &Default::default());
     let source = load(&g, "lens.glb").unwrap();
     let c = refrakt::scene::eval::evaluate(&source.scene, 0.0, &Default::default()).unwrap().camera;
-    assert_eq!((c.aperture, c.focus, c.blades), (0.025, 2.5, 6));
+    assert_eq!((c.aperture, c.focus, c.blades, c.shift), (0.025, 2.5, 6, glam::Vec2::new(0.1, -0.2)));
     assert!((c.blade_rotation - 30f32.to_radians()).abs() < 1e-6);
     // Without `focus`: 10 m (a glTF camera has no target).
     g.json["cameras"][camera]["extras"]["refrakt"] = serde_json::json!({ "aperture": 0.025 });
@@ -85,4 +89,66 @@ fn a_gltf_cameras_lens_comes_from_its_extras() {
     g.json["cameras"][camera]["extras"]["refrakt"]["blades"] = serde_json::json!(2);
     let error = format!("{:#}", load(&g, "bad.glb").err().unwrap());
     assert!(error.contains("cameras[0] \"Lens\"") && error.contains("blades"), "{error}");
+    g.json["cameras"][camera]["extras"]["refrakt"] = serde_json::json!({ "shift": [0.0, 12.0] });
+    let error = format!("{:#}", load(&g, "bad_shift.glb").err().unwrap());
+    assert!(error.contains("shift"), "{error}");
+}
+
+/// A glass ball on a floor under a point light (no size: its shadow rays take no random
+/// numbers, so a pixel's light does not depend on which pixel of which frame it is).
+fn framed_scene(size: (u32, u32), shift_x: f32) -> String {
+    format!(
+        r#"local r = require("refrakt")
+        local scene = r.scene{{ camera = r.camera{{ position = {{0, 1.2, 2.4}}, target = {{0, 0.3, 0}}, fov = 40, size = {{{}, {}}}, shift = {{{shift_x}, 0}} }},
+                               environment = r.environment{{ color = {{0, 0, 0}} }}, photons = 20000, samples = 2, volume = {{ resolution = 32 }} }}
+        scene:add(r.node{{ translation = {{0, 0.35, 0}}, shape = r.sphere{{ radius = 0.35 }}, material = r.glass{{ ior = 1.5 }} }})
+        scene:add(r.node{{ shape = r.plane{{ size = {{4, 4}} }}, material = r.diffuse{{ color = {{0.8, 0.8, 0.8}} }} }})
+        scene:add(r.node{{ translation = {{0.6, 2.0, 0.5}}, light = r.point{{ intensity = 40, radius = 0 }} }})
+        return scene"#,
+        size.0, size.1
+    )
+}
+
+/// The beauty and caustic planes of `image` within `w` × `h` pixels from (x, y).
+fn planes_within(image: &refrakt::output::Image, (x, y): (usize, usize), (w, h): (usize, usize)) -> Vec<f32> {
+    let width = image.width as usize;
+    ["beauty", "caustic"]
+        .iter()
+        .flat_map(|name| {
+            let layer = image.layer(name).unwrap();
+            let c = layer.channels.len();
+            (y..y + h).flat_map(move |j| layer.data[c * (j * width + x)..c * (j * width + x + w)].to_vec())
+        })
+        .collect()
+}
+
+fn assert_same_pixels(got: &[f32], want: &[f32], what: &str) {
+    let scale = want.iter().fold(0f32, |m, v| m.max(v.abs()));
+    let worst = got.iter().zip(want).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
+    eprintln!("{what}: largest difference {worst:.2e} of the brightest value {scale:.3}");
+    assert!(scale > 0.0 && worst <= 1e-5 * scale, "{what}: pixels differ by up to {worst} (brightest {scale})");
+}
+
+#[test]
+fn a_region_renders_what_the_frame_shows_there_and_a_shift_is_a_region_of_a_wider_frame() {
+    use refrakt::scene::eval::{EvalOptions, Region};
+    let mut renderer = shared_renderer();
+    let full = renderer.frame(&frame_from_lua(&framed_scene((48, 32), 0.0))).unwrap();
+    let region = Region { origin: (13, 5), size: (20, 17) };
+    let part = renderer.frame(&common::frame_from_lua_with(&framed_scene((48, 32), 0.0), &EvalOptions { region: Some(region), ..Default::default() })).unwrap();
+    assert_eq!((part.width, part.height), (20, 17));
+    assert_same_pixels(&planes_within(&part, (0, 0), (20, 17)), &planes_within(&full, (13, 5), (20, 17)), "region vs frame");
+    // A 32×32 frame shifted by 0.25 of its side (8 pixels) to the right is the 32×32 region of
+    // a 64×32 frame (the same vertical field of view) from x = 16 + 8.
+    let shifted = renderer.frame(&frame_from_lua(&framed_scene((32, 32), 0.25))).unwrap();
+    let wide = EvalOptions { region: Some(Region { origin: (24, 0), size: (32, 32) }), ..Default::default() };
+    let of_wide = renderer.frame(&common::frame_from_lua_with(&framed_scene((64, 32), 0.0), &wide)).unwrap();
+    assert_same_pixels(&planes_within(&shifted, (0, 0), (32, 32)), &planes_within(&of_wide, (0, 0), (32, 32)), "shifted vs a region of a wider frame");
+    // A region that does not fit the frame is refused before anything renders.
+    let (_dir, path) = common::write_script("scene.lua", &framed_scene((48, 32), 0.0));
+    let host = common::load(&path);
+    host.update(0.0).unwrap();
+    let outside = EvalOptions { region: Some(Region { origin: (40, 0), size: (20, 10) }), ..Default::default() };
+    let err = refrakt::scene::eval::evaluate(&host.scene().borrow(), 0.0, &outside).unwrap_err();
+    assert!(format!("{err:#}").contains("reaches past the 48×32 frame"), "{err:#}");
 }

@@ -149,6 +149,8 @@ fn helper_errors_name_the_line_and_argument() {
     assert_error("r.camera{ aperture = -0.1 }", &["scene.lua:3:", "camera.aperture"]);
     assert_error("r.camera{ blades = 2 }", &["scene.lua:3:", "camera.blades must be 0 (a round aperture) or a whole number from 3 to 64"]);
     assert_error("r.camera{ focus = 0 }", &["scene.lua:3:", "camera.focus"]);
+    assert_error("r.camera{ shift = {0.1} }", &["scene.lua:3:", "camera.shift must be a pair {x, y} of numbers from -10 to 10"]);
+    assert_error("r.camera{ shift = {0, 11} }", &["scene.lua:3:", "camera.shift"]);
 }
 
 /// A camera's thin lens: set and read back; the scene camera's focus defaults to its target's
@@ -168,6 +170,8 @@ fn a_camera_lens_reads_back_and_focuses_on_its_target_by_default() {
     let c = lua("").camera;
     assert_eq!((c.aperture, c.focus, c.blades), (0.02, 3.0, 7));
     assert_eq!(lua("cam.focus = 1.5; assert(cam.focus == 1.5)").camera.focus, 1.5);
+    let shifted = lua("cam.shift = {0.1, -0.25}; assert(cam.shift[1] == 0.1 and cam.shift[2] == -0.25, 'shift reads back')").camera;
+    assert_eq!(shifted.shift, glam::Vec2::new(0.1, -0.25));
     let on_node = frame_from_lua(
         r#"local r = require("refrakt")
         local scene = r.scene{}

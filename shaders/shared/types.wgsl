@@ -14,7 +14,7 @@ struct Camera {
     position: vec3<f32>,
     tan_half_fov: f32,
     right: vec3<f32>,
-    aspect: f32,
+    _pad0: f32,
     up: vec3<f32>,
     // Half the view's height of an orthographic camera (metres); 0: a pinhole.
     ortho_half_height: f32,
@@ -26,6 +26,9 @@ struct Camera {
     blades: u32,
     blade_rotation: f32,
     _pad1: f32,
+    // The image on the image plane at unit distance: pixel (x, y) at (x0 + x·dx, y0 − y·dy) as
+    // (x0, y0, dx, dy) — a region of the frame, moved by the lens shift.
+    window: vec4<f32>,
 }
 
 struct EnvParams {
@@ -66,6 +69,9 @@ struct ViewParams {
     sample_count: u32,
     grid_dispersion: f32,
     wavelengths_per_sample: u32,
+    pixel_key_first: u32,
+    pixel_key_stride: u32,
+    _pad: vec2<u32>,
 }
 
 struct Field {

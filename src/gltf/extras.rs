@@ -278,8 +278,8 @@ fn node_role(n: NodeExtras, file: &str, what: &str) -> Result<Option<NodeRole>> 
 // ---------------------------------------------------------------------------------------------
 // Cameras.
 
-/// A camera's thin lens, as Lua's `r.camera{ aperture, focus, blades, blade_rotation }` (metres,
-/// metres, a count, degrees).
+/// A camera's thin lens, as Lua's `r.camera{ aperture, focus, blades, blade_rotation, shift }`
+/// (metres, metres, a count, degrees, fractions of the frame's larger side).
 #[derive(Debug, Default, Deserialize)]
 #[serde(default)]
 pub struct LensExtras {
@@ -287,9 +287,10 @@ pub struct LensExtras {
     pub focus: Option<f32>,
     pub blades: Option<u32>,
     pub blade_rotation: Option<f32>,
+    pub shift: Option<[f32; 2]>,
 }
 
-const CAMERA_KEYS: &[&str] = &["aperture", "focus", "blades", "blade_rotation"];
+const CAMERA_KEYS: &[&str] = &["aperture", "focus", "blades", "blade_rotation", "shift"];
 
 /// The thin lens of glTF camera `camera` from its extras (a pinhole where there are none).
 pub fn lens(camera: &gltf::Camera, file: &str, what: &str, warnings: &mut Collector) -> Result<Lens> {
@@ -299,10 +300,12 @@ pub fn lens(camera: &gltf::Camera, file: &str, what: &str, warnings: &mut Collec
     check(e.focus.is_none_or(|f| f.is_finite() && f > 0.0), file, what, "focus", "a distance > 0 (metres)")?;
     check(e.blades.is_none_or(Lens::blades_are_valid), file, what, "blades", "0 (round) or 3 to 64")?;
     check(e.blade_rotation.is_none_or(f32::is_finite), file, what, "blade_rotation", "an angle in degrees")?;
+    check(e.shift.is_none_or(|s| s.iter().all(|c| c.abs() <= Lens::MAX_SHIFT)), file, what, "shift", "a pair [x, y] from -10 to 10 (fractions of the frame's larger side)")?;
     lens.aperture = e.aperture.unwrap_or(0.0);
     lens.focus = e.focus;
     lens.blades = e.blades.unwrap_or(0);
     lens.blade_rotation = e.blade_rotation.unwrap_or(0.0).to_radians();
+    lens.shift = e.shift.map_or(glam::Vec2::ZERO, glam::Vec2::from);
     Ok(lens)
 }
 

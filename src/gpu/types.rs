@@ -41,13 +41,13 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// A camera: an orthonormal basis, the tangent of half the vertical field of view, and a thin
-    /// lens (a pinhole where its radius is 0).
+    /// A camera: an orthonormal basis, the tangent of half the vertical field of view, a thin
+    /// lens (a pinhole where its radius is 0), and where the image lies on the image plane.
     pub struct Camera {
         pub position: [f32; 3],
         pub tan_half_fov: f32,
         pub right: [f32; 3],
-        pub aspect: f32,
+        pub _pad0: f32,
         pub up: [f32; 3],
         /// Half the view's height (metres) of an orthographic camera; 0: a pinhole.
         pub ortho_half_height: f32,
@@ -60,6 +60,9 @@ gpu_struct! {
         pub blades: u32,
         pub blade_rotation: f32,
         pub _pad1: f32,
+        /// The image on the image plane at unit distance: pixel (x, y) at (x₀ + x·dx, y₀ − y·dy)
+        /// as (x₀, y₀, dx, dy) — `CameraDesc::image_window` (region and lens shift).
+        pub window: [f32; 4],
     }
 }
 
@@ -122,6 +125,12 @@ gpu_struct! {
         /// Wavelengths a camera sample that meets dispersive glass is traced at (spectral frames:
         /// `view::wavelengths_per_sample`; 1 otherwise).
         pub wavelengths_per_sample: u32,
+        /// Pixel (x, y)'s random numbers are keyed by its index in the whole frame,
+        /// `pixel_key_first + x + y · pixel_key_stride`: a region (`render --region`) draws the
+        /// frame's own.
+        pub pixel_key_first: u32,
+        pub pixel_key_stride: u32,
+        pub _pad: [u32; 2],
     }
 }
 

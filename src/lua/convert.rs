@@ -219,6 +219,20 @@ pub fn size2(lua: &Lua, name: FieldName, v: &Value) -> mlua::Result<glam::Vec2> 
     Ok(glam::Vec2::new(x, y))
 }
 
+/// `{x, y}` of two numbers from −`bound` to `bound`.
+pub fn vec2_within(lua: &Lua, name: FieldName, v: &Value, bound: f64) -> mlua::Result<glam::Vec2> {
+    let expected = format!("a pair {{x, y}} of numbers from -{bound} to {bound}");
+    let Value::Table(t) = v else { return Err(wrong(lua, name, &expected, v)) };
+    if t.raw_len() != 2 {
+        return Err(wrong(lua, name, &expected, v));
+    }
+    let component = |i: usize| -> mlua::Result<f32> {
+        let item: Value = t.raw_get(i)?;
+        Ok(number_in(lua, name, &item, Some(-bound), Some(bound), &expected).map_err(|_| wrong(lua, name, &expected, v))? as f32)
+    };
+    Ok(glam::Vec2::new(component(1)?, component(2)?))
+}
+
 /// `{w, h}` image size in pixels.
 pub fn image_size(lua: &Lua, name: FieldName, v: &Value) -> mlua::Result<(u32, u32)> {
     let expected = "an image size {width, height} of whole numbers from 1 to 16384";

@@ -639,7 +639,7 @@ impl LuaObject for Fog {
 // ---------------------------------------------------------------------------------------------
 // Camera.
 
-const CAMERA_FIELDS: &[&str] = &["position", "target", "rotation", "up", "fov", "size", "orthographic", "aperture", "focus", "blades", "blade_rotation"];
+const CAMERA_FIELDS: &[&str] = &["position", "target", "rotation", "up", "fov", "size", "orthographic", "aperture", "focus", "blades", "blade_rotation", "shift"];
 
 impl LuaObject for Camera {
     fn kind(&self) -> &'static str {
@@ -661,6 +661,7 @@ impl LuaObject for Camera {
             "focus" => Ok(self.lens.focus.map_or(Value::Nil, number_value)),
             "blades" => Ok(Value::Integer(self.lens.blades.into())),
             "blade_rotation" => Ok(number_value(self.lens.blade_rotation.to_degrees())),
+            "shift" => lua.create_sequence_from(self.lens.shift.to_array().map(decimal))?.into_lua(lua),
             _ => Err(unknown_field(lua, "camera", key, CAMERA_FIELDS)),
         }
     }
@@ -712,6 +713,7 @@ impl LuaObject for Camera {
                 self.lens.blades = blades as u32;
             }
             "blade_rotation" => self.lens.blade_rotation = (cv::number_in(lua, name, &value, Some(-3600.0), Some(3600.0), "an angle in degrees")? as f32).to_radians(),
+            "shift" => self.lens.shift = cv::vec2_within(lua, name, &value, Lens::MAX_SHIFT.into())?,
             _ => return Err(unknown_field(lua, "camera", key, CAMERA_FIELDS)),
         }
         Ok(())

@@ -152,6 +152,7 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
     if spectrum.spectral {
         flags |= view_flags::SPECTRAL;
     }
+    let (origin, frame_width) = (desc.camera.frame_origin(), desc.camera.frame_size().0);
     ViewParams {
         camera: desc.camera.to_gpu(),
         grid: v.to_gpu(),
@@ -177,6 +178,9 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
         camera_media_hi: camera_media[1],
         grid_dispersion: spectrum.grid_dispersion,
         wavelengths_per_sample: wavelengths_per_sample(spectrum.spectral, desc.samples),
+        pixel_key_first: origin.0 + origin.1 * frame_width,
+        pixel_key_stride: frame_width,
+        _pad: [0; 2],
     }
 }
 

@@ -16,6 +16,8 @@ use crate::frame::{CameraDesc, FieldDesc, FieldKind, FogDesc, FrameDesc, LightDe
 pub struct EvalOptions {
     /// `--size WxH`.
     pub size: Option<(u32, u32)>,
+    /// `--region X,Y,W,H`: only this part of the frame (pixels from its top-left corner).
+    pub region: Option<Region>,
     /// `--volume N`: voxels along the longest side.
     pub resolution: Option<u32>,
     /// `--camera NAME` or `INDEX`: a node carrying a camera, by name or by its place among the
@@ -388,8 +390,30 @@ pub fn camera_nodes(placed: &[Placed]) -> Vec<&Placed> {
     placed.iter().filter(|p| p.node.borrow().camera.is_some()).collect()
 }
 
+/// A part of the frame to render alone (`--region`, Blender's border render): `size` pixels
+/// from `origin`, the frame's top-left corner being (0, 0).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Region {
+    pub origin: (u32, u32),
+    pub size: (u32, u32),
+}
+
+impl Region {
+    /// The camera's image narrowed to this region of its frame, which it must lie in.
+    fn apply(&self, camera: &mut CameraDesc) -> Result<()> {
+        let (frame, (x, y), (w, h)) = ((camera.width, camera.height), self.origin, self.size);
+        if x as u64 + w as u64 > frame.0 as u64 || y as u64 + h as u64 > frame.1 as u64 {
+            bail!("--region {x},{y},{w},{h} reaches past the {}×{} frame (it must lie inside: x + width ≤ {}, y + height ≤ {})", frame.0, frame.1, frame.0, frame.1);
+        }
+        camera.crop = Some(crate::frame::Crop { frame, origin: self.origin });
+        (camera.width, camera.height) = self.size;
+        Ok(())
+    }
+}
+
 /// The camera for this frame: `--camera NAME` or `INDEX` (a node with a camera), else the scene
-/// camera, else the first node camera; `--size` overrides the resolution.
+/// camera, else the first node camera; `--size` overrides the resolution, `--region` narrows
+/// the image to a part of the frame.
 fn camera_of(scene: &Scene, placed: &[Placed], opts: &EvalOptions) -> Result<CameraDesc> {
     let node_camera = |p: &Placed| -> Option<CameraDesc> {
         let node = p.node.borrow();
@@ -420,6 +444,9 @@ fn camera_of(scene: &Scene, placed: &[Placed], opts: &EvalOptions) -> Result<Cam
     if let Some((w, h)) = opts.size {
         desc.width = w;
         desc.height = h;
+    }
+    if let Some(region) = &opts.region {
+        region.apply(&mut desc)?;
     }
     Ok(desc)
 }

@@ -23,7 +23,7 @@ use std::cell::RefCell;
 use std::path::PathBuf;
 use std::rc::Rc;
 
-use glam::{Mat4, Quat, Vec3};
+use glam::{Mat4, Quat, Vec2, Vec3};
 
 pub use environment::{EnvImage, Environment, EnvironmentSource};
 pub use index_fn::{IndexFn, IndexFunction};
@@ -100,6 +100,10 @@ pub struct Lens {
     pub blades: u32,
     /// The polygon's turn about the view, radians: 0 puts a corner toward the image's right.
     pub blade_rotation: f32,
+    /// Lens shift, as Blender's Shift X/Y: the image moved across the image plane (x right,
+    /// y up) in fractions of the frame's larger side — the view keeps its direction, so
+    /// verticals stay parallel (architecture), and a subject off-centre is framed without a turn.
+    pub shift: Vec2,
 }
 
 impl Lens {
@@ -109,6 +113,8 @@ impl Lens {
     pub const MAX_APERTURE: f32 = 100.0;
     /// The most blades a diaphragm may have.
     pub const MAX_BLADES: u32 = 64;
+    /// The largest lens shift either way, in frames (Blender's limit).
+    pub const MAX_SHIFT: f32 = 10.0;
 
     /// Whether `blades` makes an aperture: 0 (round) or a polygon of 3 to [`Self::MAX_BLADES`].
     pub fn blades_are_valid(blades: u32) -> bool {
@@ -118,7 +124,7 @@ impl Lens {
 
 impl Default for Lens {
     fn default() -> Self {
-        Self { aperture: 0.0, focus: None, blades: 0, blade_rotation: 0.0 }
+        Self { aperture: 0.0, focus: None, blades: 0, blade_rotation: 0.0, shift: Vec2::ZERO }
     }
 }
 
@@ -168,6 +174,8 @@ impl Camera {
             focus: self.focus_distance(on_node),
             blades: self.lens.blades,
             blade_rotation: self.lens.blade_rotation,
+            shift: self.lens.shift,
+            crop: None,
         }
     }
 }

@@ -305,7 +305,8 @@ pub struct SceneInfo {
     pub lens: Option<LensInfo>,
 }
 
-/// A camera's thin lens as the page is told of it (`r.camera`'s fields and units).
+/// A camera's thin lens and lens shift as the page is told of them (`r.camera`'s fields and
+/// units).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct LensInfo {
     pub aperture: f32,
@@ -313,15 +314,18 @@ pub struct LensInfo {
     pub blades: u32,
     /// Degrees.
     pub blade_rotation: f32,
+    /// Fractions of the frame's larger side.
+    pub shift: [f32; 2],
 }
 
 impl LensInfo {
     pub fn of(camera: &CameraDesc) -> Option<Self> {
-        (camera.aperture > 0.0).then(|| Self {
+        (camera.aperture > 0.0 || camera.shift != glam::Vec2::ZERO).then(|| Self {
             aperture: camera.aperture,
             focus: camera.focus,
             blades: camera.blades,
             blade_rotation: camera.blade_rotation.to_degrees(),
+            shift: camera.shift.into(),
         })
     }
 }

@@ -212,6 +212,19 @@ fn round(x: f32) -> f64 {
     (x as f64 * 1e4).round() / 1e4
 }
 
+/// A camera's lens as `r.camera` fields after a comma: the thin lens where it has an aperture,
+/// the shift where there is one.
+fn lens_fields(l: &crate::serve::protocol::LensInfo) -> String {
+    let mut out = String::new();
+    if l.aperture > 0.0 {
+        out += &format!(", aperture = {}, focus = {}, blades = {}, blade_rotation = {}", round(l.aperture), round(l.focus), l.blades, round(l.blade_rotation));
+    }
+    if l.shift != [0.0; 2] {
+        out += &format!(", shift = {{{}, {}}}", round(l.shift[0]), round(l.shift[1]));
+    }
+    out
+}
+
 fn lua_vec(v: [f32; 3]) -> String {
     format!("{{{}, {}, {}}}", round(v[0]), round(v[1]), round(v[2]))
 }
@@ -224,10 +237,8 @@ fn lua_vec(v: [f32; 3]) -> String {
 pub fn edits_lua(state: &PageState, info: &SceneInfo) -> String {
     let mut out = vec![format!("-- refrakt serve: the page's edits of {}", info.name)];
     if let Some(c) = &state.camera {
-        // The page orbits with the scene's lens as it is (its focus distance too).
-        let lens = info.lens.map_or(String::new(), |l| {
-            format!(", aperture = {}, focus = {}, blades = {}, blade_rotation = {}", round(l.aperture), round(l.focus), l.blades, round(l.blade_rotation))
-        });
+        // The page orbits with the scene's lens as it is (its focus distance and shift too).
+        let lens = info.lens.map_or(String::new(), |l| lens_fields(&l));
         out.push(format!(
             "scene.camera = r.camera{{ position = {}, target = {}, fov = {}, size = {{{}, {}}}{lens} }}",
             lua_vec(c.position),
@@ -283,7 +294,7 @@ mod tests {
             fps: 24.0,
             params: vec![crate::lua::params::Param { name: "red".into(), value: 0.2, default: 0.2, min: 0.0, max: 1.0, step: 0.01 }],
             focus: [0.0; 3],
-            lens: Some(crate::serve::protocol::LensInfo { aperture: 0.02, focus: 2.5, blades: 6, blade_rotation: 15.0 }),
+            lens: Some(crate::serve::protocol::LensInfo { aperture: 0.02, focus: 2.5, blades: 6, blade_rotation: 15.0, shift: [0.1, -0.05] }),
         }
     }
 
@@ -365,7 +376,7 @@ mod tests {
         let (base, edited) = (desc("base.lua", script("")), desc("edited.lua", script(&lua)));
         assert_eq!(edited.camera.position, glam::Vec3::new(1.0, 0.5, 3.0));
         let c = &edited.camera;
-        assert_eq!((c.aperture, c.focus, c.blades), (0.02, 2.5, 6), "the lens is kept: {lua}");
+        assert_eq!((c.aperture, c.focus, c.blades, c.shift), (0.02, 2.5, 6, glam::Vec2::new(0.1, -0.05)), "the lens is kept: {lua}");
         let mut served = base.lights[0].clone();
         edit.apply(&mut served); // what the server renders
         let light = &edited.lights[0];

@@ -77,6 +77,8 @@ def render(args):
     out = option(args, "--out", "render")
     name = option(args, "--name", os.path.splitext(os.path.basename(scene))[0])
     w, h = (int(x) for x in option(args, "--size", "8x4").split("x"))
+    if "--region" in args:  # as refrakt: the images are the region's size
+        w, h = (int(x) for x in option(args, "--region").split(",")[2:])
     delay = float(os.environ.get("FAKE_REFRAKT_DELAY", "0.05"))
     fail_at = os.environ.get("FAKE_REFRAKT_FAIL_AT")
     os.makedirs(out, exist_ok=True)

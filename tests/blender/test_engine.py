@@ -240,3 +240,89 @@ def test_blenders_overwrite_setting_applies(fake_refrakt, tmp_path, saved_blend)
     assert (out / "shot.0002.exr").read_bytes() == b"kept"
     assert fake_frame_value(out / "shot.0001.exr") == 1 and fake_frame_value(out / "shot.0003.exr") == 3
     assert len([line for line in fake_refrakt.read_text().splitlines() if '"render"' in line]) == 1
+
+
+def region_of(alpha):
+    """(x, y, w, h), from the top-left corner, of the pixels whose alpha is not 0 (rows from the
+    bottom, as Blender keeps them)."""
+    rows, cols = np.nonzero(alpha[::-1])
+    return int(cols.min()), int(rows.min()), int(cols.max() - cols.min() + 1), int(rows.max() - rows.min() + 1)
+
+
+def test_a_render_region_renders_only_that_region_and_blender_places_it(fake_refrakt, tmp_path, saved_blend):
+    """Output ▸ Render Region: refrakt renders only the region (`--region`, from the frame's
+    top-left corner, as many pixels as Blender's render pipeline takes: the border's fractions of
+    the frame rounded down); Blender places it in the frame, or crops to it. The frame's size
+    follows Blender's rounding down of the resolution percentage too."""
+    scene = engine_scene(tmp_path, size=(64, 36))
+    scene.render.resolution_percentage = 70  # 44 × 25 (44.8 × 25.2 rounded down)
+    scene.render.use_border = True
+    scene.render.border_min_x, scene.render.border_max_x = 0.26, 0.7   # columns 11 … 29
+    scene.render.border_min_y, scene.render.border_max_y = 0.1, 0.55   # rows 2 … 12 from the bottom
+    for crop in (False, True):
+        scene.render.use_crop_to_border = crop
+        saved_blend()
+        assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+        argv = json.loads(fake_refrakt.read_text().splitlines()[-1])
+        assert argv[argv.index("--size") + 1] == "44x25" and argv[argv.index("--region") + 1] == "11,12,19,11"
+        alpha = blender_exr_passes(tmp_path / "out" / "shot.exr")["Combined"][..., 3]
+        if crop:
+            assert alpha.shape == (11, 19) and np.all(alpha == 1.0)
+        else:
+            assert alpha.shape == (25, 44) and region_of(alpha) == (11, 12, 19, 11)
+
+
+def glowing_dot_scene(tmp_path):
+    """A small glowing ball off the axis of a camera with lens shift, in a black world: where
+    Blender projects the ball's centre, refrakt's image must show it."""
+    scene = engine_scene(tmp_path, size=(48, 32))
+    scene.refrakt.samples = 4
+    for obj in list(scene.objects):
+        if obj.type != "CAMERA":
+            bpy.data.objects.remove(obj)
+    scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.08, location=(0.6, 0.8, 0.9), segments=16, ring_count=8)
+    dot = bpy.context.object
+    material = bpy.data.materials.new("Glow")
+    material.use_nodes = True
+    bsdf = material.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    bsdf.inputs["Emission Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    bsdf.inputs["Emission Strength"].default_value = 5.0
+    dot.data.materials.append(material)
+    return scene, dot
+
+
+def test_lens_shift_and_a_render_region_frame_the_image_as_blender_does(addon, real_refrakt, tmp_path, saved_blend):
+    """Camera ▸ Lens ▸ Shift X/Y moves refrakt's image as Blender's camera projects it
+    (`world_to_camera_view`, which applies the shift), the sensor fitted on Auto and on Vertical;
+    and a render region of that frame holds the frame's own pixels there."""
+    from bpy_extras.object_utils import world_to_camera_view
+
+    submodule("preferences").get(bpy.context).binary = real_refrakt
+    scene, dot = glowing_dot_scene(tmp_path)
+    camera = scene.camera.data
+    camera.shift_x, camera.shift_y = 0.2, -0.12
+    w, h = 48, 32
+    frames = {}
+    for fit in ("AUTO", "VERTICAL"):
+        camera.sensor_fit = fit
+        saved_blend()
+        assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+        beauty = blender_exr_passes(tmp_path / "out" / "shot.exr")["Combined"][..., 0]  # rows from the bottom
+        weight = beauty / beauty.sum()
+        ys, xs = np.mgrid[0:h, 0:w] + 0.5
+        u, v, _ = world_to_camera_view(scene, scene.camera, dot.location)
+        got, want = (float((weight * xs).sum()), float((weight * ys).sum())), (u * w, v * h)
+        assert max(abs(got[0] - want[0]), abs(got[1] - want[1])) < 0.35, (fit, got, want)
+        frames[fit] = beauty
+    # A region around the ball: the frame's pixels there, bottom row 8, left column 20 (20/48
+    # is not a float: Blender's single-precision product rounds to 20).
+    scene.render.use_border, scene.render.use_crop_to_border = True, True
+    scene.render.border_min_x, scene.render.border_max_x = 20 / w, 40 / w
+    scene.render.border_min_y, scene.render.border_max_y = 8 / h, 30 / h
+    saved_blend()
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    part = blender_exr_passes(tmp_path / "out" / "shot.exr")["Combined"][..., 0]
+    assert part.shape == (22, 20) and part.max() > 0
+    assert np.max(np.abs(part - frames["VERTICAL"][8:30, 20:40])) <= 1e-5 * part.max()

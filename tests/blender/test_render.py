@@ -68,13 +68,14 @@ def test_render_writes_all_frames_with_progress_from_0_to_100(fake_refrakt, save
 
 
 def test_render_size_follows_resolution_percentage(fake_refrakt, saved_blend):
+    """As Blender's render pipeline sizes the frame: 30 % of 64 × 36 is 19 × 10 (rounded down)."""
     scene = scenes.round_trip_scene()
-    scene.render.resolution_percentage = 50
+    scene.render.resolution_percentage = 30
     scene.frame_end = 1
     saved_blend()
     assert bpy.ops.refrakt.render() == {"FINISHED"}
     argv = json.loads(fake_refrakt.read_text().splitlines()[-1])
-    assert argv[argv.index("--size") + 1] == "32x18"
+    assert argv[argv.index("--size") + 1] == "19x10" and "--region" not in argv
 
 
 def test_world_image_outside_the_folder_may_be_read(fake_refrakt, saved_blend, tmp_path):

@@ -64,6 +64,21 @@ def test_an_orthographic_view_is_an_orthographic_camera(addon):
     assert "orthographic" not in submodule("viewport").view_camera(view.inverted(), window_matrix(40.0, 2.0), (200, 100), 50)
 
 
+def test_a_camera_views_lens_shift_reaches_refrakts_camera(addon):
+    """Looking through a camera with Shift X/Y, the viewport's projection is Blender's camera
+    projection (`calc_matrix_camera`), off-centre by the shift: refrakt's view camera gets that
+    shift, perspective and orthographic, landscape and portrait."""
+    scene = scenes.round_trip_scene()
+    cam = scene.camera
+    cam.data.shift_x, cam.data.shift_y = 0.2, -0.1
+    for kind in ("PERSP", "ORTHO"):
+        cam.data.type = kind
+        for size in ((96, 54), (54, 96)):
+            window = cam.calc_matrix_camera(bpy.context.evaluated_depsgraph_get(), x=size[0], y=size[1])
+            got = submodule("viewport").view_camera(cam.matrix_world.inverted(), window, size, 100, kind == "PERSP")
+            assert got["shift"] == pytest.approx([0.2, -0.1], abs=1e-5), (kind, size)
+
+
 class Recorder:
     """A depsgraph handler that forwards Blender's updates to the session, as view_update."""
 

@@ -52,11 +52,16 @@ pub fn load_error(body: &str, limits: &Limits) -> String {
 
 /// The frame a Lua scene evaluates to at t = 0.
 pub fn frame_from_lua(source: &str) -> FrameDesc {
+    frame_from_lua_with(source, &EvalOptions::default())
+}
+
+/// The same with the command line's options (`--region`, `--size`, …).
+pub fn frame_from_lua_with(source: &str, opts: &EvalOptions) -> FrameDesc {
     let (_dir, path) = write_script("scene.lua", source);
     let host = load(&path);
     host.update(0.0).unwrap();
     let scene = host.scene().borrow();
-    evaluate(&scene, 0.0, &EvalOptions::default()).unwrap_or_else(|e| panic!("{e:#}"))
+    evaluate(&scene, 0.0, opts).unwrap_or_else(|e| panic!("{e:#}"))
 }
 
 pub fn mean(v: &[f32]) -> f32 {

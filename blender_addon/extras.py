@@ -425,4 +425,18 @@ def scene_extras(scene, directory, warnings):
     fog_settings = fog(scene, warnings)
     if fog_settings is not None:
         out["fog"] = fog_settings
+    out.update(motion_blur(scene, warnings))
     return out
+
+
+def motion_blur(scene, warnings):
+    """Render ▸ Motion Blur as refrakt's shutter (frames, around each frame's time) and the
+    instants it renders across it; {} when off. refrakt centres the shutter on the frame, as
+    Cycles' default Position; Start and End are warned of."""
+    r = scene.render
+    if not r.use_motion_blur:
+        return {}
+    position = getattr(r, "motion_blur_position", "CENTER")
+    if position != "CENTER":
+        warnings.add(f"Motion blur's Position is {position.title()}: refrakt centres the shutter on the frame")
+    return {"shutter": r.motion_blur_shutter, "motion_steps": scene.refrakt.motion_steps}

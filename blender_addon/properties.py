@@ -38,6 +38,14 @@ class RefraktSceneSettings(bpy.types.PropertyGroup):
         min=1,
         max=256,
     )
+    motion_steps: IntProperty(
+        name="Motion Steps",
+        description="With Render ▸ Motion Blur on: the instants across the shutter refrakt renders and "
+        "averages, each with its share of the samples and photons (more for a long shutter or fast motion)",
+        default=8,
+        min=2,
+        max=64,
+    )
     volume_resolution: IntProperty(
         name="Resolution",
         description="Voxels along the longest side of the index volume; memory grows with its cube",

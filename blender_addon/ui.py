@@ -80,6 +80,9 @@ class RENDER_PT_refrakt_light(RefraktSubPanel, bpy.types.Panel):
         layout.prop(s, "photons")
         layout.prop(s, "bounces")
         layout.prop(s, "samples")
+        row = layout.row()
+        row.enabled = context.scene.render.use_motion_blur
+        row.prop(s, "motion_steps")
 
 
 class RENDER_PT_refrakt_volume(RefraktSubPanel, bpy.types.Panel):

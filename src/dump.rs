@@ -105,6 +105,7 @@ pub fn frame_json(scene: &Scene, desc: &FrameDesc, frame: Option<i64>) -> Result
         "fog": desc.fog.map(|f| json!({ "scattering": vec3(f.scattering), "absorption": vec3(f.absorption), "g": f.g })),
         "photons": desc.photons,
         "samples": desc.samples,
+        "motion_blur": desc.motion_blur.map(|m| json!({ "shutter": m.shutter, "steps": m.steps })),
         "volume": {
             "dims": [desc.volume.dims.x, desc.volume.dims.y, desc.volume.dims.z],
             "min": vec3(desc.volume.min),

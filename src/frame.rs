@@ -447,6 +447,8 @@ pub struct FrameDesc {
     pub bounce_photons: u32,
     /// Camera rays per pixel.
     pub samples: u32,
+    /// Motion blur: `refrakt render` renders the frame at instants across its shutter interval.
+    pub motion_blur: Option<crate::scene::MotionBlur>,
 }
 
 impl FrameDesc {

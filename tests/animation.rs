@@ -120,3 +120,61 @@ fn each_frame_is_reported_when_its_file_is_written() {
         "frame 1 was reported only after the third frame's update:\n{text}"
     );
 }
+
+/// A small glowing ball crossing an orthographic view at 12 m/s, frame 1 at 24 fps: it travels
+/// L = 12 · shutter / 24 m while the shutter is open.
+fn moving_ball(shutter: f32) -> String {
+    format!(
+        r#"local r = require("refrakt")
+local scene = r.scene{{
+  camera = r.camera{{ position = {{0, 0, 2}}, target = {{0, 0, 0}}, orthographic = 0.5, size = {{64, 16}} }},
+  environment = r.environment{{ color = {{0, 0, 0}} }},
+  photons = 0, samples = 64, volume = {{ resolution = 16 }}, shutter = {shutter},
+}}
+local ball = scene:add(r.node{{ shape = r.sphere{{ radius = 0.1 }},
+                                material = r.diffuse{{ color = {{0, 0, 0}}, emission = {{1, 1, 1}}, emission_strength = 1 }} }})
+function update(scene, t)
+  ball.translation = {{12 * t, 0, 0}}
+end
+return scene
+"#
+    )
+}
+
+/// The beauty's red channel of frame 1, and its total, centroid and variance along x (pixels).
+fn light_along_x(dir: &Path, shutter: f32) -> (f64, f64, f64) {
+    let (_keep, scene) = write_script("ball.lua", &moving_ball(shutter));
+    let out = dir.join(format!("shutter{shutter}"));
+    let (code, err) = render(&scene, &out, &["--frames", "1..1", "--format", "exr"]);
+    assert_eq!(code, 0, "{err}");
+    let image = refrakt::output::exr::read(&out.join("ball.0001.exr")).unwrap();
+    let beauty = &image.layers[0];
+    let c = beauty.channels.len();
+    let w = image.width as usize;
+    let weights: Vec<(f64, f64)> = beauty.data.chunks(c).enumerate().map(|(i, p)| ((i % w) as f64 + 0.5, p[0] as f64)).collect();
+    let total: f64 = weights.iter().map(|(_, v)| v).sum();
+    let centroid = weights.iter().map(|(x, v)| x * v).sum::<f64>() / total;
+    let variance = weights.iter().map(|(x, v)| (x - centroid).powi(2) * v).sum::<f64>() / total;
+    (total, centroid, variance)
+}
+
+/// Motion blur (`scene.shutter`): a moving object is smeared over exactly its travel while the
+/// shutter is open, centred on where it is at the frame's time, with the same light. Rendered at
+/// 8 instants, the midpoints of equal parts of the interval, its image is the still one spread
+/// over 8 equal copies L/8 apart: a variance larger by L²(8² − 1)/(12 · 8²).
+#[test]
+fn a_moving_object_blurs_over_its_travel_while_the_shutter_is_open() {
+    let dir = tempfile::tempdir().unwrap();
+    let (still_light, still_centre, still_variance) = light_along_x(dir.path(), 0.0);
+    let pixels_per_metre = 16.0 / 0.5;
+    for shutter in [0.5f32, 1.0] {
+        let (light, centre, variance) = light_along_x(dir.path(), shutter);
+        let travel = 12.0 * shutter as f64 / 24.0 * pixels_per_metre;
+        let k = 8.0f64;
+        let measured = ((variance - still_variance) * 12.0 * k * k / (k * k - 1.0)).sqrt();
+        eprintln!("shutter {shutter}: blur {measured:.3} px over a travel of {travel:.3} px; light {light:.4} vs {still_light:.4}; centre {centre:.3} vs {still_centre:.3}");
+        assert!((measured / travel - 1.0).abs() < 0.03, "shutter {shutter}: blurred over {measured} px, travelled {travel} px");
+        assert!((light / still_light - 1.0).abs() < 0.01, "shutter {shutter}: light {light} vs {still_light}");
+        assert!((centre - still_centre).abs() < 0.05, "shutter {shutter}: centred at {centre}, the still at {still_centre}");
+    }
+}

@@ -151,6 +151,16 @@ fn helper_errors_name_the_line_and_argument() {
     assert_error("r.camera{ focus = 0 }", &["scene.lua:3:", "camera.focus"]);
     assert_error("r.camera{ shift = {0.1} }", &["scene.lua:3:", "camera.shift must be a pair {x, y} of numbers from -10 to 10"]);
     assert_error("r.camera{ shift = {0, 11} }", &["scene.lua:3:", "camera.shift"]);
+    assert_error("scene.shutter = -0.5", &["scene.lua:3:", "scene.shutter must be frames the shutter is open, from 0 (no motion blur) to 100"]);
+    assert_error("scene.motion_steps = 0", &["scene.lua:3:", "scene.motion_steps"]);
+    let blurred = frame_from_lua(
+        r#"local r = require("refrakt")
+        local scene = r.scene{ shutter = 0.5, motion_steps = 6 }
+        assert(scene.shutter == 0.5 and scene.motion_steps == 6, "read back")
+        return scene"#,
+    );
+    assert_eq!(blurred.motion_blur, Some(refrakt::scene::MotionBlur { shutter: 0.5, steps: 6 }));
+    assert_eq!(frame_from_lua("return require('refrakt').scene{}").motion_blur, None, "no shutter by default");
 }
 
 /// A camera's thin lens: set and read back; the scene camera's focus defaults to its target's

@@ -95,9 +95,11 @@ pub struct SceneExtras {
     pub volume: Option<VolumeExtras>,
     pub environment: Option<EnvironmentExtras>,
     pub fog: Option<FogExtras>,
+    pub shutter: Option<f32>,
+    pub motion_steps: Option<u32>,
 }
 
-const SCENE_KEYS: &[&str] = &["photons", "bounces", "bounce_photons", "samples", "volume", "environment", "fog"];
+const SCENE_KEYS: &[&str] = &["photons", "bounces", "bounce_photons", "samples", "volume", "environment", "fog", "shutter", "motion_steps"];
 
 pub fn scene_extras(scene: &gltf::Scene, file: &str, warnings: &mut Collector) -> Result<Option<SceneExtras>> {
     let what = format!("scenes[{}]", scene.index());
@@ -106,6 +108,8 @@ pub fn scene_extras(scene: &gltf::Scene, file: &str, warnings: &mut Collector) -
     check(s.bounce_photons.is_none_or(|p| p <= 1 << 30), file, &what, "bounce_photons", "from 0 to 2³⁰")?;
     check(s.bounces.is_none_or(|b| b <= crate::scene::MAX_BOUNCES), file, &what, "bounces", "from 0 to 1024")?;
     check(s.samples.is_none_or(|n| (1..=256).contains(&n)), file, &what, "samples", "from 1 to 256")?;
+    check(s.shutter.is_none_or(|t| (0.0..=crate::scene::MotionBlur::MAX_SHUTTER).contains(&t)), file, &what, "shutter", "frames from 0 to 100")?;
+    check(s.motion_steps.is_none_or(|n| (1..=crate::scene::MotionBlur::MAX_STEPS).contains(&n)), file, &what, "motion_steps", "from 1 to 64")?;
     if let Some(v) = &s.volume {
         check(v.resolution.is_none_or(|r| (8..=2048).contains(&r)), file, &what, "volume.resolution", "from 8 to 2048")?;
         check(v.margin.is_none_or(|m| m.is_finite() && m >= 0.0), file, &what, "volume.margin", "≥ 0 (metres)")?;

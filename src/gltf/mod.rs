@@ -86,6 +86,8 @@ pub struct Settings {
     pub bounces: Option<u32>,
     pub bounce_photons: Option<u32>,
     pub samples: Option<u32>,
+    pub shutter: Option<f32>,
+    pub motion_steps: Option<u32>,
     pub volume: Option<extras::VolumeExtras>,
     pub environment: Option<Environment>,
     pub fog: Option<Fog>,
@@ -105,6 +107,12 @@ impl Settings {
         }
         if let Some(s) = self.samples {
             scene.samples = s;
+        }
+        if let Some(s) = self.shutter {
+            scene.shutter = s;
+        }
+        if let Some(n) = self.motion_steps {
+            scene.motion_steps = n;
         }
         if let Some(v) = &self.volume {
             let mut s = scene.volume.borrow_mut();
@@ -297,7 +305,17 @@ fn settings(scene: &gltf::Scene, at: &buffers::Location, warnings: &mut Collecto
         absorption: f.absorption.map_or(Vec3::ZERO, Vec3::from),
         g: f.g.unwrap_or(0.0),
     });
-    Ok(Settings { photons: x.photons, bounces: x.bounces, bounce_photons: x.bounce_photons, samples: x.samples, volume: x.volume, environment, fog })
+    Ok(Settings {
+        photons: x.photons,
+        bounces: x.bounces,
+        bounce_photons: x.bounce_photons,
+        samples: x.samples,
+        shutter: x.shutter,
+        motion_steps: x.motion_steps,
+        volume: x.volume,
+        environment,
+        fog,
+    })
 }
 
 fn environment_of(e: &extras::EnvironmentExtras, at: &buffers::Location) -> Result<Environment> {

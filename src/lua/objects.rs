@@ -15,7 +15,7 @@ use super::convert::{self as cv, FieldName, error_at, unknown_field};
 use super::sandbox::FileAccess;
 use crate::scene::environment::{self, EnvironmentSource};
 use crate::scene::light::LUMENS_PER_WATT;
-use crate::scene::{Camera, Environment, Fog, Lens, Light, LightKind, Material, Node, Origin, Scene, Shape, Shared, VolumeSettings, shared};
+use crate::scene::{Camera, Environment, Fog, Lens, Light, LightKind, Material, MotionBlur, Node, Origin, Scene, Shape, Shared, VolumeSettings, shared};
 
 /// A scene-graph value a script can read and write field by field.
 pub trait LuaObject: Sized + 'static {
@@ -172,7 +172,7 @@ impl UserData for LQuat {
 // ---------------------------------------------------------------------------------------------
 // Scene.
 
-const SCENE_FIELDS: &[&str] = &["camera", "environment", "volume", "photons", "bounces", "bounce_photons", "samples", "duration", "fog", "children"];
+const SCENE_FIELDS: &[&str] = &["camera", "environment", "volume", "photons", "bounces", "bounce_photons", "samples", "duration", "fog", "shutter", "motion_steps", "children"];
 
 impl LuaObject for Scene {
     fn kind(&self) -> &'static str {
@@ -192,6 +192,8 @@ impl LuaObject for Scene {
             "samples" => Ok(Value::Integer(self.samples as i64)),
             "duration" => Ok(self.duration.map_or(Value::Nil, Value::Number)),
             "fog" => obj_value(lua, &self.fog),
+            "shutter" => Ok(number_value(self.shutter)),
+            "motion_steps" => Ok(Value::Integer(self.motion_steps.into())),
             "children" => node_list(lua, &self.roots),
             _ => Err(unknown_field(lua, "scene", key, SCENE_FIELDS)),
         }
@@ -243,6 +245,8 @@ impl LuaObject for Scene {
                     _ => opt_obj(lua, name, &value, "a refrakt.fog{…}")?,
                 }
             }
+            "shutter" => self.shutter = cv::number_in(lua, name, &value, Some(0.0), Some(MotionBlur::MAX_SHUTTER.into()), "frames the shutter is open, from 0 (no motion blur) to 100")? as f32,
+            "motion_steps" => self.motion_steps = cv::integer(lua, name, &value, 1, MotionBlur::MAX_STEPS.into())? as u32,
             "children" => self.roots = read_node_list(lua, name, &value)?,
             _ => return Err(unknown_field(lua, "scene", key, SCENE_FIELDS)),
         }

@@ -151,6 +151,11 @@ pub struct Renderer {
     /// the caller divides by K. Pass k must follow pass k − 1 of the same frame description;
     /// 0 (the default) renders a frame of its own.
     pub refinement: u32,
+    /// Motion blur (`render::motion`): instant k of a frame's n, as (k, n). Instant k traces
+    /// camera samples k·samples … (k+1)·samples − 1 and adds them, over all n·samples, to the
+    /// planes instant k − 1 left, so after the last the planes hold the frame's mean. Instant k
+    /// must follow instant k − 1 of the same frame; `None` (the default): a frame of one instant.
+    pub instant: Option<(u32, u32)>,
     pub profiler: Profiler,
     pub counters: Counters,
     stats: Option<PhotonStats>,
@@ -253,6 +258,7 @@ impl Renderer {
             settings: RenderSettings::default(),
             layers: Layers::All,
             refinement: 0,
+            instant: None,
             profiler,
             counters: Counters::default(),
             stats: None,
@@ -583,6 +589,7 @@ impl Renderer {
             self.counters.photon_traces += 1;
             parts.push((Part::Photons, self.submit_part(&mut enc)));
         }
+        let (samples_of_instant, (instant, instants)) = (desc.samples.max(1), self.instant.unwrap_or((0, 1)));
         let inputs = view::ViewInputs {
             grids,
             environment: &self.environment,
@@ -593,7 +600,8 @@ impl Renderer {
             caustics: photons,
             indirect: photons && budget.bounce > 0,
             scattering: deposit,
-            sample_first: self.refinement * desc.samples.max(1),
+            sample_first: samples_of_instant * instant + self.refinement * desc.samples.max(1),
+            frame_samples: samples_of_instant * instants,
         };
         self.view.encode(&self.ctx, &mut enc, &mut self.profiler, desc, &inputs); // grids, octree, receivers, lights, radiance, environment → frame
         target.encode_readback(&mut enc, readback, self.layers);

@@ -51,8 +51,11 @@ pub struct ViewInputs<'a> {
     pub indirect: bool,
     /// Whether the radiance grid holds this frame's fluence.
     pub scattering: bool,
-    /// The frame's first camera sample ([`Renderer::refinement`](super::Renderer::refinement)).
+    /// The frame's first camera sample ([`Renderer::refinement`](super::Renderer::refinement),
+    /// [`Renderer::instant`](super::Renderer::instant)).
     pub sample_first: u32,
+    /// The camera samples the frame's planes average over: `samples`, or all its instants'.
+    pub frame_samples: u32,
 }
 
 /// Where camera sample k falls inside its pixel (0..1 on each axis): the R2 low-discrepancy
@@ -164,7 +167,7 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
         flags,
         step: v.step,
         medium_eps: MEDIUM_EPS,
-        samples: desc.samples.max(1),
+        samples: inputs.frame_samples.max(1),
         sample_first: inputs.sample_first,
         sample_count: desc.samples.max(1),
         light_count: inputs.lights.light_count,
@@ -177,7 +180,7 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
         camera_media_lo: camera_media[0],
         camera_media_hi: camera_media[1],
         grid_dispersion: spectrum.grid_dispersion,
-        wavelengths_per_sample: wavelengths_per_sample(spectrum.spectral, desc.samples),
+        wavelengths_per_sample: wavelengths_per_sample(spectrum.spectral, inputs.frame_samples),
         pixel_key_first: origin.0 + origin.1 * frame_width,
         pixel_key_stride: frame_width,
         _pad: [0; 2],

@@ -235,7 +235,18 @@ pub(super) fn render_all(
             for w in desc.warnings() {
                 crate::warnings::say_plain(&w);
             }
-            let ticket = timed(split, |s| &mut s.submit_s, || renderer.submit(&desc))?;
+            let ticket = match desc.motion_blur {
+                // A motion-blurred frame's instants take the renderer's readback slots one after
+                // another: the frames before it are finished first.
+                Some(blur) => {
+                    while let Some(done) = in_flight.pop_front() {
+                        retire(&mut renderer, &mut pool, done, opts, progress)?;
+                    }
+                    let fps = opts.scene.fps;
+                    timed(split, |s| &mut s.submit_s, || super::motion::submit(&mut renderer, &mut source, &opts.scene.eval, blur, t, fps))?
+                }
+                None => timed(split, |s| &mut s.submit_s, || renderer.submit(&desc))?,
+            };
             let mut png = opts.png;
             png.alpha = !desc.environment.visible;
             in_flight.push_back((ticket, Outgoing { frame: k, paths, png }));

@@ -3,6 +3,7 @@
 //! `--skip-existing` can resume it). The frames are pipelined: see [`frames`].
 
 pub mod frames;
+pub mod motion;
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};

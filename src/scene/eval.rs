@@ -119,6 +119,7 @@ pub fn evaluate(scene: &Scene, time: f64, opts: &EvalOptions) -> Result<FrameDes
         bounces: opts.bounces.unwrap_or(scene.bounces),
         bounce_photons: bounce_photons(scene, opts.photons),
         samples: opts.samples.unwrap_or(scene.samples),
+        motion_blur: super::MotionBlur::of(scene.shutter, scene.motion_steps),
     })
 }
 

@@ -177,6 +177,25 @@ def test_depth_of_field_reaches_refrakts_thin_lens(addon, saved_blend, real_refr
     assert "refrakt" not in (gltf.camera("Camera").get("extras") or {})
 
 
+def test_motion_blur_reaches_refrakts_shutter(addon, saved_blend, real_refrakt):
+    """Render ▸ Motion Blur's Shutter (frames) and the panel's Motion Steps go out as the scene's
+    `shutter` and `motion_steps`, which refrakt reads (`refrakt dump`) for the glTF and for the
+    Lua wrapper alike; off, there is no shutter."""
+    scene = scenes.round_trip_scene()
+    scene.render.use_motion_blur, scene.render.motion_blur_shutter = True, 0.75
+    scene.refrakt.motion_steps = 12
+    paths, gltf = export(saved_blend)
+    extras = gltf.json["scenes"][gltf.json.get("scene", 0)]["extras"]["refrakt"]
+    assert extras["shutter"] == pytest.approx(0.75) and extras["motion_steps"] == 12
+    for file in (paths.glb, paths.lua):
+        done = subprocess.run([real_refrakt, "dump", file, "--camera", "Camera"], capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr
+        assert json.loads(done.stdout.splitlines()[0])["motion_blur"] == {"shutter": pytest.approx(0.75), "steps": 12}, file
+    scene.render.use_motion_blur = False
+    _, gltf = export(saved_blend)
+    assert "shutter" not in gltf.json["scenes"][gltf.json.get("scene", 0)]["extras"]["refrakt"]
+
+
 def test_an_object_without_a_material_keeps_cycles_default_surface(addon, saved_blend):
     """Cycles shades a mesh without a material with a diffuse BSDF of colour 0.8; glTF's default
     material is a rough metal (no diffuse light, no caustics on it). The export writes Cycles'."""

@@ -381,26 +381,9 @@ def export_for_refrakt(bpy, scene, folder, binary):
 
 
 def cycles_settings(scene, samples, diffuse_bounces=1, seed=0):
-    scene.render.engine = "CYCLES"
-    c = scene.cycles
-    c.device = "CPU"
-    c.samples = samples
-    c.use_adaptive_sampling = False
-    c.use_denoising = False
-    c.seed = seed
-    c.pixel_filter_type = "BOX"
-    c.filter_width = 1.0
-    c.max_bounces = 16
-    c.diffuse_bounces = diffuse_bounces
-    c.glossy_bounces = c.transmission_bounces = 16
-    c.transparent_max_bounces = 8
-    c.volume_bounces = 0
-    c.caustics_reflective = c.caustics_refractive = True
-    c.blur_glossy = 0.0
-    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
-    c.use_auto_tile = False
-    scene.render.film_transparent = False
-    scene.view_settings.view_transform = "Standard"
+    import cycles_parity  # (numpy and bpy: only where Cycles runs)
+
+    cycles_parity.cycles_settings(scene, samples, diffuse_bounces, seed)
     scene.render.image_settings.file_format = "OPEN_EXR_MULTILAYER"
     scene.render.image_settings.color_depth = "32"
     scene.render.image_settings.exr_codec = "ZIP"

@@ -13,6 +13,8 @@ PYTEST_VERSION=9.2.0
 # OpenEXR's own bindings, for the tests to read EXRs independently of the add-on's reader;
 # without its dependencies, so bpy's numpy stays as bpy ships it.
 OPENEXR_VERSION=3.4.4
+# NVIDIA's FLIP, the perceptual metric of the Cycles parity suite (tests/blender/test_parity.py).
+FLIP_VERSION=1.7
 CACHE="${XDG_CACHE_HOME:-$HOME/.cache}/refrakt"
 WHEELS="$CACHE/wheels"
 VENV="$CACHE/venv-bpy-$BPY_VERSION"
@@ -48,6 +50,9 @@ if ! "$VENV/bin/python" -c 'import bpy, pytest' >/dev/null 2>&1; then
 fi
 if ! "$VENV/bin/python" -c 'import OpenEXR' >/dev/null 2>&1; then
   "$VENV/bin/pip" install -q --no-deps "openexr==$OPENEXR_VERSION"
+fi
+if ! "$VENV/bin/python" -c 'import flip_evaluator' >/dev/null 2>&1; then
+  "$VENV/bin/pip" install -q --no-deps "flip-evaluator==$FLIP_VERSION"
 fi
 
 if [ -z "${REFRAKT_BIN:-}" ] && [ -x target/debug/refrakt ]; then

@@ -6,6 +6,7 @@ KHR_materials_* with the meaning Cycles gives those nodes, and faces without a m
 they do in Cycles."""
 
 import functools
+import math
 
 import bpy
 
@@ -109,6 +110,8 @@ class RefraktGltfExtension:
                 pbr.base_color_factor = color + [1.0]
                 pbr.metallic_factor = 0.0
                 pbr.roughness_factor = roughness
+        elif _has(ext, "KHR_materials_transmission"):
+            self._principled_tint(gltf2_material, blender_material)
         if _has(ext, "KHR_materials_transmission") and not _has(ext, "KHR_materials_volume") \
                 and blender_material.refrakt.surface != "THIN":
             # Transmission alone is thin-walled in glTF; Cycles' glass is a solid, so say so (the
@@ -125,6 +128,22 @@ class RefraktGltfExtension:
             data.setdefault("thicknessFactor", 1.0)
             data.update(attenuationColor=color, attenuationDistance=distance)
             self._add(ext, "KHR_materials_volume", data)
+
+    @staticmethod
+    def _principled_tint(gltf2_material, blender_material):
+        """Cycles' Principled glass tints the light it passes by √(Base Color) at each surface, so
+        light through a solid comes out tinted by the Base Color once (the Glass BSDF's Color
+        tints at each surface in full); refrakt's tint, glTF's base colour, is the fraction passed
+        at each surface: the exporter's factor becomes its square root. A Base Color texture
+        cannot be so taken: it is warned of."""
+        pbr = gltf2_material.pbr_metallic_roughness
+        if pbr is None:
+            return
+        if pbr.base_color_texture is not None:
+            warnings.add(f"Material '{blender_material.name}': a Base Color texture on Principled glass tints refrakt's "
+                         "glass by the texture at each surface, where Cycles tints by its square root (a deeper colour)")
+        if pbr.base_color_factor is not None:
+            pbr.base_color_factor = [math.sqrt(max(c, 0.0)) for c in pbr.base_color_factor[:3]] + list(pbr.base_color_factor[3:])
 
     def _add(self, ext, name, data):
         ext[name] = self.Extension(name, data, False)

@@ -2,8 +2,9 @@
 Glass/Refraction BSDF) reaches refrakt through the glTF export and what it does with it, and
 what it ignores. It follows refrakt's glTF importer (docs/gltf.md, Materials): a material that
 transmits light (KHR_materials_transmission) or holds a medium is glass, with KHR_materials_ior's
-index and the base colour as the tint at each surface; any other is a diffuse receiver whose
-albedo is the base colour.
+index and the base colour as the tint (a Glass BSDF's Color at each surface; a Principled
+BSDF's Base Color once through a solid, as Cycles tints it: √ at each surface); any other is a
+diffuse receiver whose albedo is the base colour.
 """
 
 from dataclasses import dataclass, field
@@ -88,7 +89,7 @@ def _principled(node, medium):
         clear = "clear glass" if transmission >= 1.0 else "taken as 1: refrakt's glass is clear"
         rows.append(("Transmission", f"{transmission:.3g}", clear if transmission > 0 else "0: a medium without surface"))
         rows.append(("IOR", f"{value('IOR'):.4g}", "index of refraction"))
-        tint = "a texture: not used, the plain value is" if _linked(node, "Base Color") else "tint at each surface"
+        tint = "a texture: not used, the plain value is" if _linked(node, "Base Color") else "tint, once through a solid (as Cycles)"
         rows.append(("Base Color", _color(value("Base Color")), tint))
     else:
         albedo = "albedo from the texture" if _linked(node, "Base Color") else "albedo"

@@ -220,8 +220,11 @@ def refrakt_render(bpy, name, size, settings, folder, binary):
     scene.render.engine = "REFRAKT"
     scene.view_layers[0].refrakt.use_pass_caustic = True
     scene.refrakt.directory = str(folder / f"{name}_export")
-    written = render(bpy, scene, folder / f"{name}_refrakt")
-    p = passes(written)
+    return refrakt_passes(render(bpy, scene, folder / f"{name}_refrakt"))
+
+
+def refrakt_passes(path):
+    p = passes(path)
     return p["Combined"][..., :3], p["caustic"][..., :3]
 
 
@@ -249,14 +252,20 @@ def references(bpy, out, samples):
               f"kept at {SMALL_SIZE[0]}×{SMALL_SIZE[1]}", flush=True)
 
 
-def table(bpy, refs, work, binary):
+def table(bpy, refs, work, binary, only):
+    """The table and the picture of every scene: those in `only` (all when empty) rendered anew,
+    the others read from an earlier run's files in `work` where they are there."""
     from compare_plot import png_of_image
 
     rows = ["| scene | relative L1 | caustic region L1 | light (refrakt / Cycles) | mean HDR-FLIP |", "| --- | --- | --- | --- | --- |"]
     strips = []
     for name in SCENES:
         reference = read_rgb(refs / f"{name}_full.exr")
-        got, caustic = refrakt_render(bpy, name, FULL_SIZE, REFRAKT_FULL, work, binary)
+        earlier = work / f"{name}_refrakt.exr"
+        if only and name not in only and earlier.is_file():
+            got, caustic = refrakt_passes(earlier)
+        else:
+            got, caustic = refrakt_render(bpy, name, FULL_SIZE, REFRAKT_FULL, work, binary)
         s = score(got, reference, caustic_region(caustic))
         rows.append(f"| {name} | {s['l1']:.3f} | {s['caustic_l1']:.3f} | {s['light']:.3f} | {s['flip']:.3f} |")
         strips.append(np.concatenate([reference, got], axis=1))
@@ -272,6 +281,7 @@ def main():
     parser.add_argument("--samples", type=int, default=REFERENCE_SAMPLES, help="reference: Cycles' samples per pixel")
     parser.add_argument("--refrakt", help="table: the refrakt binary")
     parser.add_argument("--references", default=str(ROOT / "target" / "parity"), help="table: reference's --out")
+    parser.add_argument("--scenes", nargs="*", default=[], choices=list(SCENES), help="table: render only these anew")
     args = parser.parse_args()
     os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="refrakt-parity-"))
     import bpy
@@ -284,7 +294,7 @@ def main():
         install_addon(bpy)
         work = pathlib.Path(args.out)
         work.mkdir(parents=True, exist_ok=True)
-        table(bpy, pathlib.Path(args.references), work, os.path.abspath(args.refrakt))
+        table(bpy, pathlib.Path(args.references), work, os.path.abspath(args.refrakt), set(args.scenes))
 
 
 if __name__ == "__main__":

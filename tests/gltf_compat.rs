@@ -383,6 +383,25 @@ fn a_file_without_a_camera_is_framed_over_its_whole_animation_in_a_studio() {
         let (code, _, err) = dump(&[cam.to_str().unwrap(), "--environment", bad]);
         assert!(code != 0 && err.contains(says), "--environment {bad}: {err}");
     }
+    // And the renders follow: the file lit by the studio preset; at half its intensity every
+    // pixel half as bright (the environment is the scene's only light); the checker another picture.
+    let beauty = |extra: &[&str]| {
+        let out = dir.path().join(format!("render{}", extra.len() + extra.first().map_or(0, |e| e.len())));
+        let mut args = vec!["render", cam.to_str().unwrap(), "--out", out.to_str().unwrap(), "--format", "exr", "--size", "24x16", "--volume", "16", "--samples", "1", "--photons", "0", "--progress", "quiet"];
+        args.extend_from_slice(extra);
+        let done = Command::new(env!("CARGO_BIN_EXE_refrakt")).args(&args).output().unwrap();
+        assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
+        let image = refrakt::output::exr::read(&out.join("cam.exr")).unwrap();
+        let c = image.layers[0].channels.len();
+        image.layers[0].data.chunks(c).flat_map(|p| p[..3].to_vec()).collect::<Vec<f32>>()
+    };
+    let (studio, half, checker) = (beauty(&[]), beauty(&["--environment", "studio:0.5"]), beauty(&["--environment", "checker"]));
+    let brightest = studio.iter().cloned().fold(0.0, f32::max);
+    assert!(brightest > 0.0, "the studio lights the file");
+    let worst = studio.iter().zip(&half).map(|(a, b)| (0.5 * a - b).abs()).fold(0.0, f32::max);
+    assert!(worst <= 1e-3 * brightest, "studio:0.5 is not half the studio's light: off by {worst} of {brightest}");
+    let changed = studio.iter().zip(&checker).filter(|(a, b)| (*a - *b).abs() > 0.01 * brightest).count();
+    assert!(changed > studio.len() / 4, "--environment checker changed only {changed} of {} values", studio.len());
 }
 
 // -------------------------------------------------------------------------------------------

@@ -230,7 +230,9 @@ def test_light_radius_reaches_the_node_extras(addon, saved_blend):
 
 def test_principled_glass_reaches_khr_materials(addon, saved_blend):
     """What refrakt reads of a Principled BSDF arrives through Blender's own exporter:
-    transmission, IOR, roughness and base colour."""
+    transmission, IOR, roughness and base colour — as its square root, refrakt's tint at each
+    surface, since Cycles tints Principled glass by √(Base Color) at each (light through a solid
+    comes out tinted by the Base Color once)."""
     scenes.round_trip_scene()
     bsdf = bpy.data.materials["Glass"].node_tree.nodes["Principled BSDF"]
     bsdf.inputs["IOR"].default_value = 1.6
@@ -243,7 +245,7 @@ def test_principled_glass_reaches_khr_materials(addon, saved_blend):
     assert ext["KHR_materials_ior"]["ior"] == pytest.approx(1.6, rel=1e-6)
     pbr = glass["pbrMetallicRoughness"]
     assert pbr.get("roughnessFactor", 1.0) == pytest.approx(0.25, rel=1e-6)
-    assert pbr["baseColorFactor"][:3] == pytest.approx([0.9, 0.8, 0.7], rel=1e-6)
+    assert pbr["baseColorFactor"][:3] == pytest.approx([math.sqrt(c) for c in (0.9, 0.8, 0.7)], rel=1e-6)
     assert "KHR_materials_dispersion" not in ext, "no Abbe number set: no dispersion"
 
 

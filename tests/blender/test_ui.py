@@ -123,7 +123,7 @@ def test_material_panel_shows_refrakts_reading_of_the_principled_bsdf(addon):
     assert labels[0] == "refrakt reads: glass (a refractive medium)"
     assert "Transmission: 1 → clear glass" in labels
     assert f"IOR: {scenes.GLASS_IOR:.4g} → index of refraction" in labels
-    assert "Base Color: 0.9 0.8 0.7 → tint at each surface" in labels
+    assert "Base Color: 0.9 0.8 0.7 → tint, once through a solid (as Cycles)" in labels
     assert "Roughness: 0.2 → GGX roughness: frosted glass" in labels
     assert "Glass: Auto → closed meshes solid, flat ones thin sheets" in labels
     ignored = labels[labels.index("Ignored:") + 1:]

@@ -589,7 +589,8 @@ impl Renderer {
             self.counters.photon_traces += 1;
             parts.push((Part::Photons, self.submit_part(&mut enc)));
         }
-        let (samples_of_instant, (instant, instants)) = (desc.samples.max(1), self.instant.unwrap_or((0, 1)));
+        let samples = desc.samples.max(1);
+        let (instant, instants) = self.instant.unwrap_or((0, 1));
         let inputs = view::ViewInputs {
             grids,
             environment: &self.environment,
@@ -600,8 +601,8 @@ impl Renderer {
             caustics: photons,
             indirect: photons && budget.bounce > 0,
             scattering: deposit,
-            sample_first: samples_of_instant * instant + self.refinement * desc.samples.max(1),
-            frame_samples: samples_of_instant * instants,
+            sample_first: samples * (instant + self.refinement),
+            frame_samples: samples * instants,
         };
         self.view.encode(&self.ctx, &mut enc, &mut self.profiler, desc, &inputs); // grids, octree, receivers, lights, radiance, environment → frame
         target.encode_readback(&mut enc, readback, self.layers);

@@ -242,8 +242,7 @@ pub(super) fn render_all(
                     while let Some(done) = in_flight.pop_front() {
                         retire(&mut renderer, &mut pool, done, opts, progress)?;
                     }
-                    let fps = opts.scene.fps;
-                    timed(split, |s| &mut s.submit_s, || super::motion::submit(&mut renderer, &mut source, &opts.scene.eval, blur, t, fps))?
+                    timed(split, |s| &mut s.submit_s, || super::motion::submit(&mut renderer, &mut source, &opts.scene.eval, blur, t, opts.scene.fps))?
                 }
                 None => timed(split, |s| &mut s.submit_s, || renderer.submit(&desc))?,
             };

@@ -365,8 +365,11 @@ fn march_path(photon: Photon, start_flux: vec3<f32>, key: u32, deposit_radiance:
         var jump = octree_step(x0, d, params.min_step, params.max_step);
         let bends = jump <= params.min_step;
         jump = min(jump, ray_box(x0, d, grid.origin, box_max).y + 1e-4 * grid.voxel_size);
-        let ahead = surface_within(&ahead_of, x0, d, jump);
-        if ahead <= jump {
+        // As far as the step will go: a curved step is min_step long even where the grid's edge
+        // is nearer (view.wgsl, trace_branch).
+        let reach = select(jump, params.min_step, bends);
+        let ahead = surface_within(&ahead_of, x0, d, reach);
+        if ahead <= reach {
             // A surface comes first: finish the segment on it.
             let p = x0 + d * ahead;
             let extinction = segment_extinction(x0, p, media);

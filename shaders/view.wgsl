@@ -739,8 +739,12 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
             var jump = octree_step(x0, b.d, params.step, params.max_step);
             let bends = jump <= params.step;
             jump = min(jump, ray_box(x0, b.d, grid.origin, box_max).y + 1e-4 * grid.voxel_size);
-            let ahead = surface_within(&ahead_of, x0, b.d, jump);
-            let on_surface = ahead <= jump;
+            // A curved step goes its full length even where the grid's edge is nearer: the
+            // surface ahead is looked for as far as the step will go, or a floor just past the
+            // edge is stepped over (seen through glass resting on it, a ring of pixels went black).
+            let reach = select(jump, params.step, bends);
+            let ahead = surface_within(&ahead_of, x0, b.d, reach);
+            let on_surface = ahead <= reach;
             if on_surface {
                 s.x = x0 + b.d * ahead;
             } else if bends {

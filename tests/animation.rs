@@ -178,3 +178,19 @@ fn a_moving_object_blurs_over_its_travel_while_the_shutter_is_open() {
         assert!((centre - still_centre).abs() < 0.05, "shutter {shutter}: centred at {centre}, the still at {still_centre}");
     }
 }
+
+/// A script that fails at an instant inside the shutter but not at the frame's own time: the
+/// error names the frame, the instant and its time, and the script's line.
+#[test]
+fn an_error_at_a_motion_blur_instant_names_the_instant() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = moving_ball(0.5).replace("  ball.translation = {12 * t, 0, 0}\n", "  ball.translation = {12 * t, 0, 0}\n  if t > 1 / 24 + 0.004 then error(\"late\") end\n");
+    assert!(script.contains("error(\"late\")"));
+    let (_keep, scene) = write_script("ball.lua", &script);
+    let (code, err) = render(&scene, &dir.path().join("out"), &["--frames", "1..1", "--format", "exr"]);
+    assert_ne!(code, 0, "{err}");
+    // Instants at 1/24 + (k + 0.5 − 4)/8 · 0.5/24 s: the 7th (k = 6) is the first past 1/24 + 0.004.
+    for wanted in ["instant 7 of 8 (t = 0.0482 s)", "ball.lua:", "late"] {
+        assert!(err.contains(wanted), "missing {wanted:?} in:\n{err}");
+    }
+}

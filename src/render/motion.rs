@@ -9,7 +9,7 @@
 //! (so the instants together trace as many different photons as a still; the same seeds every
 //! frame, so a still scene does not flicker).
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 
 use super::SceneSource;
 use crate::frame::FrameDesc;
@@ -27,10 +27,12 @@ pub fn submit(renderer: &mut Renderer, source: &mut SceneSource, eval: &EvalOpti
             if let Some(ticket) = last.take() {
                 renderer.finish_without_image(ticket)?;
             }
-            let desc = share(source.frame_desc(instant, eval)?, blur.steps);
+            // An error names the instant: a script may fail at a time the frame itself is not.
+            let at = || format!("motion blur: instant {} of {} (t = {instant:.4} s)", k + 1, blur.steps);
+            let desc = share(source.frame_desc(instant, eval).with_context(at)?, blur.steps);
             renderer.instant = Some((k as u32, blur.steps));
             renderer.settings.photon_seed = instant_seed(seed, k as u32);
-            last = Some(renderer.submit(&desc)?);
+            last = Some(renderer.submit(&desc).with_context(at)?);
         }
         Ok(last.expect("a motion-blurred frame has instants"))
     })();

@@ -134,7 +134,7 @@ impl MeshData {
         self.triangles
             .iter()
             .filter(|t| {
-                let mut corners = t.map(|i| self.positions[i as usize].to_array().map(f32::to_bits));
+                let mut corners = t.map(|i| position_key(self.positions[i as usize]));
                 corners.sort_unstable();
                 corners[0] != corners[1] && corners[1] != corners[2] && seen.insert(corners)
             })
@@ -170,7 +170,7 @@ impl MeshData {
     pub fn welded_edge_counts<'a>(&self, triangles: impl IntoIterator<Item = &'a [u32; 3]>) -> HashMap<[[u32; 3]; 2], u32> {
         let mut edges = HashMap::new();
         for t in triangles {
-            let c = t.map(|i| self.positions[i as usize].to_array().map(f32::to_bits));
+            let c = t.map(|i| position_key(self.positions[i as usize]));
             if c[0] == c[1] || c[1] == c[2] || c[2] == c[0] {
                 continue;
             }
@@ -194,7 +194,7 @@ impl MeshData {
         for (k, t) in self.triangles.iter().enumerate() {
             let c = t.map(|i| self.positions[i as usize]);
             for (a, b) in [(c[0], c[1]), (c[1], c[2]), (c[2], c[0])] {
-                let (a_key, b_key) = (a.to_array().map(f32::to_bits), b.to_array().map(f32::to_bits));
+                let (a_key, b_key) = (position_key(a), position_key(b));
                 let edge = if a_key < b_key { [a_key, b_key] } else { [b_key, a_key] };
                 match first_face.remove(&edge) {
                     Some(j) => {
@@ -275,7 +275,7 @@ impl MeshData {
         let mut around: std::collections::HashMap<[u32; 3], Vec<usize>> = std::collections::HashMap::new();
         for (k, t) in self.triangles.iter().enumerate() {
             for &i in t {
-                around.entry(self.positions[i as usize].to_array().map(f32::to_bits)).or_default().push(k);
+                around.entry(position_key(self.positions[i as usize])).or_default().push(k);
             }
         }
         let cos_crease = crease.cos();
@@ -285,7 +285,7 @@ impl MeshData {
             .map(|(k, t)| {
                 let own = face[k].normalize_or_zero();
                 t.map(|i| {
-                    let key = self.positions[i as usize].to_array().map(f32::to_bits);
+                    let key = position_key(self.positions[i as usize]);
                     let sum: Vec3 = around[&key]
                         .iter()
                         .map(|&j| face[j])
@@ -485,6 +485,12 @@ pub fn lathe(profile: &[Vec2], segments: u32, closed: bool) -> MeshData {
     }
     m
 }
+/// The key that welds corners by position: their coordinates' bits, with −0 taken as +0 (a
+/// split vertex at a pole or on an axis may be written with either sign of zero).
+fn position_key(p: Vec3) -> [u32; 3] {
+    (p + Vec3::ZERO).to_array().map(f32::to_bits)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -574,5 +580,22 @@ mod tests {
         m.positions.push(m.positions[first[0] as usize]);
         m.triangles.push([m.positions.len() as u32 - 1, first[1], first[2]]);
         assert_eq!(m.solid_triangles().len(), 12);
+    }
+
+    #[test]
+    fn corners_split_with_either_sign_of_zero_weld() {
+        // An octahedron whose every face has corners of its own, a corner's zero coordinates
+        // carrying its face's signs: the split copies of (1, 0, 0) are (1, ±0, ±0).
+        let mut m = MeshData::default();
+        for s in 0..8 {
+            let sign = |bit: u32| if s & (1 << bit) == 0 { 1.0f32 } else { -1.0 };
+            let (x, y, z) = (sign(0), sign(1), sign(2));
+            let base = m.positions.len() as u32;
+            m.positions.extend([Vec3::new(x, y * 0.0, z * 0.0), Vec3::new(x * 0.0, y, z * 0.0), Vec3::new(x * 0.0, y * 0.0, z)]);
+            m.triangles.push(if x * y * z > 0.0 { [base, base + 1, base + 2] } else { [base, base + 2, base + 1] });
+        }
+        assert!(m.positions.iter().any(|p| p.y.to_bits() == (-0.0f32).to_bits()));
+        assert!(m.is_closed());
+        assert!((m.signed_volume() - 4.0 / 3.0).abs() < 1e-6, "{}", m.signed_volume());
     }
 }

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """The Cycles parity suite: Blender scenes built by script — a glass ball on a floor under a sun,
-a spot, an area light and a sky; tinted and frosted glass under the sun — each rendered by
+a spot, an area light, a uniform sky and an HDRI sky with a sun in it; tinted and frosted glass
+and the Stanford bunny (from ../shared/assets) under the sun — each rendered by
 Cycles (converged: many samples, caustics on, no clamp, box pixel filter) and by refrakt through
 its render engine, and scored over the whole image and over the caustic region.
 
@@ -8,6 +9,8 @@ its render engine, and scored over the whole image and over the caustic region.
                                                                  # kept as 64×36 (2×2 means)
     python cycles_parity.py table --refrakt target/release/refrakt --references target/parity
                                                                  # the full-size table and strip
+    python cycles_parity.py noise --refrakt target/release/refrakt
+                                      # frosted glass: refrakt's noise at 16 spp, Cycles' at 64
 
 Run it with the bpy of scripts/test_blender.sh (`~/.cache/refrakt/venv-bpy-4.5.15/bin/python`),
 which also has OpenEXR and flip-evaluator. `reference` writes the full-size renders beside the
@@ -41,14 +44,20 @@ REFRAKT_FULL = (1_000_000, 64, 128)
 
 BALL_RADIUS = 0.3
 SUN_DIRECTION = (0.8, -0.5, 1.2)  # toward the sun, Blender's Z up
-# name: (light, glass base colour, glass roughness)
+BUNNY = ROOT.parent / "shared" / "assets" / "bunny.obj"  # the Stanford bunny, beside the clone
+BUNNY_HEIGHT = 0.5
+# An equirectangular sky made by `write_hdri` (a gradient, a dark ground, a sun 10° across).
+HDRI = ROOT / "tests" / "data" / "cycles" / "hdri_sky.exr"
+# name: (light, glass base colour, glass roughness, glass shape)
 SCENES = {
-    "sun": ("SUN", (1.0, 1.0, 1.0), 0.0),
-    "spot": ("SPOT", (1.0, 1.0, 1.0), 0.0),
-    "area": ("AREA", (1.0, 1.0, 1.0), 0.0),
-    "sky": ("SKY", (1.0, 1.0, 1.0), 0.0),
-    "tinted": ("SUN", (0.95, 0.6, 0.35), 0.0),
-    "frosted": ("SUN", (1.0, 1.0, 1.0), 0.15),
+    "sun": ("SUN", (1.0, 1.0, 1.0), 0.0, "ball"),
+    "spot": ("SPOT", (1.0, 1.0, 1.0), 0.0, "ball"),
+    "area": ("AREA", (1.0, 1.0, 1.0), 0.0, "ball"),
+    "sky": ("SKY", (1.0, 1.0, 1.0), 0.0, "ball"),
+    "hdri": ("HDRI", (1.0, 1.0, 1.0), 0.0, "ball"),
+    "tinted": ("SUN", (0.95, 0.6, 0.35), 0.0, "ball"),
+    "frosted": ("SUN", (1.0, 1.0, 1.0), 0.15, "ball"),
+    "bunny": ("SUN", (1.0, 1.0, 1.0), 0.0, "bunny"),
 }
 
 
@@ -58,15 +67,35 @@ def look_at(obj, target):
     obj.rotation_euler = (Vector(target) - obj.location).to_track_quat("-Z", "Y").to_euler()
 
 
+def write_hdri(path, width=128, height=64):
+    """An equirectangular sky as Blender maps one (u = atan2(y, −x)/2π + ½, v = elevation/π + ½):
+    radiance 0.3 at the horizon rising to 0.6 overhead, a dark ground (0.05), and a sun 10°
+    across toward SUN_DIRECTION whose disc gives 4 W/m² (the `sun` scene's), in linear RGB."""
+    v, u = np.meshgrid((np.arange(height)[::-1] + 0.5) / height, (np.arange(width) + 0.5) / width, indexing="ij")
+    phi, theta = (u - 0.5) * 2.0 * np.pi, (v - 0.5) * np.pi
+    d = np.stack([-np.cos(phi) * np.cos(theta), np.sin(phi) * np.cos(theta), np.sin(theta)], axis=-1)
+    sky = np.where(theta[..., None] > 0, (0.3 + 0.3 * np.sin(theta))[..., None] * np.array([0.8, 0.9, 1.0]), 0.05)
+    sun = np.array(SUN_DIRECTION) / np.linalg.norm(SUN_DIRECTION)
+    half_angle = math.radians(5.0)
+    disc = (d @ sun) > math.cos(half_angle)
+    sky[disc] = 4.0 / (2.0 * np.pi * (1.0 - math.cos(half_angle)))
+    write_rgb(path, sky)
+
+
 def add_light(bpy, scene, kind):
     """The scene's light: a sun 10° across (wide enough for Cycles' path tracer to find its
-    caustic), a spot and a square area light with a size, or a sky (a uniform World)."""
+    caustic), a spot and a square area light with a size, a sky (a uniform World), or an HDRI
+    World (`write_hdri`'s image on an Environment Texture)."""
     world = bpy.data.worlds.new("World")
     world.use_nodes = True
     background = world.node_tree.nodes["Background"]
     background.inputs["Color"].default_value = (0.6, 0.7, 0.9, 1.0) if kind == "SKY" else (0.0, 0.0, 0.0, 1.0)
     scene.world = world
-    if kind == "SKY":
+    if kind == "HDRI":
+        texture = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
+        texture.image = bpy.data.images.load(str(HDRI))
+        world.node_tree.links.new(texture.outputs["Color"], background.inputs["Color"])
+    if kind in ("SKY", "HDRI"):
         return
     data = bpy.data.lights.new("Light", kind)
     light = bpy.data.objects.new("Light", data)
@@ -94,10 +123,28 @@ def glass_material(bpy, color, roughness):
     return m
 
 
+def add_bunny(bpy):
+    """The Stanford bunny (OBJ, Y up, as Blender's importer turns it), BUNNY_HEIGHT tall,
+    centred, 1 cm above the floor: the active object."""
+    from mathutils import Vector
+
+    bpy.ops.wm.obj_import(filepath=str(BUNNY))
+    bunny = bpy.context.selected_objects[0]
+    bpy.context.view_layer.objects.active = bunny
+    corners = [bunny.matrix_world @ Vector(c) for c in bunny.bound_box]
+    lo = Vector([min(c[i] for c in corners) for i in range(3)])
+    hi = Vector([max(c[i] for c in corners) for i in range(3)])
+    k = BUNNY_HEIGHT / (hi.z - lo.z)
+    bunny.scale = (k * bunny.scale.x, k * bunny.scale.y, k * bunny.scale.z)
+    centre = (lo + hi) / 2
+    bunny.location = (bunny.location - Vector((centre.x, centre.y, lo.z))) * k + Vector((0.0, 0.0, 0.01))
+    bpy.ops.object.transform_apply(location=True, rotation=True, scale=True)
+
+
 def build(bpy, name, size, refrakt_settings):
     """Scene `name` of SCENES at `size`: a smooth glass ball (r = 0.3 m) just above a floor of
     Cycles' default surface (no material: diffuse 0.8, as refrakt exports it), seen from 2 m."""
-    light, color, roughness = SCENES[name]
+    light, color, roughness, shape = SCENES[name]
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = size
@@ -111,7 +158,10 @@ def build(bpy, name, size, refrakt_settings):
     scene.camera = camera
     bpy.ops.mesh.primitive_plane_add(size=6.0)
     bpy.context.object.name = "Floor"
-    bpy.ops.mesh.primitive_uv_sphere_add(radius=BALL_RADIUS, location=(0.0, 0.0, BALL_RADIUS + 0.01), segments=48, ring_count=24)
+    if shape == "ball":
+        bpy.ops.mesh.primitive_uv_sphere_add(radius=BALL_RADIUS, location=(0.0, 0.0, BALL_RADIUS + 0.01), segments=48, ring_count=24)
+    else:
+        add_bunny(bpy)
     bpy.ops.object.shade_smooth()
     ball = bpy.context.object
     ball.name = "Ball"
@@ -228,6 +278,49 @@ def refrakt_passes(path):
     return p["Combined"][..., :3], p["caustic"][..., :3]
 
 
+def ball_pixels(bpy, scene):
+    """Which pixels' centres see the ball (rows from the top): the camera's rays cast into the
+    scene by Blender itself."""
+    from mathutils import Vector
+
+    camera = scene.camera
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    corners = [camera.matrix_world @ v for v in camera.data.view_frame(scene=scene)]  # tr, br, bl, tl
+    origin = camera.matrix_world.translation
+    w, h = scene.render.resolution_x, scene.render.resolution_y
+    mask = np.zeros((h, w), dtype=bool)
+    for row in range(h):
+        for col in range(w):
+            u, v = (col + 0.5) / w, (row + 0.5) / h
+            top = corners[3].lerp(corners[0], u)
+            bottom = corners[2].lerp(corners[1], u)
+            direction = (top.lerp(bottom, v) - origin).normalized()
+            hit, _, _, _, obj, _ = scene.ray_cast(depsgraph, origin, Vector(direction))
+            mask[row, col] = hit and obj.name == "Ball"
+    return mask
+
+
+def noise(bpy, size, refrakt_settings, work, binary, cycles_samples=64, samples=(16, 256)):
+    """The frosted ball's noise — the RMS of a render's deviation from its own converged mean over
+    the pixels that see the ball, over that mean — for Cycles at `cycles_samples` (two seeds: the
+    RMS of their difference / √2) and for refrakt at samples[0] (against samples[1] of the same
+    photons, whose camera samples include the first's: the difference's RMS / √(1 − s0/s1))."""
+    photons, _, resolution = refrakt_settings
+    scene = build(bpy, "frosted", size, refrakt_settings)
+    ball = ball_pixels(bpy, scene)
+    runs = []
+    for seed in (1, 2):
+        cycles_settings(scene, cycles_samples, seed=seed)
+        runs.append(read_rgb(render(bpy, scene, work / f"frosted_cycles_{cycles_samples}_{seed}")))
+    mean = 0.5 * (runs[0] + runs[1])
+    cycles = float(np.sqrt(((runs[0] - runs[1])[ball] ** 2).mean() / 2.0) / mean[ball].mean())
+    for n in samples:
+        (work / f"spp{n}").mkdir(parents=True, exist_ok=True)
+    few, many = (refrakt_render(bpy, "frosted", size, (photons, n, resolution), work / f"spp{n}", binary)[0] for n in samples)
+    refrakt = float(np.sqrt(((few - many)[ball] ** 2).mean() / (1.0 - samples[0] / samples[1])) / many[ball].mean())
+    return {"cycles": cycles, "refrakt": refrakt, "pixels": int(ball.sum())}
+
+
 # --- the command line ---------------------------------------------------------------------------
 
 def install_addon(bpy):
@@ -238,11 +331,13 @@ def install_addon(bpy):
     bpy.ops.extensions.package_install_files(filepath=str(zip_path), repo="user_default", enable_on_install=True)
 
 
-def references(bpy, out, samples):
+def references(bpy, out, samples, only):
     import time
 
     out.mkdir(parents=True, exist_ok=True)
-    for name in SCENES:
+    if not HDRI.is_file():
+        write_hdri(HDRI)
+    for name in [n for n in SCENES if not only or n in only]:
         scene = build(bpy, name, FULL_SIZE, REFRAKT_FULL)
         cycles_settings(scene, samples, seed=7919)
         started = time.perf_counter()
@@ -276,18 +371,27 @@ def table(bpy, refs, work, binary, only):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("step", choices=["reference", "table"])
+    parser.add_argument("step", choices=["reference", "table", "noise"])
     parser.add_argument("--out", default=str(ROOT / "target" / "parity"), help="reference: where the renders go")
     parser.add_argument("--samples", type=int, default=REFERENCE_SAMPLES, help="reference: Cycles' samples per pixel")
     parser.add_argument("--refrakt", help="table: the refrakt binary")
     parser.add_argument("--references", default=str(ROOT / "target" / "parity"), help="table: reference's --out")
-    parser.add_argument("--scenes", nargs="*", default=[], choices=list(SCENES), help="table: render only these anew")
+    parser.add_argument("--scenes", nargs="*", default=[], choices=list(SCENES), help="reference, table: only these scenes (table: the others from earlier files)")
     args = parser.parse_args()
     os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="refrakt-parity-"))
     import bpy
 
     if args.step == "reference":
-        references(bpy, pathlib.Path(args.out), args.samples)
+        references(bpy, pathlib.Path(args.out), args.samples, set(args.scenes))
+    elif args.step == "noise":
+        if not args.refrakt:
+            parser.error("noise needs --refrakt PATH")
+        install_addon(bpy)
+        work = pathlib.Path(args.out) / "noise"
+        work.mkdir(parents=True, exist_ok=True)
+        n = noise(bpy, FULL_SIZE, REFRAKT_FULL, work, os.path.abspath(args.refrakt))
+        print(f"frosted glass, noise over the ball's {n['pixels']} pixels: Cycles at 64 spp {n['cycles']:.4f}, "
+              f"refrakt at 16 spp {n['refrakt']:.4f}")
     else:
         if not args.refrakt:
             parser.error("table needs --refrakt PATH")

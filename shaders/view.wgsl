@@ -649,6 +649,9 @@ struct Branch {
     // Which branch this is: 1 for the camera's, then 2p at each event for the path going on
     // and 2p + 1 for the reflection it leaves — the counter its random numbers hash.
     path: u32,
+    // The density of its direction where a rough crossing sent it into the open and the suns
+    // were sampled there too (`suns_through_rough`); 0 otherwise.
+    lobe_pdf: f32,
 }
 
 // The two uniform numbers that pick a rough surface's microfacet for camera sample k on branch
@@ -661,16 +664,22 @@ fn facet_numbers(k: u32, path: u32) -> vec2<f32> {
 
 // Radiance of the lights a path that met glass sees along o + t·d, t < t_max: the sun's disc
 // (a uniform disc of its angular radius: E over its solid angle 2π(1 − cos α)), seen only by a
-// path that leaves the scene, and the bulbs of point and spot lights, spheres of their radius r
-// whose radiance toward the viewer is I(ω) / (π r²).
-fn lights_seen(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> vec3<f32> {
+// path that leaves the scene — its share by the balance heuristic where a rough crossing also
+// sampled the suns (`lobe_pdf` > 0: `suns_through_rough`) — and the bulbs of point and spot
+// lights, spheres of their radius r whose radiance toward the viewer is I(ω) / (π r²).
+fn lights_seen(o: vec3<f32>, d: vec3<f32>, t_max: f32, lobe_pdf: f32) -> vec3<f32> {
     var l = vec3<f32>(0.0);
     for (var i = 0u; i < params.light_count; i++) {
         let light = lights[i];
         if light.kind == LIGHT_SUN {
             let cos_a = cos(light.half_angle);
             if t_max >= NO_HIT && light.half_angle > 0.0 && dot(d, -light.direction) >= cos_a {
-                l += light.radiant / (2.0 * PI * (1.0 - cos_a));
+                let solid_angle = 2.0 * PI * (1.0 - cos_a);
+                var disc = light.radiant / solid_angle;
+                if lobe_pdf > 0.0 {
+                    disc *= lobe_pdf / (lobe_pdf + 1.0 / solid_angle);
+                }
+                l += disc;
             }
         } else if light.kind != LIGHT_RECT && light.kind != LIGHT_DISK && light.radius > 0.0 {
             let oc = o - light.position;
@@ -693,7 +702,7 @@ fn end_in_environment(out: ptr<function, ViewSample>, b: Branch) {
         (*out).radiance += b.weight * env_radiance(env_map, env_sampler, params.env, b.d);
     }
     if b.events > 0u {
-        (*out).radiance += b.weight * lights_seen(b.x, b.d, NO_HIT);
+        (*out).radiance += b.weight * lights_seen(b.x, b.d, NO_HIT, b.lobe_pdf);
     }
 }
 
@@ -706,7 +715,7 @@ fn meet_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, 
         return 1.0;
     }
     if b.events > 0u {
-        (*out).radiance += b.weight * lights_seen(start, b.d, distance(start, p));
+        (*out).radiance += b.weight * lights_seen(start, b.d, distance(start, p), b.lobe_pdf);
     }
     let cover = coverage_of(receivers[bvh_triangles[hit.triangle].receiver], hit.triangle, hit.u, hit.v);
     if cover <= 0.0 {
@@ -720,6 +729,82 @@ fn meet_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, 
     (*out).indirect += w * sh.indirect;
     (*out).radiance += w * (sh.caustic + sh.direct + sh.indirect);
     return cover;
+}
+
+// What a rough crossing (cross_interface on GGX of roughness α) gives a direction w chosen
+// otherwise — toward a light: the density of its branches' directions there (the visible normals'
+// D_wi(m) = G₁(wi) max(0, wi·m) D(m) / wi·n times the Jacobian of reflection, 1 / 4 wi·m, or of
+// refraction, η² |w·m| / (wi·m + η w·m)²; Walter et al. 2007, Heitz 2018) and the weight the
+// branch along w would carry per unit of light, F G₁(w) reflected or (1 − F) G₁(w) transmitted
+// (the tint aside): what multiple importance sampling with lights needs. d: the incoming
+// direction; n: the shading normal toward where d comes from; eta: the index beyond over the
+// index before. pdf 0 where the crossing sends nothing along w.
+struct RoughLobe {
+    pdf: f32,
+    weight: f32,
+}
+
+fn rough_lobe(d: vec3<f32>, n: vec3<f32>, w: vec3<f32>, alpha: f32, eta: f32) -> RoughLobe {
+    let wi = -d;
+    let cos_i = dot(wi, n);
+    let reflect = dot(w, n) > 0.0;
+    var m = select(wi + eta * w, wi + w, reflect);
+    m = normalize(m) * select(-1.0, 1.0, dot(m, n) > 0.0);
+    let i_m = dot(wi, m);
+    let o_m = dot(w, m);
+    if cos_i <= 0.0 || i_m <= 0.0 || (!reflect && o_m >= 0.0) {
+        return RoughLobe(0.0, 0.0);
+    }
+    let visible = smith_g1(cos_i, alpha) * i_m * ggx_d(dot(m, n), alpha) / cos_i;
+    let f = fresnel_dielectric(i_m, eta);
+    let g_out = smith_g1(abs(dot(w, n)), alpha);
+    if reflect {
+        return RoughLobe(visible / (4.0 * i_m), f * g_out);
+    }
+    let denom = i_m + eta * o_m;
+    return RoughLobe(visible * eta * eta * abs(o_m) / (denom * denom), (1.0 - f) * g_out);
+}
+
+// Suns seen in rough glass, by both strategies (Veach 1997, multiple importance sampling with
+// the balance heuristic): the branches' own directions find a sun's small disc only now and then
+// — its glints through frosted glass were the fireflies of frosted frames — so at a rough
+// crossing, each sun is also sampled directly where the direction toward it leaves into the open:
+// a direction over its disc, the weight the crossing would give a branch along it (`rough_lobe`),
+// a shadow ray. A sun of no size, which no branch can find, is all light sampling. Returns the
+// light; `lobe_pdf` then weighs what the branches find (`lights_seen`).
+fn suns_through_rough(p: vec3<f32>, b: Branch, c: Crossing, n: vec3<f32>, alpha: f32, eta: f32, k: u32) -> vec3<f32> {
+    var light = vec3<f32>(0.0);
+    for (var i = 0u; i < params.light_count; i++) {
+        let l = lights[i];
+        if l.kind != LIGHT_SUN {
+            continue;
+        }
+        let a = light_arrival(l, p, k);
+        let lobe = rough_lobe(b.d, n, a.w, alpha, eta);
+        if lobe.pdf <= 0.0 || media_along(c, a.w, b.media).depth != 0u {
+            continue;
+        }
+        // E·X·pdf_lobe·w_light: the radiance E/Ω over the light's density 1/Ω, times the lobe's
+        // weight per unit of light X times its density, times the balance heuristic's share.
+        var share = 1.0;
+        if l.half_angle > 0.0 {
+            let light_pdf = 1.0 / (2.0 * PI * (1.0 - cos(l.half_angle)));
+            share = light_pdf / (light_pdf + lobe.pdf);
+        }
+        let tint = select(c.tint, vec3<f32>(1.0), dot(a.w, n) > 0.0);
+        let seen = visibility(leave_surface(p, c.geometric, a.w, 1e-3 * params.grid.voxel_size), a.w, a.dist);
+        light += a.intensity * tint * seen * (lobe.weight * lobe.pdf * share);
+    }
+    return light;
+}
+
+// The density `suns_through_rough` weighs a branch leaving a rough crossing along w by: its
+// lobe's, where w leaves into the open (there the suns were sampled too), else 0.
+fn sampled_lobe_pdf(c: Crossing, media: Media, d: vec3<f32>, w: vec3<f32>, n: vec3<f32>, alpha: f32, eta: f32) -> f32 {
+    if media_along(c, w, media).depth != 0u {
+        return 0.0;
+    }
+    return rough_lobe(d, n, w, alpha, eta).pdf;
 }
 
 // Traces one branch to its end. At an interface it goes on along the transmitted direction and
@@ -784,11 +869,23 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                     continue;
                 }
                 first_depth(out, s.x);
-                let c = cross_interface(s.x, b.d, hit, glass_surface_at(hit), b.media, facet_numbers(k, b.path));
+                let surface = glass_surface_at(hit);
+                let c = cross_interface(s.x, b.d, hit, surface, b.media, facet_numbers(k, b.path));
                 b.events += u32(c.seen);
+                // A rough solid's surface: the suns sampled through it (suns_through_rough).
+                let alpha = surface.roughness * surface.roughness;
+                let rough = c.seen && alpha > 0.0 && (interfaces[hit.interface_id].kind & INTERFACE_THIN) == 0u;
+                let n = select(hit.normal, -hit.normal, dot(hit.normal, b.d) > 0.0);
+                let eta = c.beyond.ior / b.media.ior;
+                if rough && !companion_ends_here() {
+                    (*out).radiance += b.weight * suns_through_rough(s.x, b, c, n, alpha, eta, k);
+                }
                 var next = b.d;
                 if c.reflectance < 1.0 {
-                    var reflected = Branch(s.x, c.reflected, b.weight * (c.reflectance * c.reflected_share), media_along(c, c.reflected, b.media), b.events, 2u * b.path + 1u);
+                    var reflected = Branch(s.x, c.reflected, b.weight * (c.reflectance * c.reflected_share), media_along(c, c.reflected, b.media), b.events, 2u * b.path + 1u, 0.0);
+                    if rough {
+                        reflected.lobe_pdf = sampled_lobe_pdf(c, b.media, b.d, c.reflected, n, alpha, eta);
+                    }
                     if max(reflected.weight.r, max(reflected.weight.g, reflected.weight.b)) > MIN_WEIGHT && *top < BRANCH_STACK {
                         reflected.x = crossing_exit(c, s.x, b.d, c.reflected, 1e-3 * grid.voxel_size);
                         (*stack)[*top] = reflected;
@@ -799,6 +896,10 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                 } else {
                     b.weight *= c.reflected_share;
                     next = c.reflected;
+                }
+                b.lobe_pdf = 0.0;
+                if rough {
+                    b.lobe_pdf = sampled_lobe_pdf(c, b.media, b.d, next, n, alpha, eta);
                 }
                 b.media = media_along(c, next, b.media);
                 b.path = 2u * b.path;
@@ -896,7 +997,7 @@ fn trace_view(pixel: vec2<f32>, k: u32, j: u32) -> ViewSample {
     var out = no_light();
     var stack: array<Branch, BRANCH_STACK>;
     var top = 0u;
-    var branch = Branch(ray[0], ray[1], vec3<f32>(1.0), media_unpacked(vec2<u32>(params.camera_media_lo, params.camera_media_hi)), 0u, 1u);
+    var branch = Branch(ray[0], ray[1], vec3<f32>(1.0), media_unpacked(vec2<u32>(params.camera_media_lo, params.camera_media_hi)), 0u, 1u, 0.0);
     // (One call site: the branch tracer is the pass's largest function.)
     loop {
         trace_branch(&out, branch, &stack, &top, k);

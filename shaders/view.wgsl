@@ -40,6 +40,7 @@
 #import shared/hash.wgsl
 #import shared/pbr.wgsl
 #import shared/glass_surface.wgsl
+#import shared/direct_light.wgsl
 
 @group(0) @binding(0) var<uniform> params: ViewParams;
 @group(0) @binding(1) var ior_grid: texture_3d<f32>;
@@ -203,316 +204,6 @@ fn in_scattering(x: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
     return scattering.rgb * phase * fluence;
 }
 
-// Transmittance along the straight segment from p along unit w for `dist`: exp(−∫σ_t), and
-// zero if it passes where n − 1 > eps_refract — light through glass arrives as caustic photons.
-fn shadow_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
-    let grid = params.grid;
-    let span = ray_box(p, w, grid.origin, grid_box_max(grid));
-    let t_end = min(span.y, dist);
-    if span.x > span.y || t_end <= 0.0 {
-        return vec3<f32>(1.0);
-    }
-    var t = max(span.x, 0.0);
-    var tr = vec3<f32>(1.0);
-    for (var k = 0u; k < params.max_steps && t < t_end; k++) {
-        let x = p + w * t;
-        // Across a cell flat in n and σ, exp(−σ·len) is exact for any length: the whole cell
-        // in one step (`max_step` bounds the view ray's steps only for in-scattering's sake).
-        let len = min(octree_step(x, w, params.step, NO_HIT), t_end - t);
-        let mid = x + w * (0.5 * len);
-        if sample_ior(ior_grid, grid_sampler, grid, mid).w - 1.0 > params.eps_refract {
-            return vec3<f32>(0.0);
-        }
-        if has(VIEW_FLAG_MEDIA) {
-            tr *= exp(-sample_grid(extinction_grid, grid_sampler, grid, mid).rgb * len);
-        }
-        t += len;
-    }
-    return tr;
-}
-
-// Cut-outs and see-through receivers a shadow ray looks past, at most.
-const MAX_SEE_THROUGH: u32 = 8u;
-
-// What a polished thin sheet passes of a shadow ray at a hit on it: its thin-slab transmittance
-// (1 − R_thin, the inner reflections summed per polarization, cross_interface's R) × its tint,
-// straight through — exactly what its photons would carry, so they leave that light to shadow
-// rays (march.wgsl). A solid's surface or a rough sheet passes nothing: its light is photons'.
-fn sheet_transmittance(hit: SurfaceHit, w: vec3<f32>) -> vec3<f32> {
-    let f = interfaces[hit.interface_id];
-    if (f.kind & INTERFACE_THIN) == 0u {
-        return vec3<f32>(0.0);
-    }
-    let surface = glass_surface_at(hit);
-    if surface.roughness > 0.0 {
-        return vec3<f32>(0.0);
-    }
-    return surface.tint * (1.0 - thin_sheet_reflectance(abs(dot(w, hit.normal)), interface_ior(f)));
-}
-
-// The light that passes the analytic interfaces along p + t·w, t < dist: each crossing of a
-// polished thin shell (a bubble, a lamp's globe) passes its `sheet_transmittance`; a solid's
-// surface stops it.
-fn analytic_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
-    var passed = vec3<f32>(1.0);
-    var t_min = 1e-4;
-    for (var i = 0u; i < MAX_SEE_THROUGH; i++) {
-        let hit = analytic_hit(p, w, t_min, no_surface(dist), NO_INTERFACE);
-        if hit.t >= dist {
-            return passed;
-        }
-        passed *= sheet_transmittance(hit, w);
-        if all(passed <= vec3<f32>(0.0)) {
-            return passed;
-        }
-        t_min = hit.t + 1e-4;
-    }
-    return vec3<f32>(0.0);
-}
-
-// The light that passes the surfaces along p + t·w, t < dist, when some are cut-outs,
-// see-through or thin glass: each receiver hides its coverage, a thin sheet passes its
-// transmittance; a solid's glass surface stops it (its light arrives as photons).
-fn receivers_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
-    var t_min = 1e-4;
-    var passed = vec3<f32>(1.0);
-    for (var i = 0u; i < MAX_SEE_THROUGH; i++) {
-        let b = bvh_closest_hit(p, w, t_min, dist, 0xffffffffu);
-        if b.triangle == 0xffffffffu {
-            return passed;
-        }
-        let word = bvh_triangles[b.triangle].receiver;
-        if (word & INTERFACE_BIT) != 0u {
-            let id = word & ~INTERFACE_BIT;
-            passed *= sheet_transmittance(SurfaceHit(b.t, b.triangle, id, shading_normal(b.triangle, b.u, b.v), b.u, b.v), w);
-        } else {
-            passed *= 1.0 - coverage_of(receivers[word], b.triangle, b.u, b.v);
-        }
-        if all(passed <= vec3<f32>(0.0)) {
-            return vec3<f32>(0.0);
-        }
-        t_min = b.t + 1e-4;
-    }
-    return vec3<f32>(0.0);
-}
-
-// Visibility of a light from p along w up to dist: opaque receivers and glass surfaces (light
-// through glass arrives as caustic photons), then media.
-fn visibility(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
-    if has(VIEW_FLAG_SEE_THROUGH) {
-        let passed = receivers_transmittance(p, w, dist) * analytic_transmittance(p, w, dist);
-        if all(passed <= vec3<f32>(0.0)) {
-            return vec3<f32>(0.0);
-        }
-        return passed * shadow_transmittance(p, w, dist);
-    }
-    if bvh_any_hit(p, w, 1e-4, dist) || analytic_any_hit(p, w, 1e-4, dist) {
-        return vec3<f32>(0.0);
-    }
-    return shadow_transmittance(p, w, dist);
-}
-
-// Light l as seen from p (one shadow sample, k picks it): the unit direction toward it, its
-// intensity toward p (the sun: its illuminance) and the squared distance it falls off with
-// (1 for the sun), and how far the shadow ray goes.
-struct LightArrival {
-    w: vec3<f32>,
-    intensity: vec3<f32>,
-    dist2: f32,
-    dist: f32,
-}
-
-fn light_arrival(l: LightGpu, p: vec3<f32>, k: u32) -> LightArrival {
-    let u = r2(k + 7u);
-    // A sun's, a glowing mesh's and a bulb's numbers are rotated per pixel (Cranley–Patterson)
-    // as the environment's are: a penumbra drawn with the same few directions or points in
-    // every pixel shows them as steps (and a mesh's points fall over its triangles in whatever
-    // order they were listed); rotated, neighbouring pixels differ and the steps become fine
-    // noise that more samples average away.
-    let key = pcg_hash(pixel_key ^ 0x2f6b3c1du);
-    let rotated = fract(u + vec2<f32>(random01(key, 0u, 44u), random01(key, 0u, 45u)));
-    if l.kind == LIGHT_SUN {
-        var w = -l.direction;
-        if l.half_angle > 0.0 {
-            w = cone_direction(w, l.right, l.up, l.half_angle, rotated);
-        }
-        return LightArrival(w, l.radiant, 1.0, NO_HIT);
-    }
-    if l.kind == LIGHT_MESH {
-        return glowing_mesh_arrival(l, p, rotated);
-    }
-    let to_centre = l.position - p;
-    let bulb = (l.kind == LIGHT_POINT || l.kind == LIGHT_SPOT) && l.radius > 0.0;
-    if bulb && dot(to_centre, to_centre) > l.radius * l.radius * 1.0001 {
-        return bulb_arrival(l, p, rotated);
-    }
-    var aim = l.position;
-    let area_light = l.kind == LIGHT_RECT || l.kind == LIGHT_DISK;
-    var area = l.size_x * l.size_y;
-    if l.kind == LIGHT_RECT {
-        aim += l.right * ((u.x - 0.5) * l.size_x) + l.up * ((u.y - 0.5) * l.size_y);
-    } else if l.kind == LIGHT_DISK {
-        // The inscribed ellipse, uniform by area (the concentric map).
-        let q = concentric_disk(u);
-        aim += l.right * (0.5 * q.x * l.size_x) + l.up * (0.5 * q.y * l.size_y);
-        area *= 0.25 * PI;
-    }
-    let to_light = aim - p;
-    let dist2 = dot(to_light, to_light);
-    let dist = sqrt(dist2);
-    let w = to_light / dist;
-    var intensity: vec3<f32>;
-    if area_light {
-        // A one-sided Lambertian emitter of radiance L: I(θ) = L · A · cos θ (one sample).
-        intensity = l.radiant * area * max(dot(-w, l.direction), 0.0);
-    } else {
-        intensity = light_intensity(l, -w);
-    }
-    return LightArrival(w, intensity, dist2, dist);
-}
-
-// A bulb — a point or spot light of radius r, a sphere of radiance I/(π r²) — seen from p
-// outside it, through one direction uniform over the cone it fills (sin α = r/d, solid angle
-// Ω = 2π(1 − cos α) = 2π sin²α/(1 + cos α), kept exact for small bulbs): E ≈ L · Ω · cos θ, so
-// its shadows are soft, and where nothing is in the way it gives the point light's I cos θ/d²
-// on average (exactly, for a receiver the whole sphere is above). The shadow ray ends on the
-// sphere. (Its photons still leave from its centre: caustics keep a point light's focus.)
-fn bulb_arrival(l: LightGpu, p: vec3<f32>, u: vec2<f32>) -> LightArrival {
-    let to_centre = l.position - p;
-    let d2 = dot(to_centre, to_centre);
-    let axis = to_centre * inverseSqrt(d2);
-    let r2 = l.radius * l.radius;
-    let sin2 = r2 / d2;
-    let cos_a = sqrt(1.0 - sin2);
-    let frame = cone_frame(axis);
-    let w = cap_direction(axis, frame[0], frame[1], cos_a, u);
-    // The near root of |p + t·w − centre|² = r².
-    let b = dot(w, to_centre);
-    let t = b - sqrt(max(b * b - (d2 - r2), 0.0));
-    let radiance = light_intensity(l, -axis) / (PI * r2);
-    return LightArrival(w, radiance * (TAU * sin2 / (1.0 + cos_a)), 1.0, t);
-}
-
-// A glowing mesh seen from p through one point spread uniformly over its surface: each side
-// that glows a Lambertian emitter of radiance L, so I(θ) = L · A · cos θ (one sample; 0 from a
-// closed mesh's point facing away, which then costs no shadow ray). The shadow ray stops just
-// short of the point, which lies on a receiver's own triangle.
-fn glowing_mesh_arrival(l: LightGpu, p: vec3<f32>, u: vec2<f32>) -> LightArrival {
-    let q = mesh_light_point(l, u);
-    let to_light = q.p - p;
-    let dist2 = dot(to_light, to_light);
-    let dist = sqrt(dist2);
-    let w = to_light / dist;
-    return LightArrival(w, l.radiant * (l.area * mesh_light_cos(l, q.n, -w)), dist2, dist * (1.0 - 1e-4));
-}
-
-// Four uniform numbers for shadow-ray pair j toward the environment of camera sample k on
-// branch `path` of this pixel: point k·pairs + j of the R2 sequence, rotated per pixel and
-// branch (Cranley–Patterson) once for the table's direction (xy) and once for the cosine one
-// (zw), so a pixel's directions are evenly spread and neighbouring pixels' are independent.
-fn env_numbers(k: u32, path: u32, j: u32) -> vec4<f32> {
-    let key = pcg_hash(pixel_key ^ (path * 0x68bc21ebu));
-    let rotation = vec4<f32>(random01(key, 0u, 40u), random01(key, 0u, 41u), random01(key, 0u, 42u), random01(key, 0u, 43u));
-    let a = r2(k * params.env_pairs + j);
-    return fract(vec4<f32>(a, a) + rotation);
-}
-
-// One shadow ray of a shading point: toward `w`, up to `dist`, and the irradiance `e` it brings
-// if nothing is in the way (already × cos θ about the shading normal).
-struct ShadowRay {
-    w: vec3<f32>,
-    dist: f32,
-    e: vec3<f32>,
-}
-
-// Glowing meshes' shadow samples per camera sample: a mesh seen from a point is partly hidden by
-// itself (a tube or a bulb by half), so one sample each would be mostly noise; a closed mesh's
-// candidates facing away cost nothing.
-const GLOWING_CANDIDATES: u32 = 4u;
-
-// The first shadow-ray slot toward the environment: after one per light and the glowing
-// meshes' extra candidates.
-fn environment_slot() -> u32 {
-    return params.light_count + (GLOWING_CANDIDATES - 1u) * params.glowing_count;
-}
-
-// Shadow ray i of the point p with shading normal n: first one per light (light_arrival) — for
-// each glowing mesh (the last `glowing_count` lights) GLOWING_CANDIDATES, each weighing 1/that —
-// then two per environment pair: one direction drawn from the environment's table
-// (shared/env_light.wgsl), one by cos θ, each weighted by the balance heuristic (Veach 1997,
-// §9.2), so a small bright sun and a wide dim sky both converge:
-// E_env ≈ Σ L(ω) cos θ / (p_env(ω) + cos θ / π) over both, divided by the pairs. A colour
-// environment takes both by cos θ.
-fn shadow_ray(i: u32, p: vec3<f32>, n: vec3<f32>, k: u32, path: u32) -> ShadowRay {
-    let env_first = environment_slot();
-    if i < env_first {
-        // One call of light_arrival for both kinds: lavapipe inlines every call site anew, and
-        // a second one doubled the view pipeline's compile time.
-        let glowing_first = params.light_count - params.glowing_count;
-        var light = i;
-        var sample = k;
-        var candidates = 1u;
-        if i >= glowing_first {
-            let g = i - glowing_first;
-            light = glowing_first + g / GLOWING_CANDIDATES;
-            sample = k * GLOWING_CANDIDATES + g % GLOWING_CANDIDATES;
-            candidates = GLOWING_CANDIDATES;
-        }
-        let a = light_arrival(lights[light], p, sample);
-        return ShadowRay(a.w, a.dist, a.intensity * max(dot(n, a.w), 0.0) / (a.dist2 * f32(candidates)));
-    }
-    let j = i - env_first;
-    let u = env_numbers(k, path, j / 2u);
-    let frame = basis_around(n);
-    let rays = f32(2u * params.env_pairs);
-    if all(env_table_size() == vec2<u32>(1u)) {
-        // A uniform sky: both rays by cos θ, each L·π exactly where nothing is in the way
-        // (an open surface's E = π L has no noise), the table's uniform sphere adding only noise.
-        let w = cosine_direction(n, frame[0], frame[1], select(u.xy, u.zw, (j & 1u) == 1u));
-        return ShadowRay(w, NO_HIT, env_light_at(params.env, w).radiance * (PI / rays));
-    }
-    var l: EnvLightSample;
-    if (j & 1u) == 0u {
-        l = env_light_sample(params.env, u.xy);
-    } else {
-        l = env_light_at(params.env, cosine_direction(n, frame[0], frame[1], u.zw));
-    }
-    let c = dot(n, l.dir);
-    if c <= 0.0 {
-        // Below the surface (and, at c = 0 on a black texel, 0/0 otherwise).
-        return ShadowRay(l.dir, NO_HIT, vec3<f32>(0.0));
-    }
-    return ShadowRay(l.dir, NO_HIT, l.radiance * c / ((l.pdf + c * INV_PI) * f32(params.env_pairs)));
-}
-
-// The light reaching a shading point directly, with its shadows: every shadow ray through one
-// call of `visibility` (the BVH walks and the march through the volume, which a compiler inlines
-// at each call), the lights' through the surface's response (`pbr`: both lobes; otherwise the
-// irradiance, in `diffuse`), the environment's through the diffuse lobe alone (`env_diffuse`:
-// its share; the glossy lobes take the prefiltered environment, unshadowed).
-fn direct_light(p: vec3<f32>, facing: vec3<f32>, s: PbrSurface, pbr: bool, env_diffuse: vec3<f32>, k: u32, path: u32) -> LightResponse {
-    var out = LightResponse(vec3<f32>(0.0), vec3<f32>(0.0));
-    let env_first = environment_slot();
-    let count = env_first + 2u * params.env_pairs;
-    for (var i = 0u; i < count; i++) {
-        let ray = shadow_ray(i, p, s.n, k, path);
-        if all(ray.e <= vec3<f32>(0.0)) || dot(facing, ray.w) <= 0.0 {
-            continue;
-        }
-        let e = ray.e * visibility(p, ray.w, ray.dist);
-        if i >= env_first {
-            out.diffuse += env_diffuse * e;
-        } else if pbr {
-            let response = pbr_response(s, ray.w, dot(s.n, ray.w));
-            out.diffuse += response.diffuse * e;
-            out.specular += response.specular * e;
-        } else {
-            out.diffuse += e;
-        }
-    }
-    return out;
-}
-
 // Bilinear lookup of a chart's filtered caustic (or indirect) irradiance.
 fn chart_irradiance(chart: Chart, p: vec3<f32>, indirect: bool) -> vec3<f32> {
     let f = chart_coords(chart, p) - 0.5;
@@ -549,9 +240,8 @@ fn map_irradiance_at(receiver: u32, p: vec3<f32>, facing: vec3<f32>, back: bool,
     return vec3<f32>(0.0);
 }
 
-// A receiver of the full metallic-roughness model at a hit: the lights through both lobes,
-// the environment by the split sum, the caustic and bounced light on the diffuse lobe only.
-fn shade_pbr(r: ReceiverGpu, hit: SurfaceHit, uv: vec2<f32>, base: vec3<f32>, q: vec3<f32>, facing: vec3<f32>, d: vec3<f32>, k: u32, path: u32, e_caustic: vec3<f32>, e_indirect: vec3<f32>) -> Shading {
+// A receiver of the full metallic-roughness model at a hit: its surface, the textures applied.
+fn pbr_surface(r: ReceiverGpu, hit: SurfaceHit, uv: vec2<f32>, base: vec3<f32>, facing: vec3<f32>, d: vec3<f32>) -> PbrSurface {
     // The coat's normal: the surface's own bent by the coat's normal map, not the base's
     // (KHR_materials_clearcoat).
     let coat_n = mapped_normal(r.clearcoat_normal_texture, r.clearcoat_normal_scale, hit.triangle, hit.u, hit.v, uv, facing);
@@ -578,17 +268,15 @@ fn shade_pbr(r: ReceiverGpu, hit: SurfaceHit, uv: vec2<f32>, base: vec3<f32>, q:
         s.occlusion = 1.0 + r.occlusion_strength * (texture_at(r.occlusion_texture, uv).r - 1.0);
     }
     s.n_v = clamp(dot(s.n, s.v), 1e-4, 1.0);
-    let env = pbr_environment(s, params.env);
-    // The occlusion texture darkens the environment's light, not the lights'.
-    let lit = direct_light(q, facing, s, true, env.diffuse * s.occlusion, k, path);
-    let out = LightResponse(lit.diffuse, env.specular * s.occlusion + lit.specular);
-    // The caustic and bounced light land on the diffuse lobe, with the share it keeps of the
-    // environment's.
-    return Shading(env.diffuse * e_caustic, out.diffuse + out.specular, env.diffuse * e_indirect);
+    return s;
 }
 
 // Radiance leaving a receiver toward the camera at the hit, split into caustic, direct (the
-// lights, the environment and the surface's own emission) and indirect (bounced) light.
+// lights, the environment and the surface's own emission) and indirect (bounced) light. A
+// receiver of the full model takes the lights through both lobes, the environment by the split
+// sum, the caustic and bounced light on the diffuse lobe only; a Lambertian one (metallic 0,
+// specular 0) reflects albedo / π of each. (One call of `direct_light` for both: lavapipe
+// inlines every call site anew.)
 fn shade_receiver(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, k: u32, path: u32) -> Shading {
     let n = hit.normal;
     let back = dot(n, d) > 0.0;
@@ -602,14 +290,21 @@ fn shade_receiver(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, k: u32, path: u32
     let q = p + facing * (1e-4 + 1e-3 * params.grid.voxel_size);
     let e_caustic = map_irradiance_at(receiver, p, facing, back, false);
     let e_indirect = map_irradiance_at(receiver, p, facing, back, true);
-    if has(VIEW_FLAG_SPECULAR) && (r.flags & RECEIVER_PBR) != 0u {
-        let sh = shade_pbr(r, hit, uv, base, q, facing, d, k, path, e_caustic, e_indirect);
-        return Shading(sh.caustic, sh.direct + emission, sh.indirect);
+    let pbr = has(VIEW_FLAG_SPECULAR) && (r.flags & RECEIVER_PBR) != 0u;
+    var s = PbrSurface(base, 0.0, 1.0, 0.0, 1.0, facing, -d, 1.0, 0.0, 1.0, facing, 1.0, vec3<f32>(0.0), 0.0);
+    var env = LightResponse(vec3<f32>(1.0), vec3<f32>(0.0));
+    if pbr {
+        s = pbr_surface(r, hit, uv, base, facing, d);
+        env = pbr_environment(s, params.env);
     }
-    // Lambertian (metallic 0, specular 0): albedo / π.
-    let lambert = PbrSurface(base, 0.0, 1.0, 0.0, 1.0, facing, -d, 1.0, 0.0, 1.0, facing, 1.0, vec3<f32>(0.0), 0.0);
-    let e_direct = direct_light(q, facing, lambert, false, vec3<f32>(1.0), k, path).diffuse;
-    return Shading(base * INV_PI * e_caustic, base * INV_PI * e_direct + emission, base * INV_PI * e_indirect);
+    // The occlusion texture darkens the environment's light, not the lights'.
+    let lit = direct_light(q, facing, s, pbr, env.diffuse * s.occlusion, k, path);
+    if pbr {
+        // The caustic and bounced light land on the diffuse lobe, with the share it keeps of
+        // the environment's.
+        return Shading(env.diffuse * e_caustic, lit.diffuse + (env.specular * s.occlusion + lit.specular) + emission, env.diffuse * e_indirect);
+    }
+    return Shading(base * INV_PI * e_caustic, base * INV_PI * lit.diffuse + emission, base * INV_PI * e_indirect);
 }
 
 struct ViewSample {
@@ -662,37 +357,6 @@ fn facet_numbers(k: u32, path: u32) -> vec2<f32> {
     return vec2<f32>(random01(key, path, 0u), random01(key, path, 1u));
 }
 
-// Radiance of the lights a path that met glass sees along o + t·d, t < t_max: the sun's disc
-// (a uniform disc of its angular radius: E over its solid angle 2π(1 − cos α)), seen only by a
-// path that leaves the scene — its share by the balance heuristic where a rough crossing also
-// sampled the suns (`lobe_pdf` > 0: `suns_through_rough`) — and the bulbs of point and spot
-// lights, spheres of their radius r whose radiance toward the viewer is I(ω) / (π r²).
-fn lights_seen(o: vec3<f32>, d: vec3<f32>, t_max: f32, lobe_pdf: f32) -> vec3<f32> {
-    var l = vec3<f32>(0.0);
-    for (var i = 0u; i < params.light_count; i++) {
-        let light = lights[i];
-        if light.kind == LIGHT_SUN {
-            let cos_a = cos(light.half_angle);
-            if t_max >= NO_HIT && light.half_angle > 0.0 && dot(d, -light.direction) >= cos_a {
-                let solid_angle = 2.0 * PI * (1.0 - cos_a);
-                var disc = light.radiant / solid_angle;
-                if lobe_pdf > 0.0 {
-                    disc *= lobe_pdf / (lobe_pdf + 1.0 / solid_angle);
-                }
-                l += disc;
-            }
-        } else if light.kind != LIGHT_RECT && light.kind != LIGHT_DISK && light.radius > 0.0 {
-            let oc = o - light.position;
-            let b = dot(oc, d);
-            let disc = b * b - (dot(oc, oc) - light.radius * light.radius);
-            if disc >= 0.0 && -b - sqrt(disc) > 0.0 && -b - sqrt(disc) < t_max {
-                l += light_intensity(light, -d) / (PI * light.radius * light.radius);
-            }
-        }
-    }
-    return l;
-}
-
 // Ends a branch in the environment (and the lights' discs, once it met glass).
 fn end_in_environment(out: ptr<function, ViewSample>, b: Branch) {
     if companion_ends_here() {
@@ -731,228 +395,151 @@ fn meet_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, 
     return cover;
 }
 
-// What a rough crossing (cross_interface on GGX of roughness α) gives a direction w chosen
-// otherwise — toward a light: the density of its branches' directions there (the visible normals'
-// D_wi(m) = G₁(wi) max(0, wi·m) D(m) / wi·n times the Jacobian of reflection, 1 / 4 wi·m, or of
-// refraction, η² |w·m| / (wi·m + η w·m)²; Walter et al. 2007, Heitz 2018) and the weight the
-// branch along w would carry per unit of light, F G₁(w) reflected or (1 − F) G₁(w) transmitted
-// (the tint aside): what multiple importance sampling with lights needs. d: the incoming
-// direction; n: the shading normal toward where d comes from; eta: the index beyond over the
-// index before. pdf 0 where the crossing sends nothing along w.
-struct RoughLobe {
-    pdf: f32,
-    weight: f32,
-}
-
-fn rough_lobe(d: vec3<f32>, n: vec3<f32>, w: vec3<f32>, alpha: f32, eta: f32) -> RoughLobe {
-    let wi = -d;
-    let cos_i = dot(wi, n);
-    let reflect = dot(w, n) > 0.0;
-    var m = select(wi + eta * w, wi + w, reflect);
-    m = normalize(m) * select(-1.0, 1.0, dot(m, n) > 0.0);
-    let i_m = dot(wi, m);
-    let o_m = dot(w, m);
-    if cos_i <= 0.0 || i_m <= 0.0 || (!reflect && o_m >= 0.0) {
-        return RoughLobe(0.0, 0.0);
-    }
-    let visible = smith_g1(cos_i, alpha) * i_m * ggx_d(dot(m, n), alpha) / cos_i;
-    let f = fresnel_dielectric(i_m, eta);
-    let g_out = smith_g1(abs(dot(w, n)), alpha);
-    if reflect {
-        return RoughLobe(visible / (4.0 * i_m), f * g_out);
-    }
-    let denom = i_m + eta * o_m;
-    return RoughLobe(visible * eta * eta * abs(o_m) / (denom * denom), (1.0 - f) * g_out);
-}
-
-// Suns seen in rough glass, by both strategies (Veach 1997, multiple importance sampling with
-// the balance heuristic): the branches' own directions find a sun's small disc only now and then
-// — its glints through frosted glass were the fireflies of frosted frames — so at a rough
-// crossing, each sun is also sampled directly where the direction toward it leaves into the open:
-// a direction over its disc, the weight the crossing would give a branch along it (`rough_lobe`),
-// a shadow ray. A sun of no size, which no branch can find, is all light sampling. Returns the
-// light; `lobe_pdf` then weighs what the branches find (`lights_seen`).
-fn suns_through_rough(p: vec3<f32>, b: Branch, c: Crossing, n: vec3<f32>, alpha: f32, eta: f32, k: u32) -> vec3<f32> {
-    var light = vec3<f32>(0.0);
-    for (var i = 0u; i < params.light_count; i++) {
-        let l = lights[i];
-        if l.kind != LIGHT_SUN {
-            continue;
-        }
-        let a = light_arrival(l, p, k);
-        let lobe = rough_lobe(b.d, n, a.w, alpha, eta);
-        if lobe.pdf <= 0.0 || media_along(c, a.w, b.media).depth != 0u {
-            continue;
-        }
-        // E·X·pdf_lobe·w_light: the radiance E/Ω over the light's density 1/Ω, times the lobe's
-        // weight per unit of light X times its density, times the balance heuristic's share.
-        var share = 1.0;
-        if l.half_angle > 0.0 {
-            let light_pdf = 1.0 / (2.0 * PI * (1.0 - cos(l.half_angle)));
-            share = light_pdf / (light_pdf + lobe.pdf);
-        }
-        let tint = select(c.tint, vec3<f32>(1.0), dot(a.w, n) > 0.0);
-        let seen = visibility(leave_surface(p, c.geometric, a.w, 1e-3 * params.grid.voxel_size), a.w, a.dist);
-        light += a.intensity * tint * seen * (lobe.weight * lobe.pdf * share);
-    }
-    return light;
-}
-
-// The density `suns_through_rough` weighs a branch leaving a rough crossing along w by: its
-// lobe's, where w leaves into the open (there the suns were sampled too), else 0.
-fn sampled_lobe_pdf(c: Crossing, media: Media, d: vec3<f32>, w: vec3<f32>, n: vec3<f32>, alpha: f32, eta: f32) -> f32 {
-    if media_along(c, w, media).depth != 0u {
-        return 0.0;
-    }
-    return rough_lobe(d, n, w, alpha, eta).pdf;
-}
-
 // Traces one branch to its end. At an interface it goes on along the transmitted direction and
 // pushes the reflected one (or, under total internal reflection, goes on reflected).
 fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function, array<Branch, BRANCH_STACK>>, top: ptr<function, u32>, k: u32) {
     let grid = params.grid;
     var b = b0;
-    var ahead_of = look_from(b.x, b.d);
     let box_max = grid_box_max(grid);
-    let span = ray_box(b.x, b.d, grid.origin, box_max);
-    if span.x <= span.y && span.y > 0.0 && ahead_of.hit.t > max(span.x, 0.0) {
-        var s = ray_start(ior_grid, grid_sampler, grid, b.x + b.d * max(span.x, 0.0), b.d);
-        var path = 0.0;
-        for (var i = 0u; i < params.max_steps; i++) {
-            (*out).steps++;
-            let x0 = s.x;
-            var jump = octree_step(x0, b.d, params.step, params.max_step);
-            let bends = jump <= params.step;
-            jump = min(jump, ray_box(x0, b.d, grid.origin, box_max).y + 1e-4 * grid.voxel_size);
-            // A curved step goes its full length even where the grid's edge is nearer: the
-            // surface ahead is looked for as far as the step will go, or a floor just past the
-            // edge is stepped over (seen through glass resting on it, a ring of pixels went black).
-            let reach = select(jump, params.step, bends);
-            let ahead = surface_within(&ahead_of, x0, b.d, reach);
-            let on_surface = ahead <= reach;
-            if on_surface {
-                s.x = x0 + b.d * ahead;
-            } else if bends {
-                march_step(ior_grid, grid_sampler, grid, &s, params.step);
-            } else {
-                s.x = x0 + b.d * jump;
-                s.g = sample_ior(ior_grid, grid_sampler, grid, s.x);
-                s.v = b.d * s.g.w;
-            }
-            let len = distance(x0, s.x);
-            path += len;
-            let mid = 0.5 * (x0 + s.x);
-            var extinction = b.media.absorption;
-            if has(VIEW_FLAG_MEDIA) {
-                // Beer–Lambert over the step, with the in-scattered light of its midpoint.
-                extinction += sample_grid(extinction_grid, grid_sampler, grid, mid).rgb;
-                if has(VIEW_FLAG_SCATTERING) {
-                    (*out).volume += b.weight * exp(-0.5 * extinction * len) * in_scattering(mid, b.d) * len;
+    // Each round marches the volume (where the branch is in it or before it) and ends on a
+    // receiver, shaded at the one call of `meet_receiver` below (lavapipe inlines every call
+    // site anew, and the receiver's shading is most of the pass), or in the environment. Past a
+    // cut-out or a see-through receiver, the next round goes on from its far side.
+    for (var passed = 0u; passed <= MAX_SEE_THROUGH; passed++) {
+        var ahead_of = look_from(b.x, b.d);
+        var met = false;
+        var hit: SurfaceHit;
+        var p: vec3<f32>;
+        var start: vec3<f32>;
+        let span = ray_box(b.x, b.d, grid.origin, box_max);
+        if span.x <= span.y && span.y > 0.0 && ahead_of.hit.t > max(span.x, 0.0) {
+            var s = ray_start(ior_grid, grid_sampler, grid, b.x + b.d * max(span.x, 0.0), b.d);
+            var path = 0.0;
+            for (var i = 0u; i < params.max_steps; i++) {
+                (*out).steps++;
+                let x0 = s.x;
+                var jump = octree_step(x0, b.d, params.step, params.max_step);
+                let bends = jump <= params.step;
+                jump = min(jump, ray_box(x0, b.d, grid.origin, box_max).y + 1e-4 * grid.voxel_size);
+                // A curved step goes its full length even where the grid's edge is nearer: the
+                // surface ahead is looked for as far as the step will go, or a floor just past the
+                // edge is stepped over (seen through glass resting on it, a ring of pixels went black).
+                let reach = select(jump, params.step, bends);
+                let ahead = surface_within(&ahead_of, x0, b.d, reach);
+                let on_surface = ahead <= reach;
+                if on_surface {
+                    s.x = x0 + b.d * ahead;
+                } else if bends {
+                    march_step(ior_grid, grid_sampler, grid, &s, params.step);
+                } else {
+                    s.x = x0 + b.d * jump;
+                    s.g = sample_ior(ior_grid, grid_sampler, grid, s.x);
+                    s.v = b.d * s.g.w;
                 }
-            }
-            b.weight *= exp(-extinction * len);
-            if is_medium(s.g, extinction) {
-                first_depth(out, x0);
-            }
-            path_dispersed = path_dispersed || (grid_dispersion_scale != 1.0 && s.g.w - 1.0 > params.eps_refract);
-            if on_surface {
-                let hit = ahead_of.hit;
-                if hit.interface_id == NO_INTERFACE {
-                    let cover = meet_receiver(out, hit, s.x, b, ahead_of.origin, k);
-                    if cover >= 1.0 {
+                let len = distance(x0, s.x);
+                path += len;
+                let mid = 0.5 * (x0 + s.x);
+                var extinction = b.media.absorption;
+                if has(VIEW_FLAG_MEDIA) {
+                    // Beer–Lambert over the step, with the in-scattered light of its midpoint.
+                    extinction += sample_grid(extinction_grid, grid_sampler, grid, mid).rgb;
+                    if has(VIEW_FLAG_SCATTERING) {
+                        (*out).volume += b.weight * exp(-0.5 * extinction * len) * in_scattering(mid, b.d) * len;
+                    }
+                }
+                b.weight *= exp(-extinction * len);
+                if is_medium(s.g, extinction) {
+                    first_depth(out, x0);
+                }
+                path_dispersed = path_dispersed || (grid_dispersion_scale != 1.0 && s.g.w - 1.0 > params.eps_refract);
+                if on_surface {
+                    let hit = ahead_of.hit;
+                    if hit.interface_id == NO_INTERFACE {
+                        met = true;
+                        break;
+                    }
+                    first_depth(out, s.x);
+                    let surface = glass_surface_at(hit);
+                    let c = cross_interface(s.x, b.d, hit, surface, b.media, facet_numbers(k, b.path));
+                    b.events += u32(c.seen);
+                    // A rough solid's surface: the suns sampled through it (suns_through_rough).
+                    let alpha = surface.roughness * surface.roughness;
+                    let rough = c.seen && alpha > 0.0 && (interfaces[hit.interface_id].kind & INTERFACE_THIN) == 0u;
+                    if rough && !companion_ends_here() {
+                        (*out).radiance += b.weight * suns_through_rough(s.x, b, c, alpha, k);
+                    }
+                    var next = b.d;
+                    if c.reflectance < 1.0 {
+                        var reflected = Branch(s.x, c.reflected, b.weight * (c.reflectance * c.reflected_share), media_along(c, c.reflected, b.media), b.events, 2u * b.path + 1u, 0.0);
+                        if rough {
+                            reflected.lobe_pdf = sampled_lobe_pdf(c, b.media, b.d, c.reflected, alpha);
+                        }
+                        if max(reflected.weight.r, max(reflected.weight.g, reflected.weight.b)) > MIN_WEIGHT && *top < BRANCH_STACK {
+                            reflected.x = crossing_exit(c, s.x, b.d, c.reflected, 1e-3 * grid.voxel_size);
+                            (*stack)[*top] = reflected;
+                            *top += 1u;
+                        }
+                        b.weight *= (1.0 - c.reflectance) * c.tint * c.transmitted_share;
+                        next = c.transmitted;
+                    } else {
+                        b.weight *= c.reflected_share;
+                        next = c.reflected;
+                    }
+                    b.lobe_pdf = 0.0;
+                    if rough {
+                        b.lobe_pdf = sampled_lobe_pdf(c, b.media, b.d, next, alpha);
+                    }
+                    b.media = media_along(c, next, b.media);
+                    b.path = 2u * b.path;
+                    if b.events >= MAX_EVENTS || max(b.weight.r, max(b.weight.g, b.weight.b)) < MIN_WEIGHT {
                         return;
                     }
-                    // On past a cut-out or through a see-through surface, unbent.
-                    b.weight *= 1.0 - cover;
-                    s = ray_start(ior_grid, grid_sampler, grid, leave_surface(s.x, hit.normal, b.d, 1e-3 * grid.voxel_size), b.d);
+                    s = ray_start(ior_grid, grid_sampler, grid, crossing_exit(c, s.x, b.d, next, 1e-3 * grid.voxel_size), next);
+                    b.d = next;
                     ahead_of.valid = false;
                     continue;
                 }
-                first_depth(out, s.x);
-                let surface = glass_surface_at(hit);
-                let c = cross_interface(s.x, b.d, hit, surface, b.media, facet_numbers(k, b.path));
-                b.events += u32(c.seen);
-                // A rough solid's surface: the suns sampled through it (suns_through_rough).
-                let alpha = surface.roughness * surface.roughness;
-                let rough = c.seen && alpha > 0.0 && (interfaces[hit.interface_id].kind & INTERFACE_THIN) == 0u;
-                let n = select(hit.normal, -hit.normal, dot(hit.normal, b.d) > 0.0);
-                let eta = c.beyond.ior / b.media.ior;
-                if rough && !companion_ends_here() {
-                    (*out).radiance += b.weight * suns_through_rough(s.x, b, c, n, alpha, eta, k);
+                // Only a curved step turns the ray: a straight jump keeps d exactly, and taking it
+                // back from v = n·d would round it by an ulp and discard the lookahead every step.
+                let d_new = normalize(s.v);
+                if bends && dot(d_new, b.d) < 1.0 - 1e-9 {
+                    b.d = d_new;
+                    ahead_of.valid = false;
                 }
-                var next = b.d;
-                if c.reflectance < 1.0 {
-                    var reflected = Branch(s.x, c.reflected, b.weight * (c.reflectance * c.reflected_share), media_along(c, c.reflected, b.media), b.events, 2u * b.path + 1u, 0.0);
-                    if rough {
-                        reflected.lobe_pdf = sampled_lobe_pdf(c, b.media, b.d, c.reflected, n, alpha, eta);
-                    }
-                    if max(reflected.weight.r, max(reflected.weight.g, reflected.weight.b)) > MIN_WEIGHT && *top < BRANCH_STACK {
-                        reflected.x = crossing_exit(c, s.x, b.d, c.reflected, 1e-3 * grid.voxel_size);
-                        (*stack)[*top] = reflected;
-                        *top += 1u;
-                    }
-                    b.weight *= (1.0 - c.reflectance) * c.tint * c.transmitted_share;
-                    next = c.transmitted;
-                } else {
-                    b.weight *= c.reflected_share;
-                    next = c.reflected;
-                }
-                b.lobe_pdf = 0.0;
-                if rough {
-                    b.lobe_pdf = sampled_lobe_pdf(c, b.media, b.d, next, n, alpha, eta);
-                }
-                b.media = media_along(c, next, b.media);
-                b.path = 2u * b.path;
-                if b.events >= MAX_EVENTS || max(b.weight.r, max(b.weight.g, b.weight.b)) < MIN_WEIGHT {
+                if all(b.weight < vec3<f32>(1e-4)) {
                     return;
                 }
-                s = ray_start(ior_grid, grid_sampler, grid, crossing_exit(c, s.x, b.d, next, 1e-3 * grid.voxel_size), next);
-                b.d = next;
-                ahead_of.valid = false;
-                continue;
+                // (Checked after the step: the entry point itself may round to just outside.)
+                // A path longer than max_path is trapped by total internal reflection: it leaves
+                // along the direction it has (see march.rs, `max_path`).
+                if !in_grid(grid, s.x) || path > params.max_path {
+                    break;
+                }
             }
-            // Only a curved step turns the ray: a straight jump keeps d exactly, and taking it
-            // back from v = n·d would round it by an ulp and discard the lookahead every step.
-            let d_new = normalize(s.v);
-            if bends && dot(d_new, b.d) < 1.0 - 1e-9 {
-                b.d = d_new;
-                ahead_of.valid = false;
+            // (What the meeting needs is read here, not kept through every step of the march.)
+            if met {
+                hit = ahead_of.hit;
+                p = s.x;
+                start = ahead_of.origin;
+            } else {
+                b.x = s.x;
             }
-            if all(b.weight < vec3<f32>(1e-4)) {
-                return;
-            }
-            // (Checked after the step: the entry point itself may round to just outside.)
-            // A path longer than max_path is trapped by total internal reflection: it leaves
-            // along the direction it has (see march.rs, `max_path`).
-            if !in_grid(grid, s.x) || path > params.max_path {
+        }
+        if !met {
+            hit = surface_after(&ahead_of, b.x, b.d);
+            if !is_receiver_hit(hit) || passed == MAX_SEE_THROUGH {
                 break;
             }
+            p = b.x + b.d * hit.t;
+            start = b.x;
         }
-        b.x = s.x;
-    }
-    for (var crossed = 0u; crossed < MAX_SEE_THROUGH; crossed++) {
-        let hit = surface_after(&ahead_of, b.x, b.d);
-        if !is_receiver_hit(hit) {
-            break;
-        }
-        let p = b.x + b.d * hit.t;
-        let cover = meet_receiver(out, hit, p, b, b.x, k);
+        let cover = meet_receiver(out, hit, p, b, start, k);
         if cover >= 1.0 {
             return;
         }
-        // Past a cut-out or a see-through surface: on toward the environment, or, when it lay
-        // before the volume, a new branch that marches through it.
+        // On past a cut-out or through a see-through surface, unbent.
         b.weight *= 1.0 - cover;
         b.x = leave_surface(p, hit.normal, b.d, 1e-3 * grid.voxel_size);
-        let volume_ahead = ray_box(b.x, b.d, grid.origin, box_max);
-        if volume_ahead.x <= volume_ahead.y && volume_ahead.x > 0.0 {
-            if *top < BRANCH_STACK {
-                (*stack)[*top] = b;
-                *top += 1u;
-            }
-            return;
-        }
-        ahead_of = look_from(b.x, b.d);
     }
     end_in_environment(out, b);
 }

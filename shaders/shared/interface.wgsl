@@ -281,6 +281,10 @@ struct Crossing {
     beyond: Media,
     // The true surface's normal (a mesh's triangle, not the interpolated one) facing it.
     geometric: vec3<f32>,
+    // The shading normal facing it (before a rough surface's microfacet), and the relative
+    // index η = n beyond / n before that the crossing refracts by.
+    normal: vec3<f32>,
+    eta: f32,
     reflected_share: f32,
     transmitted_share: f32,
     // How far along the incoming direction the last surface crossed lies (a contact partner's;
@@ -397,10 +401,10 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
         geometric = bvh_triangle_normal(hit.triangle);
     }
     geometric = select(geometric, -geometric, dot(geometric, d) > 0.0);
-    if !thin && (beyond.holder == media.holder || beyond.ior == media.ior) {
-        return Crossing(d, d, 0.0, vec3<f32>(1.0), beyond, geometric, 1.0, 1.0, through, false);
-    }
     let n = select(hit.normal, -hit.normal, dot(hit.normal, d) > 0.0);
+    if !thin && (beyond.holder == media.holder || beyond.ior == media.ior) {
+        return Crossing(d, d, 0.0, vec3<f32>(1.0), beyond, geometric, n, eta, 1.0, 1.0, through, false);
+    }
     let alpha = surface.roughness * surface.roughness;
     var m = n;
     if alpha > 0.0 {
@@ -426,7 +430,7 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
         reflected_share = smith_g1(max(cr, 0.0), alpha) * step(0.0, cr);
         transmitted_share = smith_g1(max(ct, 0.0), alpha) * step(0.0, ct);
     }
-    return Crossing(reflected, transmitted, reflectance, surface.tint, beyond, geometric, reflected_share, transmitted_share, through, true);
+    return Crossing(reflected, transmitted, reflectance, surface.tint, beyond, geometric, n, eta, reflected_share, transmitted_share, through, true);
 }
 
 // The media of a branch that leaves crossing c along w: the media beyond only if w passes

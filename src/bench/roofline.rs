@@ -36,7 +36,7 @@ pub fn measure(renderer: &mut Renderer, threads: u32, runs: usize) -> Result<Roo
     let (march, bgl) = layout::pipeline_entry(&ctx.device, &shaders, "roofline", "bare_march", &entries)?;
     let (view, _) = layout::pipeline_entry(&ctx.device, &shaders, "roofline", "bare_view", &entries)?;
     let buffer = |label, size: u64, usage| ctx.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false });
-    let params = buffer("roofline grid", std::mem::size_of::<crate::gpu::types::GridParams>() as u64, wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST);
+    let params = buffer("roofline grid", std::mem::size_of::<crate::gpu::types::GridParams>() as u64, crate::pipeline::layout::PARAMS | wgpu::BufferUsages::COPY_DST);
     ctx.queue.write_buffer(&params, 0, bytemuck::bytes_of(&grids.octree_layout.grid));
     let voxels = grids.dims.x as u64 * grids.dims.y as u64 * grids.dims.z as u64;
     let deposits = buffer("roofline deposits", voxels * 4, wgpu::BufferUsages::STORAGE);

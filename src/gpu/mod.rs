@@ -78,14 +78,28 @@ pub fn no_adapter_help() -> &'static str {
 /// Mesa's GL drivers offer 16, so such an adapter is refused rather than failing mid-frame.
 pub const STORAGE_BUFFERS_PER_STAGE: u32 = 23;
 
+/// Uniform buffers the view pass binds (its parameters and the octree's): storage buffers too
+/// where uniforms are bound as storage (`uniforms_as_storage`).
+pub const UNIFORM_BUFFERS_OF_VIEW: u32 = 2;
+
+/// Whether a device of this adapter binds the passes' uniform parameters as read-only storage
+/// buffers. Mesa's lavapipe specialises a compute shader on the values its loop bounds and
+/// branches read from uniform buffers ("uniform inlining") and compiles each new set of values
+/// anew: every scene of another octree depth or light count cost the view a minute or more of
+/// LLVM on a CPU before its first frame. Storage buffers are never inlined. On a GPU, uniforms
+/// stay uniforms (their constant caches).
+pub fn uniforms_as_storage(info: &wgpu::AdapterInfo) -> bool {
+    info.device_type == wgpu::DeviceType::Cpu && info.backend == wgpu::Backend::Vulkan
+}
+
 /// What `adapter` lacks that refrakt needs, if anything.
 fn unusable_because(adapter: &wgpu::Adapter) -> Option<String> {
     if !adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS) {
         return Some("no compute shaders".into());
     }
     let buffers = adapter.limits().max_storage_buffers_per_shader_stage;
-    (buffers < STORAGE_BUFFERS_PER_STAGE)
-        .then(|| format!("{buffers} storage buffers per shader stage, and refrakt's view pass binds {STORAGE_BUFFERS_PER_STAGE}"))
+    let needed = STORAGE_BUFFERS_PER_STAGE + if uniforms_as_storage(&adapter.get_info()) { UNIFORM_BUFFERS_OF_VIEW } else { 0 };
+    (buffers < needed).then(|| format!("{buffers} storage buffers per shader stage, and refrakt's view pass binds {needed}"))
 }
 
 /// Every adapter found (for `refrakt info`), and those refrakt can use (compute shaders), best

@@ -135,9 +135,14 @@ impl ShaderLibrary {
         Ok(())
     }
 
-    /// Composes and validates a stage, then creates its module. Errors name file:line.
+    /// Composes and validates a stage, then creates its module. Errors name file:line. Where
+    /// the device binds uniforms as storage buffers (`gpu::uniforms_as_storage`), the stage's
+    /// uniforms are declared so (line for line: errors keep their lines).
     pub fn module(&self, device: &wgpu::Device, stage: &str) -> Result<wgpu::ShaderModule> {
-        let composed = self.compose(stage)?;
+        let mut composed = self.compose(stage)?;
+        if super::uniforms_as_storage(&device.adapter_info()) {
+            composed.code = composed.code.replace("var<uniform>", "var<storage, read>");
+        }
         validate(&composed)?;
         Ok(device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(stage),

@@ -142,7 +142,7 @@ impl Caustics {
         let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("caustic level"),
             contents: bytemuck::bytes_of(&want),
-            usage: wgpu::BufferUsages::UNIFORM,
+            usage: layout::PARAMS,
         });
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("caustic level"),

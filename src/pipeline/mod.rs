@@ -790,6 +790,19 @@ pub(crate) mod layout {
     pub fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
         buffer(binding, wgpu::BufferBindingType::Storage { read_only })
     }
+    /// A uniform binding as the read-only storage binding `ShaderLibrary::module` declares it
+    /// on such devices (`gpu::uniforms_as_storage`); other bindings as they are.
+    fn uniform_as_storage(mut e: wgpu::BindGroupLayoutEntry) -> wgpu::BindGroupLayoutEntry {
+        if let wgpu::BindingType::Buffer { ty: ty @ wgpu::BufferBindingType::Uniform, .. } = &mut e.ty {
+            *ty = wgpu::BufferBindingType::Storage { read_only: true };
+        }
+        e
+    }
+
+    /// What a buffer of parameters is made for: bound as a uniform, or as a read-only storage
+    /// buffer on a device that binds uniforms so (`gpu::uniforms_as_storage`).
+    pub const PARAMS: wgpu::BufferUsages = wgpu::BufferUsages::UNIFORM.union(wgpu::BufferUsages::STORAGE);
+
     fn buffer(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
         wgpu::BindGroupLayoutEntry {
             binding,
@@ -894,9 +907,13 @@ pub(crate) mod layout {
             groups: &[&[wgpu::BindGroupLayoutEntry]],
         ) -> anyhow::Result<Self> {
             let module = shaders.module(device, stage)?;
+            let as_storage = crate::gpu::uniforms_as_storage(&device.adapter_info());
             let layouts: Vec<wgpu::BindGroupLayout> = groups
                 .iter()
-                .map(|entries| device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(stage), entries }))
+                .map(|entries| {
+                    let entries: Vec<_> = entries.iter().map(|e| if as_storage { uniform_as_storage(*e) } else { *e }).collect();
+                    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(stage), entries: &entries })
+                })
                 .collect();
             let bind_group_layouts: Vec<Option<&wgpu::BindGroupLayout>> = layouts.iter().map(Some).collect();
             let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -909,14 +926,18 @@ pub(crate) mod layout {
 
         /// The compute pipeline of entry point `entry`.
         pub fn pipeline(&self, device: &wgpu::Device, entry: &str) -> wgpu::ComputePipeline {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            // A driver compile: seconds on lavapipe for the large stages, worth a line at -vv.
+            let start = std::time::Instant::now();
+            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(entry),
                 layout: Some(&self.layout),
                 module: &self.module,
                 entry_point: Some(entry),
                 compilation_options: Default::default(),
                 cache: None,
-            })
+            });
+            tracing::debug!("compiled {entry} in {:.2} s", start.elapsed().as_secs_f64());
+            pipeline
         }
     }
 
@@ -925,7 +946,7 @@ pub(crate) mod layout {
         device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
             size: std::mem::size_of::<T>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: PARAMS | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         })
     }

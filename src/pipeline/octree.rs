@@ -81,7 +81,7 @@ impl Octree {
                     &wgpu::util::BufferInitDescriptor {
                         label: Some("octree level"),
                         contents: bytemuck::cast_slice(&[l, 0, 0, 0]),
-                        usage: wgpu::BufferUsages::UNIFORM,
+                        usage: super::layout::PARAMS,
                     },
                 )
             })

@@ -140,7 +140,7 @@ impl Grids {
             octree_params: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("octree params"),
                 size: std::mem::size_of::<crate::gpu::types::OctreeParams>() as u64,
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                usage: super::layout::PARAMS | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             }),
         })

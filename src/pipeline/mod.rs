@@ -926,7 +926,8 @@ pub(crate) mod layout {
 
         /// The compute pipeline of entry point `entry`.
         pub fn pipeline(&self, device: &wgpu::Device, entry: &str) -> wgpu::ComputePipeline {
-            // A driver compile: seconds on lavapipe for the large stages, worth a line at -vv.
+            // The driver's share at creation (on lavapipe its NIR passes; LLVM compiles at the
+            // pipeline's first dispatch), a line at -vv.
             let start = std::time::Instant::now();
             let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(entry),
@@ -936,7 +937,7 @@ pub(crate) mod layout {
                 compilation_options: Default::default(),
                 cache: None,
             });
-            tracing::debug!("compiled {entry} in {:.2} s", start.elapsed().as_secs_f64());
+            tracing::debug!("created the {entry} pipeline in {:.2} s", start.elapsed().as_secs_f64());
             pipeline
         }
     }

@@ -395,6 +395,10 @@ fn meet_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, 
     return cover;
 }
 
+// Cut-outs and see-through receivers a view branch goes on past, at most (its own bound beside
+// the shadow rays' `MAX_SEE_THROUGH`, the same count today).
+const MAX_RECEIVERS_PASSED: u32 = 8u;
+
 // Traces one branch to its end. At an interface it goes on along the transmitted direction and
 // pushes the reflected one (or, under total internal reflection, goes on reflected).
 fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function, array<Branch, BRANCH_STACK>>, top: ptr<function, u32>, k: u32) {
@@ -405,7 +409,7 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
     // receiver, shaded at the one call of `meet_receiver` below (lavapipe inlines every call
     // site anew, and the receiver's shading is most of the pass), or in the environment. Past a
     // cut-out or a see-through receiver, the next round goes on from its far side.
-    for (var passed = 0u; passed <= MAX_SEE_THROUGH; passed++) {
+    for (var passed = 0u; passed <= MAX_RECEIVERS_PASSED; passed++) {
         var ahead_of = look_from(b.x, b.d);
         var met = false;
         var hit: SurfaceHit;
@@ -527,7 +531,7 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
         }
         if !met {
             hit = surface_after(&ahead_of, b.x, b.d);
-            if !is_receiver_hit(hit) || passed == MAX_SEE_THROUGH {
+            if !is_receiver_hit(hit) || passed == MAX_RECEIVERS_PASSED {
                 break;
             }
             p = b.x + b.d * hit.t;

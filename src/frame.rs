@@ -486,6 +486,14 @@ impl FrameDesc {
                 )
             });
         }
+        let air = |g: &Glass| (g.ior - 1.0).abs() <= crate::pipeline::photons::EPS_REFRACT;
+        for m in self.meshes.iter().filter(|m| air(&m.glass) && (m.glass.tint != Vec3::ONE || m.glass.tint_texture.is_some())) {
+            out.push(format!(
+                "{}: glass mesh \"{}\" has index {}: it bends no light, and refrakt renders such glass as air, without \
+                 its tint (give it an index above {})",
+                m.origin, m.name, m.glass.ior, 1.0 + crate::pipeline::photons::EPS_REFRACT
+            ));
+        }
         let (lo, hi) = (self.volume.min, self.volume.max());
         let sharp = self.fields.iter().filter(|f| f.sharp).map(|f| (&f.name, f.bounds));
         for (name, (b_lo, b_hi)) in sharp.chain(self.meshes.iter().filter(|m| m.sharp).map(|m| (&m.name, m.bounds))) {

@@ -418,3 +418,76 @@ fn a_lamp_in_a_thin_tinted_shade_lights_the_floor_through_it() {
         assert!(((direct[k] + caustic[k]) / expected_all - 1.0).abs() < 0.03, "channel {k}: all {} vs {expected_all}", direct[k] + caustic[k]);
     }
 }
+
+/// A real file: Khronos' TransmissionRoughnessTest (tests/data/khronos, CC BY 4.0, Ed Mackey /
+/// AGI 2021), a board of 5 mm glass tiles in front of a patterned backdrop, one row per index
+/// (2.42, 1.76, 1.5, 1.33, 1.0) and one column per roughness, smooth to rough, set by each row's
+/// `metallicRoughnessTexture`. Through a tile, the backdrop's pattern is what stays sharp: its
+/// correlation with the backdrop seen without the glass falls column by column as the texture's
+/// roughness grows, and stays high along the index-1.0 row, where microfacets bend nothing. With
+/// the textures dropped, every tile takes the factor 1 and all frost alike (as they did before
+/// refrakt read roughness textures on glass).
+#[test]
+fn khronos_transmission_roughness_test_frosts_column_by_column() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/khronos/TransmissionRoughnessTest.glb");
+    let scene = refrakt::render::GltfScene::load(&path, &[], &Default::default()).unwrap();
+    // The board, from the file's default view at 512×288: 9 × 5 tiles of ~13 × 12 pixels.
+    let opts = refrakt::scene::eval::EvalOptions {
+        size: Some((512, 288)),
+        region: Some(refrakt::scene::eval::Region { origin: (212, 100), size: (136, 72) }),
+        photons: Some(20_000),
+        samples: Some(16),
+        resolution: Some(64),
+        ..Default::default()
+    };
+    let tiles = refrakt::scene::eval::evaluate(&scene.scene, 0.0, &opts).unwrap();
+    let mut untextured = tiles.clone();
+    untextured.meshes.iter_mut().for_each(|m| m.glass.roughness_texture = None);
+    let mut backdrop = tiles.clone();
+    backdrop.meshes.clear();
+    let mut r = renderer();
+    let mut luminance = |desc| {
+        let image = r.frame(desc).unwrap();
+        let layer = beauty(&image);
+        (0..layer.data.len() / layer.channels.len()).map(|i| rgb(layer, i).dot(Vec3::new(0.2126, 0.7152, 0.0722))).collect::<Vec<f32>>()
+    };
+    let behind = luminance(&backdrop);
+    // Each tile's correlation, row by row: tiles of 13.2 × 12.5 pixels from (9, 9) in the region
+    // (the file is fixed, and so is its default view), two pixels in from their edges.
+    let correlations = |through: &[f32]| -> Vec<Vec<f64>> {
+        let tile = |row: usize, col: usize| {
+            let (x, y) = (9.0 + 13.2 * col as f32, 9.0 + 12.5 * row as f32);
+            let (xs, ys) = (x as usize + 2..(x + 13.2) as usize - 2, y as usize + 2..(y + 12.5) as usize - 2);
+            let (a, b): (Vec<f64>, Vec<f64>) = ys.flat_map(|y| xs.clone().map(move |x| y * 136 + x)).map(|i| (through[i] as f64, behind[i] as f64)).unzip();
+            pearson(&a, &b)
+        };
+        (0..5).map(|row| (0..9).map(|col| tile(row, col)).collect()).collect()
+    };
+    let mean = |cols: &[f64]| cols.iter().sum::<f64>() / cols.len() as f64;
+    let rows = correlations(&luminance(&tiles));
+    for (row, ior) in rows.iter().zip(["2.42", "1.76", "1.5", "1.33", "1.0"]) {
+        eprintln!("index {ior:>4}: {}", row.iter().map(|c| format!("{c:5.2}")).collect::<Vec<_>>().join(" "));
+    }
+    for row in &rows[..4] {
+        assert!(mean(&row[..2]) > 0.65, "the smoothest tiles show the backdrop: {row:?}");
+        assert!(mean(&row[4..]) < 0.15 && row[4..].iter().all(|c| c.abs() < 0.35), "the rougher half frosts it away: {row:?}");
+    }
+    assert!(rows[4].iter().all(|&c| c > 0.8), "index 1.0 bends no ray, whatever its roughness: {:?}", rows[4]);
+    // Glass of index 1 renders as air, losing the row's tint (KHR_materials_transmission would
+    // keep it), and the frame says so.
+    let said: Vec<String> = tiles.warnings().into_iter().filter(|w| w.contains("has index 1:")).collect();
+    assert!(!said.is_empty() && said.iter().all(|w| w.contains("without its tint")), "{:?}", tiles.warnings());
+    // Without its textures every tile takes the roughness factor, 1: all alike frosted.
+    let flat = correlations(&luminance(&untextured));
+    eprintln!("without the textures, the smoothest columns: {:?}", flat[..4].iter().map(|row| mean(&row[..2])).collect::<Vec<_>>());
+    assert!(flat[..4].iter().all(|row| mean(&row[..2]) < 0.3), "{flat:?}");
+}
+
+/// Pearson's correlation coefficient of two samples.
+fn pearson(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len() as f64;
+    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+    let cov: f64 = a.iter().zip(b).map(|(x, y)| (x - ma) * (y - mb)).sum();
+    let (va, vb): (f64, f64) = (a.iter().map(|x| (x - ma).powi(2)).sum(), b.iter().map(|y| (y - mb).powi(2)).sum());
+    cov / (va * vb).sqrt()
+}

@@ -135,12 +135,13 @@ impl ShaderLibrary {
         Ok(())
     }
 
-    /// Composes and validates a stage, then creates its module. Errors name file:line. Where
-    /// the device binds uniforms as storage buffers (`gpu::uniforms_as_storage`), the stage's
-    /// uniforms are declared so (line for line: errors keep their lines).
-    pub fn module(&self, device: &wgpu::Device, stage: &str) -> Result<wgpu::ShaderModule> {
+    /// Composes and validates a stage, then creates its module. Errors name file:line. With
+    /// `uniforms_as_storage` (the device binds uniforms as storage buffers:
+    /// `gpu::uniforms_as_storage`), the stage's uniforms are declared so (line for line: errors
+    /// keep their lines).
+    pub fn module(&self, device: &wgpu::Device, stage: &str, uniforms_as_storage: bool) -> Result<wgpu::ShaderModule> {
         let mut composed = self.compose(stage)?;
-        if super::uniforms_as_storage(&device.adapter_info()) {
+        if uniforms_as_storage {
             composed.code = composed.code.replace("var<uniform>", "var<storage, read>");
         }
         validate(&composed)?;

@@ -906,8 +906,9 @@ pub(crate) mod layout {
             stage: &str,
             groups: &[&[wgpu::BindGroupLayoutEntry]],
         ) -> anyhow::Result<Self> {
-            let module = shaders.module(device, stage)?;
+            // One decision for the module's declarations and the layouts' entries.
             let as_storage = crate::gpu::uniforms_as_storage(&device.adapter_info());
+            let module = shaders.module(device, stage, as_storage)?;
             let layouts: Vec<wgpu::BindGroupLayout> = groups
                 .iter()
                 .map(|entries| {

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The Cycles parity suite: Blender scenes built by script — a glass ball on a floor under a sun,
-a spot, an area light, a uniform sky and an HDRI sky with a sun in it; tinted and frosted glass
-and the Stanford bunny (from ../shared/assets) under the sun — each rendered by
+a spot, an area light, a uniform sky and an HDRI sky with a sun in it; tinted, frosted and fully
+rough glass and the Stanford bunny (from ../shared/assets) under the sun — each rendered by
 Cycles (converged: many samples, caustics on, no clamp, box pixel filter) and by refrakt through
 its render engine, and scored over the whole image and over the caustic region.
 
@@ -58,6 +58,7 @@ SCENES = {
     "tinted": ("SUN", (0.95, 0.6, 0.35), 0.0, "ball"),
     "frosted": ("SUN", (1.0, 1.0, 1.0), 0.15, "ball"),
     "bunny": ("SUN", (1.0, 1.0, 1.0), 0.0, "bunny"),
+    "rough": ("SUN", (1.0, 1.0, 1.0), 1.0, "ball"),
 }
 
 

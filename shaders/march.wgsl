@@ -78,6 +78,8 @@
 @group(0) @binding(21) var<storage, read> albedo_texels: array<u32>;
 // The indirect maps' deposits, laid out as `caustic_atlas` (bounce photons, see above).
 @group(0) @binding(22) var<storage, read_write> indirect_atlas: array<atomic<u32>>;
+// The rough glass albedo table (shared/rough_albedo.wgsl).
+@group(0) @binding(23) var<storage, read> rough_albedo_table: array<f32>;
 
 // Statistics, each an rgb triple of 64-bit fixed-point flux sums (flux_scale units).
 const STAT_EMITTED: u32 = 0u;

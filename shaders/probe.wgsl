@@ -28,6 +28,8 @@
 @group(0) @binding(10) var<storage, read> interfaces: array<Interface>;
 @group(0) @binding(11) var<storage, read> triangle_normals: array<vec4<f32>>;
 @group(0) @binding(12) var<storage, read> octree_leaves: array<vec4<f32>>;
+// The rough glass albedo table (shared/rough_albedo.wgsl).
+@group(0) @binding(13) var<storage, read> rough_albedo_table: array<f32>;
 
 fn record(slot: u32, s: RayState, steps: u32) {
     records[slot] = ProbeRecord(s.x, s.g.w, s.v, steps);

@@ -84,6 +84,8 @@
 // (src/pipeline/specular.rs; read only when VIEW_FLAG_SPECULAR is set).
 @group(0) @binding(23) var env_specular: texture_2d_array<f32>;
 @group(0) @binding(24) var<storage, read> brdf_lut: array<vec2<f32>>;
+// The rough glass albedo table (shared/rough_albedo.wgsl).
+@group(0) @binding(29) var<storage, read> rough_albedo_table: array<f32>;
 // The environment's importance table (shared/env_light.wgsl, src/pipeline/env_light.rs).
 @group(0) @binding(26) var<storage, read> env_table: array<f32>;
 

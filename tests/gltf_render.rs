@@ -373,7 +373,11 @@ fn textures_on_glass_vary_its_roughness_and_tint_where_the_light_crosses() {
     // Factor × texel is the same number as the factor alone: the images agree to float noise.
     assert!(zero < 1e-5 && one < 1e-5, "texture 0 vs clear {zero}, texture 1 vs frosted {one}");
     assert!(left_clear < 0.25 * left_frosted, "the −x half is clear: {left_clear} vs {left_frosted}");
-    assert!(right_frosted < 0.25 * right_clear, "the +x half is frosted: {right_frosted} vs {right_clear}");
+    // (Light that enters the frosted half and leaves through the clear one, or bounces inside
+    // between them, differs from the all-frosted ball's: more so since rough crossings keep the
+    // energy masking took (pipeline::rough_albedo) — 0.066 against 0.148, where it was 0.020
+    // against 0.099.)
+    assert!(right_frosted < 0.5 * right_clear, "the +x half is frosted: {right_frosted} vs {right_clear}");
 
     // The tint, on the camera's rays and on the photons that make the floor's caustic.
     let red = [1.0, 0.2, 0.2];

@@ -405,7 +405,8 @@ fn suns_through_rough(p: vec3<f32>, b: Branch, c: Crossing, alpha: f32, k: u32) 
             continue;
         }
         // E·X·pdf_lobe·w_light: the radiance E/Ω over the light's density 1/Ω, times the lobe's
-        // weight per unit of light X times its density, times the balance heuristic's share.
+        // weight per unit of light X (kept from masking as the branches are: c.energy) times its
+        // density, times the balance heuristic's share.
         var share = 1.0;
         if l.half_angle > 0.0 {
             let light_pdf = 1.0 / cone_solid_angle(l.half_angle);
@@ -413,7 +414,7 @@ fn suns_through_rough(p: vec3<f32>, b: Branch, c: Crossing, alpha: f32, k: u32) 
         }
         let tint = select(c.tint, vec3<f32>(1.0), dot(a.w, c.normal) > 0.0);
         let seen = visibility(leave_surface(p, c.geometric, a.w, 1e-3 * params.grid.voxel_size), a.w, a.dist);
-        light += a.intensity * tint * seen * (lobe.weight * lobe.pdf * share);
+        light += a.intensity * tint * seen * (lobe.weight * c.energy * lobe.pdf * share);
     }
     return light;
 }

@@ -20,10 +20,12 @@
 // (shared/spectrum.wgsl: `path_wavelength`, 0 for an RGB path, which keeps `ior` exactly).
 //
 // Expects the stage to declare `interfaces: array<Interface>`, `triangle_normals:
-// array<vec4<f32>>` (3 per BVH triangle), and what shared/bvh.wgsl needs. The CPU twin is
+// array<vec4<f32>>` (3 per BVH triangle), `rough_albedo_table: array<f32>`
+// (shared/rough_albedo.wgsl) and what shared/bvh.wgsl needs. The CPU twin is
 // src/cpu/interface.rs.
 
 #import shared/spectrum.wgsl
+#import shared/rough_albedo.wgsl
 
 const NO_INTERFACE: u32 = 0xffffffffu;
 const MEDIA_DEPTH: u32 = 4u;
@@ -271,8 +273,8 @@ fn thin_sheet_reflectance(cos_i: f32, eta: f32) -> f32 {
 // What happens at one crossing: both outgoing directions, the reflectance R (1 under total
 // internal reflection, when `transmitted` is meaningless), the transmitted branch's tint, the
 // media on the far side of the surface, and the share of each branch a rough surface's microfacets let through
-// (Smith's masking G₁ of the outgoing direction; 1 on a polished surface, 0 where the sampled
-// microfacet sent the light back into the surface).
+// (Smith's masking G₁ of the outgoing direction, divided by the surface's albedo E: 1 on a
+// polished surface, 0 where the sampled microfacet sent the light back into the surface).
 struct Crossing {
     reflected: vec3<f32>,
     transmitted: vec3<f32>,
@@ -287,6 +289,9 @@ struct Crossing {
     eta: f32,
     reflected_share: f32,
     transmitted_share: f32,
+    // 1 / E, the rough surface's albedo (shared/rough_albedo.wgsl) the shares are divided by; 1
+    // on a polished one. What weighs light sampled through the crossing alike (`rough_lobe`).
+    energy: f32,
     // How far along the incoming direction the last surface crossed lies (a contact partner's;
     // 0 for one surface): the transmitted branch starts past it (`crossing_exit`).
     through: f32,
@@ -403,7 +408,7 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
     geometric = select(geometric, -geometric, dot(geometric, d) > 0.0);
     let n = select(hit.normal, -hit.normal, dot(hit.normal, d) > 0.0);
     if !thin && (beyond.holder == media.holder || beyond.ior == media.ior) {
-        return Crossing(d, d, 0.0, vec3<f32>(1.0), beyond, geometric, n, eta, 1.0, 1.0, through, false);
+        return Crossing(d, d, 0.0, vec3<f32>(1.0), beyond, geometric, n, eta, 1.0, 1.0, 1.0, through, false);
     }
     let alpha = surface.roughness * surface.roughness;
     var m = n;
@@ -424,13 +429,16 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
     }
     var reflected_share = 1.0;
     var transmitted_share = 1.0;
+    var energy = 1.0;
     if alpha > 0.0 {
         let cr = dot(reflected, n);
         let ct = -dot(transmitted, n);
-        reflected_share = smith_g1(max(cr, 0.0), alpha) * step(0.0, cr);
-        transmitted_share = smith_g1(max(ct, 0.0), alpha) * step(0.0, ct);
+        // The light a single microfacet loses to masking, kept (albedo scaling).
+        energy = 1.0 / max(rough_albedo(-dot(d, n), surface.roughness, eta, thin), 0.05);
+        reflected_share = smith_g1(max(cr, 0.0), alpha) * step(0.0, cr) * energy;
+        transmitted_share = smith_g1(max(ct, 0.0), alpha) * step(0.0, ct) * energy;
     }
-    return Crossing(reflected, transmitted, reflectance, surface.tint, beyond, geometric, n, eta, reflected_share, transmitted_share, through, true);
+    return Crossing(reflected, transmitted, reflectance, surface.tint, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true);
 }
 
 // The media of a branch that leaves crossing c along w: the media beyond only if w passes

@@ -76,7 +76,7 @@ pub fn no_adapter_help() -> &'static str {
 /// Storage buffers one shader stage must be able to bind: what the view pass binds, the most of
 /// any stage (a test in `pipeline::view` keeps them equal). WebGPU's default limit is 8, and
 /// Mesa's GL drivers offer 16, so such an adapter is refused rather than failing mid-frame.
-pub const STORAGE_BUFFERS_PER_STAGE: u32 = 23;
+pub const STORAGE_BUFFERS_PER_STAGE: u32 = 24;
 
 /// Uniform buffers the view pass binds (its parameters and the octree's): storage buffers too
 /// where uniforms are bound as storage (`uniforms_as_storage`).

@@ -70,6 +70,8 @@ pub struct March {
     resolve: wgpu::ComputePipeline,
     bgl: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
+    /// The rough glass albedo table (`rough_albedo`), constant.
+    rough_albedo: wgpu::Buffer,
     pub stats: wgpu::Buffer,
     stats_staging: [Staging; super::MAX_FRAMES_IN_FLIGHT],
     bound: Option<([u64; 4], wgpu::BindGroup)>,
@@ -102,6 +104,7 @@ impl March {
             layout::storage(20, true),
             layout::storage(21, true),
             layout::storage(22, false),
+            layout::storage(23, true),
         ];
         let (main, bgl) = layout::pipeline_entry(device, shaders, "march", "main", &entries)?;
         let (resolve, _) = layout::pipeline_entry(device, shaders, "march", "resolve", &entries)?;
@@ -113,7 +116,8 @@ impl March {
             mapped_at_creation: false,
         });
         let stats_staging = std::array::from_fn(|_| Staging::new(device, STAT_WORDS * 4, "stats readback"));
-        Ok(Self { main, resolve, bgl, params, stats, stats_staging, bound: None })
+        let rough_albedo = super::rough_albedo::buffer(device);
+        Ok(Self { main, resolve, bgl, params, rough_albedo, stats, stats_staging, bound: None })
     }
 
     /// The march's uniforms for a frame. `deposit`: fill the radiance grid; `directional`: with the photons'
@@ -195,6 +199,7 @@ impl March {
                     layout::bind(20, &receivers.triangle_uvs.buffer),
                     layout::bind(21, &receivers.albedo_texels.buffer),
                     layout::bind(22, &receivers.indirect_atlas.buffer),
+                    layout::bind(23, &self.rough_albedo),
                 ],
             });
             self.bound = Some((generations, bg));

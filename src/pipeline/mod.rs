@@ -20,6 +20,7 @@ pub mod probe;
 pub mod receivers;
 pub mod resources;
 pub mod reuse;
+pub mod rough_albedo;
 pub mod specular;
 pub mod timing;
 pub mod view;

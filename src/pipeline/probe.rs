@@ -44,6 +44,8 @@ pub struct Probe {
     dda: wgpu::ComputePipeline,
     bgl: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
+    /// The rough glass albedo table (`rough_albedo`), constant.
+    rough_albedo: wgpu::Buffer,
 }
 
 impl Probe {
@@ -62,12 +64,14 @@ impl Probe {
             layout::storage(10, true),
             layout::storage(11, true),
             layout::storage(12, true),
+            layout::storage(13, true),
         ];
         let (trace, bgl) = layout::pipeline_entry(device, shaders, "probe", "main", &entries)?;
         let (query, _) = layout::pipeline_entry(device, shaders, "probe", "octree_query", &entries)?;
         let (dda, _) = layout::pipeline_entry(device, shaders, "probe", "dda_cells", &entries)?;
         let params = layout::uniform_buffer::<ProbeParams>(device, "probe params");
-        Ok(Self { trace, query, dda, bgl, params })
+        let rough_albedo = super::rough_albedo::buffer(device);
+        Ok(Self { trace, query, dda, bgl, params, rough_albedo })
     }
 
     /// Runs a kernel over `rays`, returning the bytes it wrote to records (`Kernel::Trace`) or
@@ -105,6 +109,7 @@ impl Probe {
                 layout::bind(10, &surfaces.interfaces.buffer),
                 layout::bind(11, &surfaces.triangle_normals.buffer),
                 layout::bind(12, &grids.octree_leaves),
+                layout::bind(13, &self.rough_albedo),
             ],
         });
         let out = if query { &steps } else { &records };

@@ -486,8 +486,7 @@ impl FrameDesc {
                 )
             });
         }
-        let air = |g: &Glass| (g.ior - 1.0).abs() <= crate::pipeline::photons::EPS_REFRACT;
-        for m in self.meshes.iter().filter(|m| air(&m.glass) && (m.glass.tint != Vec3::ONE || m.glass.tint_texture.is_some())) {
+        for m in self.meshes.iter().filter(|m| !m.glass.refracts() && (m.glass.tint != Vec3::ONE || m.glass.tint_texture.is_some())) {
             out.push(format!(
                 "{}: glass mesh \"{}\" has index {}: it bends no light, and refrakt renders such glass as air, without \
                  its tint (give it an index above {})",

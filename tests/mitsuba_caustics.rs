@@ -212,15 +212,7 @@ fn check(c: &Comparison, power: f32, pixel: f32, smooth: f32, peak: f32, fine: f
 /// Σ|got − exact| / Σ exact over the whole image (pixel scale), and Pearson's correlation.
 fn l1_and_correlation(got: &[f32], exact: &[f32]) -> (f32, f32) {
     let l1 = got.iter().zip(exact).map(|(a, b)| (a - b).abs()).sum::<f32>() / exact.iter().sum::<f32>();
-    let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len() as f32;
-    let (ma, mb) = (mean(got), mean(exact));
-    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
-    for (a, b) in got.iter().zip(exact) {
-        ab += (a - ma) * (b - mb);
-        aa += (a - ma) * (a - ma);
-        bb += (b - mb) * (b - mb);
-    }
-    (l1, ab / (aa * bb).sqrt())
+    (l1, correlation(got, exact))
 }
 
 /// An OBJ of `mesh` in a folder of its own, with `vn` lines when `normals` are given.

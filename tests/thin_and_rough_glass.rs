@@ -493,16 +493,15 @@ fn khronos_transmission_roughness_test_frosts_column_by_column() {
     let behind = luminance(&backdrop);
     // Each tile's correlation, row by row: tiles of 13.2 × 12.5 pixels from (9, 9) in the region
     // (the file is fixed, and so is its default view), two pixels in from their edges.
-    let correlations = |through: &[f32]| -> Vec<Vec<f64>> {
+    let correlations = |through: &[f32]| -> Vec<Vec<f32>> {
         let tile = |row: usize, col: usize| {
             let (x, y) = (9.0 + 13.2 * col as f32, 9.0 + 12.5 * row as f32);
             let (xs, ys) = (x as usize + 2..(x + 13.2) as usize - 2, y as usize + 2..(y + 12.5) as usize - 2);
-            let (a, b): (Vec<f64>, Vec<f64>) = ys.flat_map(|y| xs.clone().map(move |x| y * 136 + x)).map(|i| (through[i] as f64, behind[i] as f64)).unzip();
-            pearson(&a, &b)
+            let (a, b): (Vec<f32>, Vec<f32>) = ys.flat_map(|y| xs.clone().map(move |x| y * 136 + x)).map(|i| (through[i], behind[i])).unzip();
+            correlation(&a, &b)
         };
         (0..5).map(|row| (0..9).map(|col| tile(row, col)).collect()).collect()
     };
-    let mean = |cols: &[f64]| cols.iter().sum::<f64>() / cols.len() as f64;
     let rows = correlations(&luminance(&tiles));
     for (row, ior) in rows.iter().zip(["2.42", "1.76", "1.5", "1.33", "1.0"]) {
         eprintln!("index {ior:>4}: {}", row.iter().map(|c| format!("{c:5.2}")).collect::<Vec<_>>().join(" "));
@@ -520,13 +519,4 @@ fn khronos_transmission_roughness_test_frosts_column_by_column() {
     let flat = correlations(&luminance(&untextured));
     eprintln!("without the textures, the smoothest columns: {:?}", flat[..4].iter().map(|row| mean(&row[..2])).collect::<Vec<_>>());
     assert!(flat[..4].iter().all(|row| mean(&row[..2]) < 0.3), "{flat:?}");
-}
-
-/// Pearson's correlation coefficient of two samples.
-fn pearson(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len() as f64;
-    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
-    let cov: f64 = a.iter().zip(b).map(|(x, y)| (x - ma) * (y - mb)).sum();
-    let (va, vb): (f64, f64) = (a.iter().map(|x| (x - ma).powi(2)).sum(), b.iter().map(|y| (y - mb).powi(2)).sum());
-    cov / (va * vb).sqrt()
 }

@@ -70,8 +70,6 @@ pub struct March {
     resolve: wgpu::ComputePipeline,
     bgl: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
-    /// The rough glass albedo table (`rough_albedo`), constant.
-    rough_albedo: wgpu::Buffer,
     pub stats: wgpu::Buffer,
     stats_staging: [Staging; super::MAX_FRAMES_IN_FLIGHT],
     bound: Option<([u64; 4], wgpu::BindGroup)>,
@@ -116,8 +114,7 @@ impl March {
             mapped_at_creation: false,
         });
         let stats_staging = std::array::from_fn(|_| Staging::new(device, STAT_WORDS * 4, "stats readback"));
-        let rough_albedo = super::rough_albedo::buffer(device);
-        Ok(Self { main, resolve, bgl, params, rough_albedo, stats, stats_staging, bound: None })
+        Ok(Self { main, resolve, bgl, params, stats, stats_staging, bound: None })
     }
 
     /// The march's uniforms for a frame. `deposit`: fill the radiance grid; `directional`: with the photons'
@@ -199,7 +196,7 @@ impl March {
                     layout::bind(20, &receivers.triangle_uvs.buffer),
                     layout::bind(21, &receivers.albedo_texels.buffer),
                     layout::bind(22, &receivers.indirect_atlas.buffer),
-                    layout::bind(23, &self.rough_albedo),
+                    layout::bind(23, &receivers.rough_albedo),
                 ],
             });
             self.bound = Some((generations, bg));

@@ -44,8 +44,6 @@ pub struct Probe {
     dda: wgpu::ComputePipeline,
     bgl: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
-    /// The rough glass albedo table (`rough_albedo`), constant.
-    rough_albedo: wgpu::Buffer,
 }
 
 impl Probe {
@@ -70,8 +68,7 @@ impl Probe {
         let (query, _) = layout::pipeline_entry(device, shaders, "probe", "octree_query", &entries)?;
         let (dda, _) = layout::pipeline_entry(device, shaders, "probe", "dda_cells", &entries)?;
         let params = layout::uniform_buffer::<ProbeParams>(device, "probe params");
-        let rough_albedo = super::rough_albedo::buffer(device);
-        Ok(Self { trace, query, dda, bgl, params, rough_albedo })
+        Ok(Self { trace, query, dda, bgl, params })
     }
 
     /// Runs a kernel over `rays`, returning the bytes it wrote to records (`Kernel::Trace`) or
@@ -109,7 +106,7 @@ impl Probe {
                 layout::bind(10, &surfaces.interfaces.buffer),
                 layout::bind(11, &surfaces.triangle_normals.buffer),
                 layout::bind(12, &grids.octree_leaves),
-                layout::bind(13, &self.rough_albedo),
+                layout::bind(13, &surfaces.rough_albedo),
             ],
         });
         let out = if query { &steps } else { &records };

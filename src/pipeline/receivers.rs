@@ -481,6 +481,9 @@ pub struct Receivers {
     pub triangle_normals: GrowableBuffer,
     /// The sharp interfaces' records (`pipeline::interfaces::table`), written every frame.
     pub interfaces: GrowableBuffer,
+    /// The rough glass albedo table (`rough_albedo`), constant: what `cross_interface` reads
+    /// beside `interfaces` (view, march and probe stages).
+    pub rough_albedo: wgpu::Buffer,
     /// Every receiver's and glass mesh's texture, 8-bit packed (view and march stages).
     pub albedo_texels: GrowableBuffer,
     /// 4 u32 per texel: photon count, flux r, g, b (fixed point), written by the march stage.
@@ -539,6 +542,7 @@ impl Receivers {
             triangle_uvs: buffer("triangle uvs"),
             triangle_normals: buffer("triangle normals"),
             interfaces: buffer("interfaces"),
+            rough_albedo: super::rough_albedo::buffer(device),
             albedo_texels: buffer("albedo texels"),
             caustic_atlas: buffer("caustic atlas"),
             caustic_sat: buffer("caustic sat"),

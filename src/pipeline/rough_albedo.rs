@@ -12,9 +12,9 @@
 //! and finally lets out (Heitz et al. 2016, "Multiple-scattering microfacet BSDFs with the Smith
 //! model"), which Cycles' default *Multiscatter GGX* keeps. Without it, glass of roughness 1 lost
 //! 14 % of the light at each entry and about half at each exit (E = 0.86 and 0.48 near normal
-//! incidence for n = 1.5) and rendered grey where Cycles renders it white. Dividing both branches by E — albedo scaling,
-//! as Turquin 2019 does for rough metals — keeps that energy and the single-scattering lobes'
-//! shapes. A thin sheet's transmitted branch is its reflection mirrored through the sheet, so its
+//! incidence for n = 1.5) and rendered grey where Cycles renders it white. Dividing both
+//! branches by E — albedo scaling, as Turquin 2019 does for rough metals — keeps that energy and
+//! the single-scattering lobes' shapes. A thin sheet's transmitted branch is its reflection mirrored through the sheet, so its
 //! E is ⟨G₁(r)⟩ whatever F is.
 //!
 //! The table: E at COS_NODES incidences (cos θᵢ from 0 to 1), ROUGHNESS_NODES roughnesses (α =
@@ -114,7 +114,7 @@ pub fn rough_albedo(cos_i: f32, roughness: f32, eta: f32, thin: bool) -> f32 {
     if thin { bilinear(e) } else { bilinear(e) + te * (bilinear(e + 1) - bilinear(e)) }
 }
 
-/// The table as a storage buffer, for the stages that cross rough glass (view, march, probe).
+/// The table as a storage buffer (one, in `Receivers`, for the stages that cross rough glass).
 pub fn buffer(device: &wgpu::Device) -> wgpu::Buffer {
     device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("rough albedo"),

@@ -33,8 +33,6 @@ pub struct View {
     steps_staging: [crate::gpu::readback::Staging; super::MAX_FRAMES_IN_FLIGHT],
     /// The split-sum table (`specular::brdf_lut`), constant.
     brdf_lut: wgpu::Buffer,
-    /// The rough glass albedo table (`rough_albedo`), constant.
-    rough_albedo: wgpu::Buffer,
     /// Bind group and the generations of what it binds.
     bound: Option<([u64; 6], wgpu::BindGroup)>,
 }
@@ -253,8 +251,7 @@ impl View {
                 usage: wgpu::BufferUsages::STORAGE,
             },
         );
-        let rough_albedo = super::rough_albedo::buffer(device);
-        Ok(Self { pipeline, companions: None, module, params, batches: None, steps, steps_staging, brdf_lut, rough_albedo, bound: None })
+        Ok(Self { pipeline, companions: None, module, params, batches: None, steps, steps_staging, brdf_lut, bound: None })
     }
 
     pub fn encode(&mut self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder, profiler: &mut Profiler, desc: &FrameDesc, inputs: &ViewInputs) {
@@ -320,7 +317,7 @@ impl View {
                     layout::bind(26, &env.light_table),
                     layout::bind(27, &receivers.indirect_irradiance.buffer),
                     layout::bind(28, &lights.triangles),
-                    layout::bind(29, &self.rough_albedo),
+                    layout::bind(29, &receivers.rough_albedo),
                 ],
             });
             self.bound = Some((generations, bg));

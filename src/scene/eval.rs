@@ -241,7 +241,7 @@ fn mesh_instance(node: &Node, mesh: &Arc<MeshData>, world: Mat4, glass: Glass, b
 /// script did not ask for a smooth boundary of a chosen width (`boundary = …` keeps the paper's
 /// smoothed step, as before sharp interfaces existed).
 fn is_sharp(glass: &Glass, boundary: Option<f32>) -> bool {
-    boundary.is_none() && (glass.ior - 1.0).abs() > crate::pipeline::photons::EPS_REFRACT
+    boundary.is_none() && glass.refracts()
 }
 
 fn push_field(c: &mut Contents, node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) {

@@ -51,6 +51,12 @@ impl Glass {
     pub fn absorption_from(color: Vec3, distance: f32) -> Option<Vec3> {
         (color.min_element() > 0.0 && color.max_element() <= 1.0).then(|| -Vec3::new(color.x.ln(), color.y.ln(), color.z.ln()) / distance)
     }
+
+    /// Whether its index differs from air's enough to bend light (n − 1 beyond
+    /// `photons::EPS_REFRACT`, the kernels' own test): glass that does not renders as air.
+    pub fn refracts(&self) -> bool {
+        (self.ior - 1.0).abs() > crate::pipeline::photons::EPS_REFRACT
+    }
 }
 
 impl Default for Glass {

@@ -72,6 +72,18 @@ pub fn max(v: &[f32]) -> f32 {
     v.iter().copied().fold(0.0, f32::max)
 }
 
+/// Pearson's correlation coefficient of two samples of one length.
+pub fn correlation(a: &[f32], b: &[f32]) -> f32 {
+    let (ma, mb) = (mean(a), mean(b));
+    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        ab += (x - ma) * (y - mb);
+        aa += (x - ma) * (x - ma);
+        bb += (y - mb) * (y - mb);
+    }
+    ab / (aa * bb).sqrt()
+}
+
 /// A small deterministic generator for test inputs (xorshift).
 pub struct Rng(pub u64);
 

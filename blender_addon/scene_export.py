@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import addon_utils
 import bpy
 
-from . import extras, gltf_hooks
+from . import animated_extras, extras, gltf_hooks
 
 
 class ExportError(Exception):
@@ -82,7 +82,8 @@ def gltf_options(scene):
     which glTF lacks, go out as node extras in the same units), Y up, and one animation baked
     from the scene's frame range, sampled every frame — with animated light power and colour,
     spot cones, camera field of view and material factors as KHR_animation_pointer channels
-    (their light intensities put right by `fix_light_intensity_channels`)."""
+    (their light intensities put right by `fix_light_intensity_channels`; a lens's focus,
+    aperture and shift and a light's radius added by `animated_extras`)."""
     return dict(
         export_format="GLB",
         use_active_scene=True,
@@ -185,6 +186,7 @@ def export(context, target=None):
             raise ExportError("refrakt's glTF export hook failed (a bug in the add-on, please report it): "
                               + "; ".join(gltf_hooks.failures))
         fix_light_intensity_channels(tmp)
+        animated_extras.add_channels(tmp, scene, 1.0 / fps(scene))
         data = read_glb_json(tmp)
         if not any("refrakt" in (s.get("extras") or {}) for s in data.get("scenes", [])):
             raise ExportError(

@@ -493,6 +493,16 @@ impl FrameDesc {
                 m.origin, m.name, m.glass.ior, 1.0 + crate::pipeline::photons::EPS_REFRACT
             ));
         }
+        for f in self.fields.iter().filter(|f| !f.sharp && f.tint != Vec3::ONE) {
+            let why = if matches!(f.kind, FieldKind::Sphere | FieldKind::Box) && (f.ior - 1.0).abs() <= crate::pipeline::photons::EPS_REFRACT {
+                format!("has index {}: it bends no light, and refrakt renders such glass as air (give it an index above {})", f.ior, 1.0 + crate::pipeline::photons::EPS_REFRACT)
+            } else {
+                "is a smooth index field, and a tint colours light where it crosses a sharp surface only (leave out `boundary` \
+                 on a sphere or box, or colour the field with `absorption`)"
+                    .to_string()
+            };
+            out.push(format!("glass \"{}\" {why}: its tint is not applied", f.name));
+        }
         let (lo, hi) = (self.volume.min, self.volume.max());
         let sharp = self.fields.iter().filter(|f| f.sharp).map(|f| (&f.name, f.bounds));
         for (name, (b_lo, b_hi)) in sharp.chain(self.meshes.iter().filter(|m| m.sharp).map(|m| (&m.name, m.bounds))) {

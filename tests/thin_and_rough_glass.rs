@@ -404,6 +404,22 @@ fn glass_outside_a_fixed_volume_box_is_warned_about() {
     assert!(named[0].starts_with("glass \"slab\" reaches outside the volume box"), "{}", named[0]);
 }
 
+#[test]
+fn a_tint_that_cannot_apply_to_an_analytic_shape_is_warned_about() {
+    let desc = frame_from_lua(
+        r#"local r = require("refrakt")
+        local scene = r.scene{ camera = r.camera{ size = {8, 8} } }
+        scene:add(r.node{ name = "air", shape = r.sphere{ radius = 0.1 }, material = r.glass{ ior = 1.0, tint = {1, 0.5, 0.5} } })
+        scene:add(r.node{ name = "soft", translation = {0.3, 0, 0}, shape = r.sphere{ radius = 0.1, boundary = 2 }, material = r.glass{ tint = {1, 0.5, 0.5} } })
+        scene:add(r.node{ name = "clear", translation = {-0.3, 0, 0}, shape = r.box{ size = {0.1, 0.1, 0.1} }, material = r.glass{ tint = {1, 0.5, 0.5} } })
+        return scene"#,
+    );
+    let said: Vec<String> = desc.warnings().into_iter().filter(|w| w.contains("its tint is not applied")).collect();
+    assert_eq!(said.len(), 2, "{said:?}");
+    assert!(said[0].starts_with("glass \"air\" has index 1: it bends no light"), "{}", said[0]);
+    assert!(said[1].starts_with("glass \"soft\" is a smooth index field"), "{}", said[1]);
+}
+
 /// A lamp in a thin glass shade: a point light (1 W/sr) at the centre of a thin, tinted glass
 /// sphere (r = 0.25 m) 1 m over a white floor, the floor seen from under the shade. Each shadow
 /// ray leaves the shade square to it, so the floor's direct light is the unshaded irradiance

@@ -110,6 +110,8 @@ pub enum Target {
     Scale,
     Weights,
     Light(LightProperty),
+    /// An area light from a node's extras: the channel's index is the node's.
+    AreaLight(LightProperty),
     Camera(CameraProperty),
     Material(MaterialProperty),
 }
@@ -122,7 +124,7 @@ impl Target {
             Target::Rotation => "rotation",
             Target::Scale => "scale",
             Target::Weights => "morph weights",
-            Target::Light(_) => "light",
+            Target::Light(_) | Target::AreaLight(_) => "light",
             Target::Camera(_) => "camera",
             Target::Material(_) => "material",
         }

@@ -61,6 +61,7 @@ pub fn build(doc: &gltf::Document, acc: &Accessors, materials: Materials, roots:
     let n = doc.nodes().count();
     let animated = Animated {
         lights: vec![Vec::new(); doc.lights().map_or(0, |l| l.count())],
+        area_lights: (0..n).map(|_| Weak::new()).collect(),
         cameras: vec![Vec::new(); doc.cameras().count()],
         materials: (0..doc.materials().count()).map(|_| Weak::new()).collect(),
     };
@@ -188,10 +189,11 @@ impl<'a> Builder<'a, '_> {
                 let what = format!("nodes[{}]{}", g.index(), mesh::quoted(g.name()));
                 self.warnings.about(what, "has a KHR_lights_punctual light, which it keeps; extras.refrakt.light skipped");
             } else {
-                // Not in `animated.lights` (no KHR_animation_pointer reaches it); the node's
-                // transform, animated or not, places and aims it.
-                let light = Light { color: r.color, intensity: r.intensity, ..Light::new(LightKind::Rect { size: r.size, round: r.round }) };
-                node.borrow_mut().light = Some(shared(light));
+                // The node's transform, animated or not, places and aims it; its power, colour
+                // and size animate through pointers into the node's extras.
+                let light = shared(Light { color: r.color, intensity: r.intensity, ..Light::new(LightKind::Rect { size: r.size, round: r.round }) });
+                self.graph.animated.area_lights[g.index()] = Rc::downgrade(&light);
+                node.borrow_mut().light = Some(light);
                 return Ok(());
             }
         }

@@ -38,6 +38,8 @@ pub struct Deformable {
 #[derive(Default)]
 pub struct Animated {
     pub lights: Vec<Vec<Weak<RefCell<Light>>>>,
+    /// The area light of each node (from its extras; dangling for the others).
+    pub area_lights: Vec<Weak<RefCell<Light>>>,
     pub cameras: Vec<Vec<Weak<RefCell<Camera>>>>,
     pub materials: Vec<Weak<RefCell<Material>>>,
 }
@@ -172,6 +174,11 @@ impl Animated {
     fn set(&self, target: Target, index: usize, v: &[f32]) {
         match target {
             Target::Light(p) => live(self.lights.get(index)).for_each(|l| pointer::apply_light(&mut l.borrow_mut(), p, v)),
+            Target::AreaLight(p) => {
+                if let Some(l) = self.area_lights.get(index).and_then(Weak::upgrade) {
+                    pointer::apply_light(&mut l.borrow_mut(), p, v);
+                }
+            }
             Target::Camera(p) => live(self.cameras.get(index)).for_each(|c| pointer::apply_camera(&mut c.borrow_mut(), p, v)),
             Target::Material(p) => {
                 if let Some(m) = self.materials.get(index).and_then(Weak::upgrade) {

@@ -8,11 +8,11 @@
 use std::borrow::Cow;
 
 use anyhow::{Result, anyhow};
-use glam::{Vec3, Vec4};
+use glam::{Vec2, Vec3, Vec4};
 use serde_json::Value;
 
 use super::animation::Target;
-use crate::scene::{Camera, Light, LightKind, Material};
+use crate::scene::{Camera, Lens, Light, LightKind, Material};
 
 /// A channel of animation `animation` that drives what `pointer` names, by its sampler.
 #[derive(Clone, Debug, PartialEq)]
@@ -29,6 +29,11 @@ pub enum LightProperty {
     Intensity,
     InnerCone,
     OuterCone,
+    /// A point or spot light's bulb radius, metres (`extras.refrakt.radius` on the light: the
+    /// animated twin of its node's `light_radius`, which KHR_lights_punctual has no field for).
+    Radius,
+    /// An area light's size [w, h], metres (its node's `extras.refrakt.light.size`).
+    Size,
 }
 
 /// What a camera's animation pointer can drive.
@@ -38,6 +43,12 @@ pub enum CameraProperty {
     Yfov,
     /// orthographic.ymag: half the view's height.
     Ymag,
+    /// The thin lens of `extras.refrakt` (extras.rs, `lens`), which glTF has no field for: the
+    /// aperture's diameter and the focus distance, metres, and the lens shift [x, y] — a
+    /// focus pull, an iris, a shift keyed in Blender (the add-on writes these channels).
+    Aperture,
+    Focus,
+    Shift,
 }
 
 /// What a material's animation pointer can drive.
@@ -95,12 +106,32 @@ pub fn resolve(pointer: &str) -> Option<(Target, usize)> {
                 ["intensity"] => LightProperty::Intensity,
                 ["spot", "innerConeAngle"] => LightProperty::InnerCone,
                 ["spot", "outerConeAngle"] => LightProperty::OuterCone,
+                ["extras", "refrakt", "radius"] => LightProperty::Radius,
                 _ => return None,
             };
             (Target::Light(p), index(i)?)
         }
+        // An area light lives in its node's extras (KHR_lights_punctual has none).
+        ["nodes", i, "extras", "refrakt", "light", leaf] => {
+            let p = match *leaf {
+                "color" => LightProperty::Color,
+                "intensity" => LightProperty::Intensity,
+                "size" => LightProperty::Size,
+                _ => return None,
+            };
+            (Target::AreaLight(p), index(i)?)
+        }
         ["cameras", i, "perspective", "yfov"] => (Target::Camera(CameraProperty::Yfov), index(i)?),
         ["cameras", i, "orthographic", "ymag"] => (Target::Camera(CameraProperty::Ymag), index(i)?),
+        ["cameras", i, "extras", "refrakt", lens] => {
+            let p = match *lens {
+                "aperture" => CameraProperty::Aperture,
+                "focus" => CameraProperty::Focus,
+                "shift" => CameraProperty::Shift,
+                _ => return None,
+            };
+            (Target::Camera(p), index(i)?)
+        }
         ["materials", i, rest @ ..] => {
             let p = match rest {
                 ["pbrMetallicRoughness", "baseColorFactor"] => MaterialProperty::BaseColor,
@@ -120,11 +151,16 @@ pub fn resolve(pointer: &str) -> Option<(Target, usize)> {
 /// How many numbers a value of `target` has.
 pub fn width(target: Target) -> usize {
     match target {
-        Target::Light(LightProperty::Color) | Target::Material(MaterialProperty::Emissive) => 3,
+        Target::Light(LightProperty::Color) | Target::AreaLight(LightProperty::Color) | Target::Material(MaterialProperty::Emissive) => 3,
+        Target::AreaLight(LightProperty::Size) => 2,
         Target::Material(MaterialProperty::BaseColor) => 4,
+        Target::Camera(CameraProperty::Shift) => 2,
         _ => 1,
     }
 }
+
+/// The smallest side an animated area light is held at, metres (the add-on's `MIN_SIZE`).
+const MIN_AREA_LIGHT_SIZE: f32 = 1e-4;
 
 /// Sets a light's animated property (negative values held at 0; cone angles kept ordered as
 /// KHR_lights_punctual requires).
@@ -132,6 +168,13 @@ pub fn apply_light(light: &mut Light, p: LightProperty, v: &[f32]) {
     match p {
         LightProperty::Color => light.color = Vec3::from_slice(v).max(Vec3::ZERO),
         LightProperty::Intensity => light.intensity = v[0].max(0.0),
+        LightProperty::Radius => light.radius = v[0].max(0.0),
+        LightProperty::Size => {
+            if let LightKind::Rect { size, .. } = &mut light.kind {
+                // (A vanishing rect keeps a size, as the still extras require one > 0.)
+                *size = Vec2::from_slice(v).max(Vec2::splat(MIN_AREA_LIGHT_SIZE));
+            }
+        }
         LightProperty::InnerCone | LightProperty::OuterCone => {
             let LightKind::Spot { angle, blend } = &mut light.kind else { return };
             // refrakt's spot is full inside angle·(1 − blend) (nodes.rs: the import).
@@ -155,6 +198,10 @@ pub fn apply_camera(camera: &mut Camera, p: CameraProperty, v: &[f32]) {
                 camera.orthographic = Some(2.0 * v[0].abs().max(1e-6));
             }
         }
+        // Held within what the still extras accept (extras.rs, `lens`).
+        CameraProperty::Aperture => camera.lens.aperture = v[0].clamp(0.0, Lens::MAX_APERTURE),
+        CameraProperty::Focus => camera.lens.focus = Some(v[0].max(Lens::MIN_FOCUS)),
+        CameraProperty::Shift => camera.lens.shift = Vec2::from_slice(v).clamp(Vec2::splat(-Lens::MAX_SHIFT), Vec2::splat(Lens::MAX_SHIFT)),
     }
 }
 
@@ -193,7 +240,12 @@ mod tests {
         assert_eq!(resolve("/cameras/1/perspective/yfov"), Some((Target::Camera(CameraProperty::Yfov), 1)));
         assert_eq!(resolve("/materials/3/pbrMetallicRoughness/baseColorFactor"), Some((Target::Material(MaterialProperty::BaseColor), 3)));
         assert_eq!(resolve("/nodes/4/translation"), Some((Target::Translation, 4)));
-        for unread in ["/extensions/KHR_lights_punctual/lights/0/range", "/cameras/0/perspective/znear", "/materials/x/alphaCutoff", "nodes/0/scale", ""] {
+        assert_eq!(resolve("/cameras/0/extras/refrakt/focus"), Some((Target::Camera(CameraProperty::Focus), 0)));
+        assert_eq!(resolve("/cameras/2/extras/refrakt/shift"), Some((Target::Camera(CameraProperty::Shift), 2)));
+        assert_eq!(resolve("/extensions/KHR_lights_punctual/lights/1/extras/refrakt/radius"), Some((Target::Light(LightProperty::Radius), 1)));
+        assert_eq!(resolve("/nodes/7/extras/refrakt/light/size"), Some((Target::AreaLight(LightProperty::Size), 7)));
+        assert_eq!(resolve("/nodes/7/extras/refrakt/light/intensity"), Some((Target::AreaLight(LightProperty::Intensity), 7)));
+        for unread in ["/extensions/KHR_lights_punctual/lights/0/range", "/cameras/0/perspective/znear", "/cameras/0/extras/refrakt/blades", "/cameras/0/extras/other/focus", "/materials/x/alphaCutoff", "nodes/0/scale", ""] {
             assert_eq!(resolve(unread), None, "{unread}");
         }
     }
@@ -208,6 +260,17 @@ mod tests {
         apply_light(&mut l, LightProperty::OuterCone, &[0.1]);
         let LightKind::Spot { angle, blend } = l.kind else { panic!() };
         assert!((angle - 0.1).abs() < 1e-6 && blend.abs() < 1e-6);
+    }
+
+    #[test]
+    fn an_animated_lens_stays_within_what_the_extras_accept() {
+        let mut c = Camera::default();
+        apply_camera(&mut c, CameraProperty::Aperture, &[250.0]);
+        apply_camera(&mut c, CameraProperty::Focus, &[-1.0]);
+        apply_camera(&mut c, CameraProperty::Shift, &[0.25, -40.0]);
+        assert_eq!((c.lens.aperture, c.lens.focus, c.lens.shift), (Lens::MAX_APERTURE, Some(Lens::MIN_FOCUS), Vec2::new(0.25, -Lens::MAX_SHIFT)));
+        apply_camera(&mut c, CameraProperty::Focus, &[3.5]);
+        assert_eq!(c.lens.focus, Some(3.5));
     }
 
     #[test]

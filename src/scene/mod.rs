@@ -109,6 +109,8 @@ pub struct Lens {
 impl Lens {
     /// The focus distance of a camera with neither `focus` nor a target (Blender's default).
     pub const DEFAULT_FOCUS: f32 = 10.0;
+    /// The nearest focus an animated lens is held at, metres (a still one must be > 0).
+    pub const MIN_FOCUS: f32 = 1e-4;
     /// The widest aperture taken, metres.
     pub const MAX_APERTURE: f32 = 100.0;
     /// The most blades a diaphragm may have.

@@ -41,20 +41,26 @@ def nits(watts, area):
 
 
 def lights_scene():
-    """A rectangle (scaled, turned, moving from frame 1 to 6), a square with exposure 1, a disk,
-    an ellipse of spread 90°, and a Cycles portal (which emits nothing)."""
+    """A rectangle (scaled, turned, moving and shrinking from frame 1 to 6), a square with exposure 1,
+    a disk keyed brighter and pinker, an ellipse of spread 90°, and a Cycles portal (which emits
+    nothing)."""
     scene = bpy.context.scene
     scene.render.fps, scene.render.fps_base = 24, 1.0
     scene.frame_start, scene.frame_end = 1, 6
     panel = area_light("Panel", "RECTANGLE", (1.2, 0.4), 150.0, (0.5, -1.0, 2.5), rotation=(20.0, -35.0, 60.0),
                        scale=(1.5, 2.0, 1.0), color=(1.0, 0.8, 0.6))
-    for frame, x, angle in ((1, 0.5, 60.0), (6, -0.7, 100.0)):
-        panel.location.x, panel.rotation_euler.z = x, math.radians(angle)
+    for frame, x, angle, width in ((1, 0.5, 60.0, 1.2), (6, -0.7, 100.0, 0.8)):
+        panel.location.x, panel.rotation_euler.z, panel.data.size = x, math.radians(angle), width
         panel.keyframe_insert("location", frame=frame)
         panel.keyframe_insert("rotation_euler", frame=frame)
+        panel.data.keyframe_insert("size", frame=frame)
     square = area_light("Square", "SQUARE", (0.5, 9.0), 40.0, (0.0, 0.0, 2.0))
     square.data.exposure = 1.0
-    area_light("Disk", "DISK", (0.6, 9.0), 30.0, (2.0, 0.0, 2.0))
+    disk = area_light("Disk", "DISK", (0.6, 9.0), 30.0, (2.0, 0.0, 2.0))
+    for frame, watts, green in ((1, 30.0, 1.0), (6, 90.0, 0.5)):
+        disk.data.energy, disk.data.color = watts, (1.0, green, 1.0)
+        disk.data.keyframe_insert("energy", frame=frame)
+        disk.data.keyframe_insert("color", frame=frame)
     oval = area_light("Oval", "ELLIPSE", (0.8, 0.3), 20.0, (-2.0, 0.0, 2.0))
     oval.data.spread = math.radians(90.0)
     portal = area_light("Portal", "SQUARE", (1.0, 1.0), 10.0, (0.0, 3.0, 1.0))
@@ -128,7 +134,7 @@ def test_refrakt_reads_area_lights_as_rects_and_disks(addon, real_refrakt, saved
     scene = lights_scene()
     _, paths, _ = export(saved_blend)
     frames = dump(real_refrakt, paths.glb, "1..6")
-    for k in (1, 6):
+    for k in (1, 4, 6):
         scene.frame_set(k)
         lights = {light["node"]: light for light in frames[k]["lights"]}
         assert set(lights) == {"Panel", "Square", "Disk", "Oval"}
@@ -144,9 +150,12 @@ def test_refrakt_reads_area_lights_as_rects_and_disks(addon, real_refrakt, saved
             assert (Vector(light["position"]) - world.translation).length < MATRIX_TOLERANCE, (name, k)
             forward = (world @ Vector((0, 0, -1, 0))).xyz.normalized()
             assert (Vector(light["direction"]) - forward).length < MATRIX_TOLERANCE, (name, k)
-    # The panel really moves: the comparison above covers its animation, not a still.
-    where = {k: next(li["position"] for li in frames[k]["lights"] if li["node"] == "Panel") for k in (1, 6)}
-    assert (Vector(where[6]) - Vector(where[1])).length > 1.0
+    # The panel really moves and shrinks, the disk brightens: the comparison above covers their
+    # animation (the size, power and colour through pointers into the node extras), not a still.
+    light = {k: {li["node"]: li for li in frames[k]["lights"]} for k in (1, 6)}
+    assert (Vector(light[6]["Panel"]["position"]) - Vector(light[1]["Panel"]["position"])).length > 1.0
+    assert light[6]["Panel"]["size"][0] == pytest.approx(light[1]["Panel"]["size"][0] * 0.8 / 1.2, rel=1e-5)
+    assert light[6]["Disk"]["intensity"] == pytest.approx(3.0 * light[1]["Disk"]["intensity"], rel=1e-5)
 
 
 # --- against Cycles ------------------------------------------------------------------------

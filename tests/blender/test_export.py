@@ -177,6 +177,57 @@ def test_depth_of_field_reaches_refrakts_thin_lens(addon, saved_blend, real_refr
     assert "refrakt" not in (gltf.camera("Camera").get("extras") or {})
 
 
+def test_a_focus_pull_an_iris_a_shift_and_a_growing_bulb_reach_refrakt_frame_by_frame(addon, saved_blend, real_refrakt):
+    """What glTF has no field for, keyed in Blender — the focus distance, the f-stop, Shift X and
+    a spot's radius — goes out as pointer channels into refrakt's extras, which refrakt plays
+    back (`refrakt dump`) at every frame as Blender has it; a focus object that moves pulls the
+    focus with it. Nothing keyed: no channel (the still extras say it all)."""
+    scene = scenes.round_trip_scene()
+    scene.frame_start, scene.frame_end = 1, 5
+    camera, spot = bpy.data.objects["Camera"].data, bpy.data.lights["Spot"]
+    camera.dof.use_dof = True
+    _, gltf = export(saved_blend)
+    pointers = [c["target"].get("extensions", {}).get("KHR_animation_pointer", {}).get("pointer", "")
+                for a in gltf.json.get("animations", []) for c in a["channels"]]
+    assert not [p for p in pointers if "/extras/" in p], pointers
+    for frame, focus, fstop, shift, radius in ((1, 2.0, 2.0, 0.0, 0.1), (5, 6.0, 8.0, 0.2, 0.4)):
+        camera.dof.focus_distance, camera.dof.aperture_fstop, camera.shift_x = focus, fstop, shift
+        spot.shadow_soft_size = radius
+        for prop in ("dof.focus_distance", "dof.aperture_fstop", "shift_x"):
+            camera.keyframe_insert(prop, frame=frame)
+        spot.keyframe_insert("shadow_soft_size", frame=frame)
+    paths, gltf = export(saved_blend)
+    fps = scene.render.fps / scene.render.fps_base
+    done = subprocess.run([real_refrakt, "dump", paths.glb, "--frames", "1..5", "--fps", str(fps), "--size", "64x36"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    seen = []
+    for doc in map(json.loads, done.stdout.splitlines()):
+        scene.frame_set(doc["frame"])
+        lens = doc["camera"]["lens"]
+        assert lens["focus"] == pytest.approx(camera.dof.focus_distance, rel=1e-5), doc["frame"]
+        assert lens["aperture"] == pytest.approx(camera.lens * 1e-3 / camera.dof.aperture_fstop, rel=1e-5), doc["frame"]
+        assert lens["shift"][0] == pytest.approx(camera.shift_x, abs=1e-6), doc["frame"]
+        bulb = next(light for light in doc["lights"] if light["node"] == "Spot")
+        assert bulb["radius"] == pytest.approx(spot.shadow_soft_size, rel=1e-5), doc["frame"]
+        seen.append(lens["focus"])
+    assert seen[0] == pytest.approx(2.0) and seen[-1] == pytest.approx(6.0) and len(set(seen)) == 5, seen
+    # Focused on a ball that moves away along the view: the focus follows it.
+    camera.animation_data_clear()
+    ball, holder = bpy.data.objects["Ball"], bpy.data.objects["Camera"]
+    camera.dof.focus_object = ball
+    view = (holder.matrix_world.to_3x3() @ Vector((0, 0, -1))).normalized()
+    for frame, away in ((1, 0.0), (5, 2.0)):
+        ball.location = Vector((-1.0, 0.0, 0.5)) + away * view
+        ball.keyframe_insert("location", frame=frame)
+    _, gltf = export(saved_blend)
+    focus = pointer_channel(gltf, f"/cameras/{gltf.node('Camera')['camera']}/extras/refrakt/focus")
+    for frame in range(1, 6):
+        scene.frame_set(frame)
+        along = (ball.matrix_world.translation - holder.matrix_world.translation).dot(view)
+        assert gltf._sample(focus, frame / fps)[0] == pytest.approx(along, rel=1e-4), frame
+
+
 def test_motion_blur_reaches_refrakts_shutter(addon, saved_blend, real_refrakt):
     """Render ▸ Motion Blur's Shutter (frames) and the panel's Motion Steps go out as the scene's
     `shutter` and `motion_steps`, which refrakt reads (`refrakt dump`) for the glTF and for the

@@ -161,17 +161,36 @@ def material_extras(material, warnings):
         out["thin"] = s.surface == "THIN"
     if s.priority != 0:
         out["priority"] = s.priority
+    if not _keeps_multiscattered_light(material, warnings):
+        out["multiscatter"] = False
     return out or None
+
+
+def _surface_node(material):
+    """The node on the material output's Surface, if any."""
+    out = _output_node(material)
+    if out is None or not out.inputs["Surface"].is_linked:
+        return None
+    return out.inputs["Surface"].links[0].from_node
+
+
+def _keeps_multiscattered_light(material, warnings):
+    """Whether rough glass keeps the light its microfacets' masking takes: Cycles' *Multiscatter
+    GGX* (the Principled and Glass BSDFs' default) does, its *GGX* and *Beckmann* do not (refrakt's
+    `multiscatter = false`; Beckmann's lobe is drawn as GGX's, with a warning)."""
+    node = _surface_node(material)
+    distribution = getattr(node, "distribution", "MULTI_GGX") if node is not None else "MULTI_GGX"
+    if distribution == "BECKMANN":
+        warnings.add(f"Material '{material.name}': refrakt's rough glass is GGX; its Beckmann distribution is drawn as "
+                     "single-scattering GGX of the same roughness")
+    return distribution not in ("GGX", "BECKMANN")
 
 
 def glass_surface(material):
     """(ior, color, roughness) of a Glass or Refraction BSDF on the material's surface, which the
     glTF exporter does not understand (it reads only the Principled BSDF); None otherwise."""
-    out = _output_node(material)
-    if out is None or not out.inputs["Surface"].is_linked:
-        return None
-    node = out.inputs["Surface"].links[0].from_node
-    if node.bl_idname not in ("ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction"):
+    node = _surface_node(material)
+    if node is None or node.bl_idname not in ("ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction"):
         return None
     inputs = node.inputs
     return float(inputs["IOR"].default_value), list(inputs["Color"].default_value)[:3], float(inputs["Roughness"].default_value)

@@ -305,6 +305,8 @@ pub struct FieldDesc {
     pub roughness: f32,
     /// A sharp surface that is a thin shell with no inside (a bubble: `Glass::thin`).
     pub thin: bool,
+    /// Its rough crossings keep the light masking takes (`Glass::multiscatter`).
+    pub multiscatter: bool,
     /// KHR dispersion, 20/V_d (`Glass::dispersion`); 0: none.
     pub dispersion: f32,
     /// Which medium holds where sharp solids overlap (`Glass::priority`).

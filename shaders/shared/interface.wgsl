@@ -433,8 +433,11 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
     if alpha > 0.0 {
         let cr = dot(reflected, n);
         let ct = -dot(transmitted, n);
-        // The light a single microfacet loses to masking, kept (albedo scaling).
-        energy = 1.0 / max(rough_albedo(-dot(d, n), surface.roughness, eta, thin), 0.05);
+        // The light a single microfacet loses to masking, kept (albedo scaling) — unless the
+        // glass asks for single-scattering GGX.
+        if (interfaces[hit.interface_id].kind & INTERFACE_SINGLE_SCATTERING) == 0u {
+            energy = 1.0 / max(rough_albedo(-dot(d, n), surface.roughness, eta, thin), 0.05);
+        }
         reflected_share = smith_g1(max(cr, 0.0), alpha) * step(0.0, cr) * energy;
         transmitted_share = smith_g1(max(ct, 0.0), alpha) * step(0.0, ct) * energy;
     }

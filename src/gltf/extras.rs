@@ -327,9 +327,11 @@ pub struct MediumExtras {
     pub thin: Option<bool>,
     /// Which medium holds where solids overlap (`Glass::priority`).
     pub priority: Option<i32>,
+    /// Rough crossings keep the light masking takes (`Glass::multiscatter`).
+    pub multiscatter: Option<bool>,
 }
 
-const MATERIAL_KEYS: &[&str] = &["absorption", "scattering", "g", "boundary", "thin", "priority"];
+const MATERIAL_KEYS: &[&str] = &["absorption", "scattering", "g", "boundary", "thin", "priority", "multiscatter"];
 
 pub fn medium(material: &gltf::Material, file: &str, what: &str, warnings: &mut Collector) -> Result<Option<MediumExtras>> {
     let Some(m) = refrakt_object::<MediumExtras>(material.extras(), file, what, MATERIAL_KEYS, warnings)? else { return Ok(None) };

@@ -196,6 +196,7 @@ impl<'a> Materials<'a> {
         }
         glass.dispersion = dispersion(m, file, what)?;
         glass.priority = medium.priority.unwrap_or(0);
+        glass.multiscatter = medium.multiscatter.unwrap_or(true);
         let mut uv = None;
         if transmission > 0.0 {
             glass.roughness = transmission_roughness(m, file, what)?;

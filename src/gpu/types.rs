@@ -614,6 +614,9 @@ pub mod interface_kind {
     pub const SHAPE: u32 = 0xff;
     /// Set in `kind` for a thin sheet or shell: no inside, light passes undeviated or reflects.
     pub const THIN: u32 = 0x100;
+    /// Set in `kind` for rough glass that does not keep the light masking takes
+    /// (`Glass::multiscatter` false: single-scattering GGX).
+    pub const SINGLE_SCATTERING: u32 = 0x200;
     /// Set in `BvhTriangle::receiver` of an interface's triangle (low bits: the interface).
     pub const BIT: u32 = 0x8000_0000;
 }
@@ -763,5 +766,29 @@ mod tests {
         check::<MarchParams>(&module);
         check::<CausticParams>(&module);
         check::<CausticLevel>(&module);
+    }
+
+    /// Every `const INTERFACE_*` and `FIELD_*` of types.wgsl has the value its Rust twin has
+    /// (a flag added on one side only would be read as another).
+    #[test]
+    fn rust_and_wgsl_kind_constants_agree() {
+        use interface_kind as i;
+        let rust = [
+            ("INTERFACE_NONE", i::NONE), ("INTERFACE_SPHERE", i::SPHERE), ("INTERFACE_BOX", i::BOX), ("INTERFACE_MESH", i::MESH),
+            ("INTERFACE_SHAPE", i::SHAPE), ("INTERFACE_THIN", i::THIN), ("INTERFACE_SINGLE_SCATTERING", i::SINGLE_SCATTERING),
+            ("INTERFACE_BIT", i::BIT), ("FIELD_SPHERE", field_kind::SPHERE), ("FIELD_BOX", field_kind::BOX),
+            ("FIELD_LUNEBURG", field_kind::LUNEBURG), ("FIELD_SLAB", field_kind::SLAB), ("FIELD_SAMPLED", field_kind::SAMPLED),
+        ];
+        let text = include_str!("../../shaders/shared/types.wgsl");
+        let wgsl: Vec<(&str, u32)> = text
+            .lines()
+            .filter_map(|l| l.strip_prefix("const ")?.split_once(": u32 = "))
+            .filter(|(name, _)| name.starts_with("INTERFACE_") || name.starts_with("FIELD_"))
+            .map(|(name, v)| {
+                let v = v.trim_end_matches(';').trim_end_matches('u');
+                (name, v.strip_prefix("0x").map_or_else(|| v.parse(), |hex| u32::from_str_radix(hex, 16)).unwrap())
+            })
+            .collect();
+        assert_eq!(wgsl, rust);
     }
 }

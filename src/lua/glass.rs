@@ -8,7 +8,7 @@ use super::convert::{self as cv, FieldName, error_at};
 use super::objects::{Obj, construct, number_value, vec_value};
 use crate::scene::{Glass, Material};
 
-pub const FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin", "dispersion", "abbe", "priority"];
+pub const FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin", "dispersion", "abbe", "priority", "multiscatter"];
 
 /// Glass field `key` of `g`; None when glass has no such field.
 pub fn get(lua: &Lua, g: &Glass, key: &str) -> Option<mlua::Result<Value>> {
@@ -22,6 +22,7 @@ pub fn get(lua: &Lua, g: &Glass, key: &str) -> Option<mlua::Result<Value>> {
         "thin" => Ok(g.thin.map_or(Value::Nil, Value::Boolean)),
         "dispersion" => Ok(number_value(g.dispersion)),
         "priority" => Ok(Value::Integer(g.priority as i64)),
+        "multiscatter" => Ok(Value::Boolean(g.multiscatter)),
         // The Abbe number V_d = 20/dispersion; nil without dispersion.
         "abbe" => Ok(if g.dispersion > 0.0 { number_value(20.0 / g.dispersion) } else { Value::Nil }),
         // Transmittance over one metre (the color a 1 m thick piece has).
@@ -78,6 +79,15 @@ fn set_field(lua: &Lua, g: &mut Glass, key: &str, value: Value) -> mlua::Result<
         }
         "priority" => {
             g.priority = cv::integer(lua, name, &value, -1000, 1000)? as i32;
+        }
+        "multiscatter" => {
+            let Value::Boolean(b) = value else {
+                return Err(error_at(
+                    lua,
+                    &format!("glass.multiscatter is true (rough glass keeps its energy, Cycles' Multiscatter GGX) or false (single-scattering GGX), got {}", value.type_name()),
+                ));
+            };
+            g.multiscatter = b;
         }
         "g" => {
             g.g = cv::number_in(lua, name, &value, Some(-0.99), Some(0.99), "a number from −0.99 to 0.99")? as f32

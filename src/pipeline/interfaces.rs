@@ -36,7 +36,7 @@ pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; 2]]) -> Vec<Interface> {
     let analytic = desc.fields.iter().filter(|f| f.sharp).map(analytic_record);
     let meshes = sharp_meshes(desc).enumerate().map(|(j, m)| Interface {
         world_to_local: m.world.inverse().to_cols_array_2d(),
-        kind: interface_kind::MESH | thin_bit(m.thin),
+        kind: interface_kind::MESH | thin_bit(m.thin) | single_scattering_bit(m.glass.multiscatter),
         tint: m.glass.tint.into(),
         ior: m.glass.ior,
         absorption: m.glass.absorption.into(),
@@ -113,7 +113,7 @@ fn analytic_record(f: &FieldDesc) -> Interface {
     Interface {
         world_to_local: f.world_to_local.to_cols_array_2d(),
         half_size: f.half_size.into(),
-        kind: kind | thin_bit(f.thin),
+        kind: kind | thin_bit(f.thin) | single_scattering_bit(f.multiscatter),
         tint: f.tint.into(),
         ior: f.ior,
         absorption: f.absorption.into(),
@@ -125,6 +125,10 @@ fn analytic_record(f: &FieldDesc) -> Interface {
 
 fn thin_bit(thin: bool) -> u32 {
     if thin { interface_kind::THIN } else { 0 }
+}
+
+fn single_scattering_bit(multiscatter: bool) -> u32 {
+    if multiscatter { 0 } else { interface_kind::SINGLE_SCATTERING }
 }
 
 fn sharp_meshes(desc: &FrameDesc) -> impl Iterator<Item = &MeshInstance> {

@@ -284,6 +284,7 @@ fn field_of(node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) 
         tint: glass.tint,
         roughness: glass.roughness,
         thin,
+        multiscatter: glass.multiscatter,
         dispersion: glass.dispersion,
         priority: glass.priority,
         bounds: world_bounds(&world, half_size),

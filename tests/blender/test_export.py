@@ -405,6 +405,7 @@ def test_roughness_and_thin_glass_reach_the_gltf(addon, saved_blend):
     bsdf = pane.node_tree.nodes["Principled BSDF"]
     bsdf.inputs["Transmission Weight" if "Transmission Weight" in bsdf.inputs else "Transmission"].default_value = 1.0
     bsdf.inputs["Roughness"].default_value = 0.0
+    bsdf.distribution = "GGX"  # single-scattering: refrakt's multiscatter = false
     pane.refrakt.surface = "THIN"
     frosted.refrakt.priority = 2
     bpy.context.scene.refrakt.volume_contact = 0.001
@@ -414,9 +415,10 @@ def test_roughness_and_thin_glass_reach_the_gltf(addon, saved_blend):
     glass = gltf.material("Glass")
     assert glass["pbrMetallicRoughness"]["roughnessFactor"] == pytest.approx(0.35, rel=1e-6)
     assert glass["extras"]["refrakt"]["priority"] == 2
+    assert "multiscatter" not in glass["extras"]["refrakt"], "Multiscatter GGX, the default, is refrakt's"
     assert gltf.json["scenes"][0]["extras"]["refrakt"]["volume"]["contact"] == pytest.approx(0.001)
     thin = gltf.material("Pane")
-    assert thin["extras"]["refrakt"]["thin"] is True
+    assert thin["extras"]["refrakt"]["thin"] is True and thin["extras"]["refrakt"]["multiscatter"] is False
     assert "KHR_materials_volume" not in thin.get("extensions", {})
     assert "KHR_materials_transmission" in thin["extensions"]
 

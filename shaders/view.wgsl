@@ -347,7 +347,7 @@ struct Branch {
     // and 2p + 1 for the reflection it leaves — the counter its random numbers hash.
     path: u32,
     // The density of its direction where a rough crossing sent it into the open and the suns
-    // were sampled there too (`suns_through_rough`); 0 otherwise.
+    // were sampled there too (`lights_through_rough`); 0 otherwise.
     lobe_pdf: f32,
 }
 
@@ -359,29 +359,39 @@ fn facet_numbers(k: u32, path: u32) -> vec2<f32> {
     return vec2<f32>(random01(key, path, 0u), random01(key, path, 1u));
 }
 
-// Ends a branch in the environment (and the lights' discs, once it met glass).
-fn end_in_environment(out: ptr<function, ViewSample>, b: Branch) {
+// Ends a branch in the environment (and the lights it passes since `piece`, the start of its
+// last straight piece, once it met glass; `lobe_from`: where its last rough crossing was).
+fn end_in_environment(out: ptr<function, ViewSample>, b: Branch, piece: vec3<f32>, lobe_from: vec3<f32>) {
     if companion_ends_here() {
         return;
+    }
+    if b.events > 0u {
+        let seen = lights_seen(piece, b.d, NO_HIT, b.lobe_pdf, lobe_from);
+        (*out).radiance += b.weight * seen.radiance;
+        if seen.ends {
+            return;
+        }
     }
     if (*out).covered || params.env.visible != 0u {
         (*out).radiance += b.weight * env_radiance(env_map, env_sampler, params.env, b.d);
     }
-    if b.events > 0u {
-        (*out).radiance += b.weight * lights_seen(b.x, b.d, NO_HIT, b.lobe_pdf);
-    }
 }
 
 // A branch meets a receiver: its shading, weighted by the branch and by the receiver's
-// coverage there (and, once it met glass, the bulbs it passed since `start`, the start of its
-// last straight piece). Returns the coverage: below 1 (a cut-out, a see-through surface) the
+// coverage there (and, once it met glass, the lights it passed since `piece`, the start of its
+// last straight piece: one in front of the receiver ends the branch, as full coverage). Returns
+// the coverage: below 1 (a cut-out, a see-through surface) the
 // branch goes on past it with the rest of its weight.
-fn meet_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, b: Branch, start: vec3<f32>, k: u32) -> f32 {
+fn meet_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, b: Branch, piece: vec3<f32>, lobe_from: vec3<f32>, k: u32) -> f32 {
     if companion_ends_here() {
         return 1.0;
     }
     if b.events > 0u {
-        (*out).radiance += b.weight * lights_seen(start, b.d, distance(start, p), b.lobe_pdf);
+        let seen = lights_seen(piece, b.d, distance(piece, p), b.lobe_pdf, lobe_from);
+        (*out).radiance += b.weight * seen.radiance;
+        if seen.ends {
+            return 1.0;
+        }
     }
     let cover = coverage_of(receivers[bvh_triangles[hit.triangle].receiver], hit.triangle, hit.u, hit.v);
     if cover <= 0.0 {
@@ -407,6 +417,11 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
     let grid = params.grid;
     var b = b0;
     let box_max = grid_box_max(grid);
+    // Where the branch's current straight piece began (the lights it passes are looked for from
+    // there), and where it last crossed rough glass (whose light sampling the lights it meets
+    // share by multiple importance sampling, `lights_seen`).
+    var piece = b.x;
+    var lobe_from = b.x;
     // Each round marches the volume (where the branch is in it or before it) and ends on a
     // receiver, shaded at the one call of `meet_receiver` below (lavapipe inlines every call
     // site anew, and the receiver's shading is most of the pass), or in the environment. Past a
@@ -416,7 +431,6 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
         var met = false;
         var hit: SurfaceHit;
         var p: vec3<f32>;
-        var start: vec3<f32>;
         let span = ray_box(b.x, b.d, grid.origin, box_max);
         if span.x <= span.y && span.y > 0.0 && ahead_of.hit.t > max(span.x, 0.0) {
             var s = ray_start(ior_grid, grid_sampler, grid, b.x + b.d * max(span.x, 0.0), b.d);
@@ -465,14 +479,23 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                         break;
                     }
                     first_depth(out, s.x);
+                    if b.events > 0u {
+                        // The lights on the straight piece that ends here (a bulb in a glass
+                        // shade): the nearest ends the branch.
+                        let seen = lights_seen(piece, b.d, distance(piece, s.x), b.lobe_pdf, lobe_from);
+                        (*out).radiance += b.weight * seen.radiance;
+                        if seen.ends {
+                            return;
+                        }
+                    }
                     let surface = glass_surface_at(hit);
                     let c = cross_interface(s.x, b.d, hit, surface, b.media, facet_numbers(k, b.path));
                     b.events += u32(c.seen);
-                    // A rough solid's surface: the suns sampled through it (suns_through_rough).
+                    // A rough solid's surface: the lights sampled through it (lights_through_rough).
                     let alpha = surface.roughness * surface.roughness;
                     let rough = c.seen && alpha > 0.0 && (interfaces[hit.interface_id].kind & INTERFACE_THIN) == 0u;
                     if rough && !companion_ends_here() {
-                        (*out).radiance += b.weight * suns_through_rough(s.x, b, c, alpha, k);
+                        (*out).radiance += b.weight * lights_through_rough(s.x, b, c, alpha, k);
                     }
                     var next = b.d;
                     if c.reflectance < 1.0 {
@@ -500,7 +523,9 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                     if b.events >= MAX_EVENTS || max(b.weight.r, max(b.weight.g, b.weight.b)) < MIN_WEIGHT {
                         return;
                     }
-                    s = ray_start(ior_grid, grid_sampler, grid, crossing_exit(c, s.x, b.d, next, 1e-3 * grid.voxel_size), next);
+                    piece = crossing_exit(c, s.x, b.d, next, 1e-3 * grid.voxel_size);
+                    lobe_from = piece;
+                    s = ray_start(ior_grid, grid_sampler, grid, piece, next);
                     b.d = next;
                     ahead_of.valid = false;
                     continue;
@@ -511,6 +536,7 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                 if bends && dot(d_new, b.d) < 1.0 - 1e-9 {
                     b.d = d_new;
                     ahead_of.valid = false;
+                    piece = s.x;
                 }
                 if all(b.weight < vec3<f32>(1e-4)) {
                     return;
@@ -526,7 +552,6 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
             if met {
                 hit = ahead_of.hit;
                 p = s.x;
-                start = ahead_of.origin;
             } else {
                 b.x = s.x;
             }
@@ -537,17 +562,17 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                 break;
             }
             p = b.x + b.d * hit.t;
-            start = b.x;
         }
-        let cover = meet_receiver(out, hit, p, b, start, k);
+        let cover = meet_receiver(out, hit, p, b, piece, lobe_from, k);
         if cover >= 1.0 {
             return;
         }
         // On past a cut-out or through a see-through surface, unbent.
         b.weight *= 1.0 - cover;
         b.x = leave_surface(p, hit.normal, b.d, 1e-3 * grid.voxel_size);
+        piece = b.x;
     }
-    end_in_environment(out, b);
+    end_in_environment(out, b, piece, lobe_from);
 }
 
 // Dispersion (VIEW_FLAG_SPECTRAL): camera sample k of a pixel carries one wavelength — a hero

@@ -321,34 +321,81 @@ fn cone_solid_angle(half_angle: f32) -> f32 {
     return 2.0 * PI * (1.0 - cos(half_angle));
 }
 
-// Radiance of the lights a path that met glass sees along o + t·d, t < t_max: the sun's disc
-// (a uniform disc of its angular radius: E over its solid angle 2π(1 − cos α)), seen only by a
-// path that leaves the scene — its share by the balance heuristic where a rough crossing also
-// sampled the suns (`lobe_pdf` > 0: `suns_through_rough`) — and the bulbs of point and spot
-// lights, spheres of their radius r whose radiance toward the viewer is I(ω) / (π r²).
-fn lights_seen(o: vec3<f32>, d: vec3<f32>, t_max: f32, lobe_pdf: f32) -> vec3<f32> {
-    var l = vec3<f32>(0.0);
+// The solid angle a bulb (a sphere of radius r) fills seen from p outside it: the cone of
+// sin α = r/d, Ω = 2π(1 − cos α) = 2π sin²α/(1 + cos α) (exact for small bulbs too).
+fn bulb_solid_angle(l: LightGpu, p: vec3<f32>) -> f32 {
+    let to_centre = l.position - p;
+    let sin2 = min(l.radius * l.radius / dot(to_centre, to_centre), 1.0);
+    return TAU * sin2 / (1.0 + sqrt(1.0 - sin2));
+}
+
+// An area light's area (a disk's or ellipse's: π/4 of its rectangle's).
+fn area_light_area(l: LightGpu) -> f32 {
+    return l.size_x * l.size_y * select(1.0, 0.25 * PI, l.kind == LIGHT_DISK);
+}
+
+// The balance heuristic's share of what a branch leaving a rough crossing finds by its own
+// direction (density `lobe_pdf`) where the crossing also sampled the light (density `light_pdf`,
+// `lights_through_rough`); all of it where it was not sampled (lobe_pdf 0).
+fn share_of_lobe(lobe_pdf: f32, light_pdf: f32) -> f32 {
+    return select(1.0, lobe_pdf / (lobe_pdf + light_pdf), lobe_pdf > 0.0);
+}
+
+// The lights a path that met glass sees along o + t·d, 0 < t < t_max: the nearest bulb of a point
+// or spot light (a sphere of its radius r whose radiance toward the viewer is I(ω) / (π r²)) or
+// area light seen from its front (a one-sided panel of radiance L: a softbox's highlight in
+// glass), which ends the path as a surface would (`ends`); else the suns' discs (a uniform disc
+// of its angular radius: E over its solid angle 2π(1 − cos α)), seen by a path that leaves the
+// scene, over the sky. Where the path's last rough
+// crossing (at `lobe_from`, on the same line behind o) also sampled the lights (`lobe_pdf` > 0:
+// `lights_through_rough`), each light gives its share by the balance heuristic, its density
+// taken as that crossing drew it: a sun's 1/Ω, a bulb's 1/Ω(lobe_from), an area light's
+// distance² / (A cos θ) from lobe_from.
+struct LightsSeen {
+    radiance: vec3<f32>,
+    ends: bool,
+}
+
+fn lights_seen(o: vec3<f32>, d: vec3<f32>, t_max: f32, lobe_pdf: f32, lobe_from: vec3<f32>) -> LightsSeen {
+    var suns = vec3<f32>(0.0);
+    var nearest = t_max;
+    var seen = LightsSeen(vec3<f32>(0.0), false);
     for (var i = 0u; i < params.light_count; i++) {
         let light = lights[i];
         if light.kind == LIGHT_SUN {
             if t_max >= NO_HIT && light.half_angle > 0.0 && dot(d, -light.direction) >= cos(light.half_angle) {
                 let solid_angle = cone_solid_angle(light.half_angle);
-                var disc = light.radiant / solid_angle;
-                if lobe_pdf > 0.0 {
-                    disc *= lobe_pdf / (lobe_pdf + 1.0 / solid_angle);
-                }
-                l += disc;
+                suns += light.radiant / solid_angle * share_of_lobe(lobe_pdf, 1.0 / solid_angle);
             }
-        } else if light.kind != LIGHT_RECT && light.kind != LIGHT_DISK && light.radius > 0.0 {
+        } else if light.kind == LIGHT_RECT || light.kind == LIGHT_DISK {
+            let facing = -dot(d, light.direction);
+            let t = dot(light.position - o, light.direction) / -facing;
+            if facing > 0.0 && t > 0.0 && t < nearest {
+                let q = o + d * t - light.position;
+                let xy = vec2<f32>(dot(q, light.right) / light.size_x, dot(q, light.up) / light.size_y) * 2.0;
+                let inside = select(max(abs(xy.x), abs(xy.y)) <= 1.0, dot(xy, xy) <= 1.0, light.kind == LIGHT_DISK);
+                if inside {
+                    let from_crossing = distance(lobe_from, o + d * t);
+                    nearest = t;
+                    seen = LightsSeen(light.radiant * share_of_lobe(lobe_pdf, from_crossing * from_crossing / (area_light_area(light) * facing)), true);
+                }
+            }
+        } else if light.radius > 0.0 {
             let oc = o - light.position;
             let b = dot(oc, d);
             let disc = b * b - (dot(oc, oc) - light.radius * light.radius);
-            if disc >= 0.0 && -b - sqrt(disc) > 0.0 && -b - sqrt(disc) < t_max {
-                l += light_intensity(light, -d) / (PI * light.radius * light.radius);
+            let t = -b - sqrt(max(disc, 0.0));
+            if disc >= 0.0 && t > 0.0 && t < nearest {
+                let radiance = light_intensity(light, -d) / (PI * light.radius * light.radius);
+                nearest = t;
+                seen = LightsSeen(radiance * share_of_lobe(lobe_pdf, 1.0 / bulb_solid_angle(light, lobe_from)), true);
             }
         }
     }
-    return l;
+    if !seen.ends {
+        seen.radiance = suns;
+    }
+    return seen;
 }
 
 // What a rough crossing (cross_interface on GGX of roughness α) gives a direction w chosen
@@ -385,42 +432,52 @@ fn rough_lobe(d: vec3<f32>, n: vec3<f32>, w: vec3<f32>, alpha: f32, eta: f32) ->
     return RoughLobe(visible * eta * eta * abs(o_m) / (denom * denom), (1.0 - f) * g_out);
 }
 
-// Suns seen in rough glass, by both strategies (Veach 1997, multiple importance sampling with
-// the balance heuristic): the branches' own directions find a sun's small disc only now and then
-// — its glints through frosted glass were the fireflies of frosted frames — so at a rough
-// crossing, each sun is also sampled directly where the direction toward it leaves into the open:
-// a direction over its disc, the weight the crossing would give a branch along it (`rough_lobe`),
-// a shadow ray. A sun of no size, which no branch can find, is all light sampling. Returns the
-// light; `lobe_pdf` then weighs what the branches find (`lights_seen`).
-fn suns_through_rough(p: vec3<f32>, b: Branch, c: Crossing, alpha: f32, k: u32) -> vec3<f32> {
+// Lights seen in rough glass, by both strategies (Veach 1997, multiple importance sampling with
+// the balance heuristic): the branches' own directions find a sun's small disc, a bulb or a
+// softbox only now and then — their glints through frosted glass were the fireflies of frosted
+// frames — so at a rough crossing, each is also sampled directly where the direction toward it
+// leaves into the open: a direction over a sun's disc or a bulb's cone, or a point of an area
+// light, the weight the crossing would give a branch along it (`rough_lobe`), a shadow ray. A
+// sun or point of no size, which no branch can find, is all light sampling. Returns the light;
+// `lobe_pdf` then weighs what the branches find (`lights_seen`). Glowing meshes are left to the
+// branches.
+fn lights_through_rough(p: vec3<f32>, b: Branch, c: Crossing, alpha: f32, k: u32) -> vec3<f32> {
     var light = vec3<f32>(0.0);
     for (var i = 0u; i < params.light_count; i++) {
         let l = lights[i];
-        if l.kind != LIGHT_SUN {
+        let to_centre = l.position - p;
+        let bulb = (l.kind == LIGHT_POINT || l.kind == LIGHT_SPOT) && l.radius > 0.0 && dot(to_centre, to_centre) > l.radius * l.radius * 1.0001;
+        let area = l.kind == LIGHT_RECT || l.kind == LIGHT_DISK;
+        if l.kind == LIGHT_MESH || (l.kind != LIGHT_SUN && !bulb && !area && l.radius > 0.0) {
             continue;
         }
         let a = light_arrival(l, p, k);
         let lobe = rough_lobe(b.d, c.normal, a.w, alpha, c.eta);
-        if lobe.pdf <= 0.0 || media_along(c, a.w, b.media).depth != 0u {
+        if lobe.pdf <= 0.0 || media_along(c, a.w, b.media).depth != 0u || all(a.intensity <= vec3<f32>(0.0)) {
             continue;
         }
-        // E·X·pdf_lobe·w_light: the radiance E/Ω over the light's density 1/Ω, times the lobe's
-        // weight per unit of light X (kept from masking as the branches are: c.energy) times its
-        // density, times the balance heuristic's share.
-        var share = 1.0;
-        if l.half_angle > 0.0 {
-            let light_pdf = 1.0 / cone_solid_angle(l.half_angle);
-            share = light_pdf / (light_pdf + lobe.pdf);
+        // (L/p_light)·X·pdf_lobe·w_light: the radiance over the light's density — a sun's E, a
+        // bulb's L·Ω, an area light's L·A cos θ / d² (intensity / dist²) — times the lobe's weight
+        // per unit of light X (kept from masking as the branches are: c.energy) times its
+        // density, times the balance heuristic's share (none for a light of no size).
+        var light_pdf = 0.0;
+        if l.kind == LIGHT_SUN && l.half_angle > 0.0 {
+            light_pdf = 1.0 / cone_solid_angle(l.half_angle);
+        } else if bulb {
+            light_pdf = 1.0 / bulb_solid_angle(l, p);
+        } else if area {
+            light_pdf = a.dist2 / (area_light_area(l) * max(dot(-a.w, l.direction), 1e-6));
         }
+        let share = select(1.0, light_pdf / (light_pdf + lobe.pdf), light_pdf > 0.0);
         let tint = select(c.tint, vec3<f32>(1.0), dot(a.w, c.normal) > 0.0);
         let seen = visibility(leave_surface(p, c.geometric, a.w, 1e-3 * params.grid.voxel_size), a.w, a.dist);
-        light += a.intensity * tint * seen * (lobe.weight * c.energy * lobe.pdf * share);
+        light += a.intensity / a.dist2 * tint * seen * (lobe.weight * c.energy * lobe.pdf * share);
     }
     return light;
 }
 
-// The density `suns_through_rough` weighs a branch leaving a rough crossing along w by: its
-// lobe's, where w leaves into the open (there the suns were sampled too), else 0.
+// The density `lights_through_rough` weighs a branch leaving a rough crossing along w by: its
+// lobe's, where w leaves into the open (there the lights were sampled too), else 0.
 fn sampled_lobe_pdf(c: Crossing, media: Media, d: vec3<f32>, w: vec3<f32>, alpha: f32) -> f32 {
     if media_along(c, w, media).depth != 0u {
         return 0.0;

@@ -103,7 +103,7 @@ def gltf_options(scene):
     )
 
 
-LIGHT_INTENSITY = re.compile(r"^/extensions/KHR_lights_punctual/lights/(\d+)/intensity$")
+LIGHT_CHANNEL = re.compile(r"^/extensions/KHR_lights_punctual/lights/(\d+)/(intensity|color)$")
 
 
 def _glb_chunks(data, path):
@@ -130,12 +130,31 @@ def _float_accessor(doc, bin_data, index):
     return bin_data + view.get("byteOffset", 0) + accessor.get("byteOffset", 0), accessor["count"] * width
 
 
+def _channel_factor(light, prop):
+    """What the exporter's still value of a light's `prop` has that its animated channel lacks
+    (a float for the intensity, an rgb triple for the colour)."""
+    blender_light = bpy.data.lights.get(light.get("name", ""))
+    if prop == "color":
+        use = blender_light is not None and blender_light.use_temperature
+        return list(blender_light.temperature_color) if use else [1.0, 1.0, 1.0]
+    exposure = 2.0 ** blender_light.exposure if blender_light is not None else 1.0
+    factor = (683.0 if light.get("type") == "directional" else 1.0 / (4 * math.pi)) * exposure
+    if blender_light is not None and not blender_light.normalize:
+        # The still value is times the light's area (its radius, the object's scale).
+        holder = next((o for o in bpy.context.scene.objects if o.data == blender_light), None)
+        if holder is not None:
+            factor *= blender_light.area(matrix_world=holder.matrix_world)
+    return factor
+
+
 def fix_light_intensity_channels(path):
     """Blender's exporter (4.5 and 5.0) writes an animated point or spot light's intensity as
     watts × 683 — 4π times the candela of its static `intensity`, watts / 4π · 683 — and a
-    sun's as W/m², without the 683 lm/W of its static lux; both without the light's exposure.
-    Each such channel is put into the static value's units (`tests/blender/test_export.py`
-    compares them at every frame, and fails should an exporter fix this itself)."""
+    sun's as W/m², without the 683 lm/W of its static lux; both without the light's exposure,
+    and without the area its still value is multiplied by when *Normalize* is off; and an
+    animated colour without the *Temperature* colour its still value is tinted by. Each such
+    channel is put into the static value's units (`tests/blender/test_export.py` compares them
+    at every frame, and fails should an exporter fix this itself)."""
     with open(path, "r+b") as f:
         data = bytearray(f.read())
         doc, bin_data = _glb_chunks(data, path)
@@ -146,18 +165,19 @@ def fix_light_intensity_channels(path):
         for animation in doc.get("animations", []):
             for channel in animation.get("channels", []):
                 pointer = channel["target"].get("extensions", {}).get("KHR_animation_pointer", {}).get("pointer", "")
-                match = LIGHT_INTENSITY.match(pointer)
+                match = LIGHT_CHANNEL.match(pointer)
                 output = animation["samplers"][channel["sampler"]]["output"]
                 if not match or output in scaled:
                     continue
                 scaled.add(output)
-                light = lights[int(match.group(1))]
-                blender_light = bpy.data.lights.get(light.get("name", ""))
-                exposure = 2.0 ** blender_light.exposure if blender_light is not None else 1.0
-                factor = (683.0 if light.get("type") == "directional" else 1.0 / (4 * math.pi)) * exposure
+                factor = _channel_factor(lights[int(match.group(1))], match.group(2))
                 at, n = _float_accessor(doc, bin_data, output)
                 values = struct.unpack_from(f"<{n}f", data, at)
-                struct.pack_into(f"<{n}f", data, at, *(v * factor for v in values))
+                if isinstance(factor, list):
+                    values = [v * factor[i % 3] for i, v in enumerate(values)]
+                else:
+                    values = [v * factor for v in values]
+                struct.pack_into(f"<{n}f", data, at, *values)
         f.seek(0)
         f.write(data)
 

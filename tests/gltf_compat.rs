@@ -597,7 +597,7 @@ fn a_material_variant_gives_each_primitive_the_material_it_maps() {
 }
 
 /// What refrakt does not read of a glass material is said, once each, naming the material:
-/// a transmissionTexture, a normal map, alpha MASK or BLEND, KHR_materials_specular.
+/// a transmissionTexture, a normal map, alpha MASK or BLEND, KHR_materials_specular, emission.
 #[test]
 fn glass_textures_refrakt_does_not_read_are_said() {
     let mut g = GltfBuilder::new();
@@ -609,7 +609,7 @@ fn glass_textures_refrakt_does_not_read_are_said() {
     for ext in ["KHR_materials_transmission", "KHR_materials_specular"] {
         g.uses(ext, false);
     }
-    let glass = g.push("materials", json!({ "name": "Etched", "alphaMode": "MASK", "normalTexture": { "index": texture },
+    let glass = g.push("materials", json!({ "name": "Etched", "alphaMode": "MASK", "normalTexture": { "index": texture }, "emissiveFactor": [1, 1, 1],
         "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0, "transmissionTexture": { "index": texture } },
                         "KHR_materials_specular": { "specularFactor": 0.5 } } }));
     let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
@@ -618,7 +618,7 @@ fn glass_textures_refrakt_does_not_read_are_said() {
     g.scene("S", &[node]);
     let dir = tempfile::tempdir().unwrap();
     let w = warnings(&g.write_glb(&dir.path().join("etched.glb")));
-    for about in ["transmissionTexture", "normal map on glass", "alpha (MASK or BLEND)", "KHR_materials_specular"] {
+    for about in ["transmissionTexture", "normal map on glass", "alpha (MASK or BLEND)", "KHR_materials_specular", "glass does not glow"] {
         let said: Vec<&String> = w.iter().filter(|w| w.contains(about)).collect();
         assert_eq!(said.len(), 1, "{about}: {w:#?}");
         assert!(said[0].contains("materials[0] \"Etched\""), "{}", said[0]);

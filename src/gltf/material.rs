@@ -229,6 +229,9 @@ impl<'a> Materials<'a> {
         if m.normal_texture().is_some() {
             warnings.about(what, "refrakt does not read a normal map on glass yet: the glass takes its mesh's interpolated normals");
         }
+        if m.emissive_factor() != [0.0; 3] && m.emissive_strength().unwrap_or(1.0) > 0.0 {
+            warnings.about(what, "glows (emissive) and is transmissive: refrakt's glass does not glow, so it neither shows its emission nor lights the scene (a lamp's glowing shade stays dark); put the glow on an opaque mesh or a light inside");
+        }
         if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
             warnings.about(what, "refrakt does not cut glass by alpha (MASK or BLEND) yet: all of the glass is there");
         }

@@ -98,16 +98,26 @@ def test_animated_light_power_and_colour_reach_the_gltf_in_its_units(addon, save
     as KHR_animation_pointer channels that say, at every frame, what a still export of that
     frame says (W / 4π · 683 cd, W/m² · 683 lux); Blender 4.5's own channels were 4π (point)
     and 1/683 (sun) off. (The still `intensity` is the first frame's: the exporter gathers it
-    while sampling the range.) refrakt reads them back as the power Blender has at each frame."""
+    while sampling the range.) A light by colour temperature with Normalize off is tinted and
+    scaled by its area at every frame as its still value is. refrakt reads them back as the
+    power Blender has at each frame."""
     scene = scenes.round_trip_scene()
     scene.frame_start, scene.frame_end = 1, 5
     point = bpy.data.lights.new("Bulb", "POINT")
     bpy.context.collection.objects.link(bpy.data.objects.new("Bulb", point))
+    # A warm bulb by colour temperature, with Normalize off: its still value is tinted by the
+    # temperature's colour and multiplied by its area; its channels must be too.
+    warm = bpy.data.lights.new("Warm", "POINT")
+    warm.use_temperature, warm.temperature, warm.normalize, warm.shadow_soft_size = True, 3000.0, False, 0.2
+    warm_object = bpy.data.objects.new("Warm", warm)
+    bpy.context.collection.objects.link(warm_object)
     sun = bpy.data.objects["Sun"].data
     for frame, watts, strength, green in ((1, 100.0, 2.0, 1.0), (5, 400.0, 6.0, 0.25)):
         point.energy, sun.energy, point.color = watts, strength, (1.0, green, 0.5)
+        warm.energy, warm.color = watts / 2, (1.0, 1.0, green)
         for prop in ("energy", "color"):
             point.keyframe_insert(prop, frame=frame)
+            warm.keyframe_insert(prop, frame=frame)
         sun.keyframe_insert("energy", frame=frame)
         camera = bpy.data.objects["Camera"]
         camera.data.lens = 50.0 if frame == 1 else 25.0
@@ -117,8 +127,10 @@ def test_animated_light_power_and_colour_reach_the_gltf_in_its_units(addon, save
     assert scene.frame_current == 3, "exporting leaves the current frame as it was"
     fps = scene.render.fps / scene.render.fps_base
     lights = gltf.json["extensions"]["KHR_lights_punctual"]["lights"]
-    index = {name: gltf.node(name)["extensions"]["KHR_lights_punctual"]["light"] for name in ("Bulb", "Sun")}
+    index = {name: gltf.node(name)["extensions"]["KHR_lights_punctual"]["light"] for name in ("Bulb", "Sun", "Warm")}
     channel = {name: pointer_channel(gltf, f"/extensions/KHR_lights_punctual/lights/{i}/intensity") for name, i in index.items()}
+    warm_colour = pointer_channel(gltf, f"/extensions/KHR_lights_punctual/lights/{index['Warm']}/color")
+    warm_area = warm.area(matrix_world=warm_object.matrix_world)
     colour = pointer_channel(gltf, f"/extensions/KHR_lights_punctual/lights/{index['Bulb']}/color")
     yfov = pointer_channel(gltf, f"/cameras/{gltf.node('Camera')['camera']}/perspective/yfov")
     powers = []
@@ -129,6 +141,9 @@ def test_animated_light_power_and_colour_reach_the_gltf_in_its_units(addon, save
         assert gltf._sample(channel["Bulb"], t)[0] == pytest.approx(point.energy / (4 * math.pi) * 683, rel=1e-4), frame
         assert gltf._sample(channel["Sun"], t)[0] == pytest.approx(sun.energy * 683, rel=1e-4), frame
         assert gltf._sample(colour, t) == pytest.approx(list(point.color), abs=1e-5), frame
+        assert gltf._sample(channel["Warm"], t)[0] == pytest.approx(warm.energy * warm_area / (4 * math.pi) * 683, rel=1e-4), frame
+        tinted = [c * k for c, k in zip(warm.color, warm.temperature_color)]
+        assert gltf._sample(warm_colour, t) == pytest.approx(tinted, abs=1e-5), frame
         assert gltf._sample(yfov, t)[0] == pytest.approx(scenes.camera_fov_y(camera, scene), rel=1e-4), frame
     assert powers[0] == pytest.approx(100.0) and powers[-1] == pytest.approx(400.0), "the power really changes"
     assert lights[index["Bulb"]]["intensity"] == pytest.approx(min(powers) / (4 * math.pi) * 683, rel=1e-5)
@@ -141,6 +156,9 @@ def test_animated_light_power_and_colour_reach_the_gltf_in_its_units(addon, save
         # radiant intensity, W/sr, times the colour: P / 4π for a point light.
         want = [c * point.energy / (4 * math.pi) for c in point.color]
         assert bulb["radiant"] == pytest.approx(want, rel=1e-4), doc["frame"]
+        lit = next(light for light in doc["lights"] if light["node"] == "Warm")
+        want = [c * k * warm.energy * warm_area / (4 * math.pi) for c, k in zip(warm.color, warm.temperature_color)]
+        assert lit["radiant"] == pytest.approx(want, rel=1e-4), doc["frame"]
 
 
 def test_depth_of_field_reaches_refrakts_thin_lens(addon, saved_blend, real_refrakt):

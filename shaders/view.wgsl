@@ -489,6 +489,10 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                         }
                     }
                     let surface = glass_surface_at(hit);
+                    // A glowing surface seen from its front (either side of a thin sheet).
+                    if dot(hit.normal, b.d) < 0.0 || (interfaces[hit.interface_id].kind & INTERFACE_THIN) != 0u {
+                        (*out).radiance += b.weight * surface.emission;
+                    }
                     let c = cross_interface(s.x, b.d, hit, surface, b.media, facet_numbers(k, b.path));
                     b.events += u32(c.seen);
                     // A rough solid's surface: the lights sampled through it (lights_through_rough).

@@ -307,6 +307,8 @@ pub struct FieldDesc {
     pub thin: bool,
     /// Its rough crossings keep the light masking takes (`Glass::multiscatter`).
     pub multiscatter: bool,
+    /// Radiance its sharp surface gives off (`Glass::emission`).
+    pub emission: Vec3,
     /// KHR dispersion, 20/V_d (`Glass::dispersion`); 0: none.
     pub dispersion: f32,
     /// Which medium holds where sharp solids overlap (`Glass::priority`).

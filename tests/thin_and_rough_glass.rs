@@ -600,6 +600,44 @@ fn a_lamp_in_a_thin_tinted_shade_lights_the_floor_through_it() {
     }
 }
 
+/// Glowing glass (glTF's emissive on a transmissive material, Lua `glass.emission`): a thin pane
+/// and a solid ball of emission E in front of a black sky show E exactly where the camera sees
+/// them square on — the pane once (either side of a sheet), the ball at its front only (its
+/// back, met from inside, does not add) — and the glTF importer reads emissiveFactor ×
+/// emissive strength and the emissive texture. (Before, the glow was not rendered at all.)
+#[test]
+fn glowing_glass_shows_its_emission_from_its_front() {
+    let glow = Vec3::new(0.5, 0.25, 0.125);
+    for (what, shape, thin) in [("a thin pane", pane_mesh(1.0), "true"), ("a solid ball", "r.sphere{ radius = 0.5 }".to_string(), "false")] {
+        let desc = frame_from_lua(&format!(
+            r#"local r = require("refrakt")
+            local scene = r.scene{{ volume = {{ resolution = 16 }}, photons = 0, samples = 1, environment = r.environment{{ color = {{0, 0, 0}} }},
+                                    camera = r.camera{{ position = {{0, 0, 5}}, target = {{0, 0, 0}}, fov = 1, size = {{8, 8}} }} }}
+            scene:add(r.node{{ name = "glow", shape = {shape}, material = r.glass{{ ior = 1.5, thin = {thin}, emission = {{{}, {}, {}}} }} }})
+            return scene"#,
+            glow.x, glow.y, glow.z
+        ));
+        let image = renderer().frame(&desc).unwrap();
+        for i in 0..64 {
+            let got = rgb(beauty(&image), i);
+            assert!((got / glow - Vec3::ONE).abs().max_element() < 1e-4, "{what}, pixel {i}: {got} vs {glow}");
+        }
+    }
+    let mut g = common::gltf_builder::GltfBuilder::new();
+    for ext in ["KHR_materials_transmission", "KHR_materials_emissive_strength"] {
+        g.uses(ext, false);
+    }
+    let shade = g.push("materials", serde_json::json!({ "name": "Shade", "emissiveFactor": [1.0, 0.5, 0.25],
+        "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 }, "KHR_materials_emissive_strength": { "emissiveStrength": 4.0 } } }));
+    let mesh = g.mesh(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], &[[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], Some(shade));
+    let node = g.push("nodes", serde_json::json!({ "name": "Shade", "mesh": mesh }));
+    g.scene("S", &[node]);
+    let dir = tempfile::tempdir().unwrap();
+    let source = refrakt::render::GltfScene::load(&g.write_glb(&dir.path().join("shade.glb")), &[], &Default::default()).unwrap();
+    let desc = refrakt::scene::eval::evaluate(&source.scene, 0.0, &Default::default()).unwrap();
+    assert_eq!(desc.meshes[0].glass.emission, Vec3::new(4.0, 2.0, 1.0));
+}
+
 /// A real file: Khronos' TransmissionRoughnessTest (tests/data/khronos, CC BY 4.0, Ed Mackey /
 /// AGI 2021), a board of 5 mm glass tiles in front of a patterned backdrop, one row per index
 /// (2.42, 1.76, 1.5, 1.33, 1.0) and one column per roughness, smooth to rough, set by each row's

@@ -13,7 +13,7 @@
 fn glass_surface_at(hit: SurfaceHit) -> GlassSurface {
     let f = interfaces[hit.interface_id];
     var s = plain_surface(hit.interface_id);
-    if hit.triangle == 0xffffffffu || !(has_texture(f.roughness_texture) || has_texture(f.tint_texture)) {
+    if hit.triangle == 0xffffffffu || !(has_texture(f.roughness_texture) || has_texture(f.tint_texture) || has_texture(f.emission_texture)) {
         return s;
     }
     let uv = hit_uv(hit.triangle, hit.u, hit.v);
@@ -22,6 +22,9 @@ fn glass_surface_at(hit: SurfaceHit) -> GlassSurface {
     }
     if has_texture(f.tint_texture) {
         s.tint *= texture_at(f.tint_texture, uv).rgb;
+    }
+    if has_texture(f.emission_texture) {
+        s.emission *= texture_at(f.emission_texture, uv).rgb;
     }
     return s;
 }

@@ -334,12 +334,14 @@ fn ggx_visible_normal(w: vec3<f32>, alpha: f32, u: vec2<f32>) -> vec3<f32> {
 struct GlassSurface {
     tint: vec3<f32>,
     roughness: f32,
+    // Radiance it gives off from its front (`Glass::emission`): seen by view rays only.
+    emission: vec3<f32>,
 }
 
 // The surface of interface `id` by its factors alone (analytic shapes, untextured meshes).
 fn plain_surface(id: u32) -> GlassSurface {
     let f = interfaces[id];
-    return GlassSurface(f.tint, f.roughness);
+    return GlassSurface(f.tint, f.roughness, f.emission);
 }
 
 // Smith's masking for GGX of a direction at cos θ = c from the normal (c > 0):

@@ -186,6 +186,9 @@ struct Interface {
     _pad2: u32,
     roughness_texture: vec4<u32>,
     tint_texture: vec4<u32>,
+    emission_texture: vec4<u32>,
+    emission: vec3<f32>,
+    _pad3: u32,
 }
 
 struct ReceiverGpu {

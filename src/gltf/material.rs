@@ -209,7 +209,8 @@ impl<'a> Materials<'a> {
     /// The textures of a transmissive material that vary its surface: the base colour texture
     /// tints (KHR_materials_transmission: the base colour is the transmitted colour) and the
     /// metallic-roughness texture's green channel scales the roughness, where each ray or
-    /// photon meets the surface. The medium inside (index, absorption) stays one per material.
+    /// photon meets the surface; the emissive texture where the camera sees it glow. The medium
+    /// inside (index, absorption) stays one per material.
     fn glass_textures(&mut self, m: &gltf::Material, what: &str, glass: &mut Glass, warnings: &mut Collector) -> Result<Option<UvMap>> {
         let pbr = m.pbr_metallic_roughness();
         let file = self.at.file;
@@ -222,15 +223,24 @@ impl<'a> Materials<'a> {
             maps.push(("metallic-roughness", UvMap::of(&info, file, what)?));
             glass.roughness_texture = Some(self.texture(&info, what, "metallic-roughness", false)?);
         }
+        let strength = m.emissive_strength().unwrap_or(1.0);
+        glass.emission = Vec3::from(m.emissive_factor()) * strength;
+        if !glass.emission.is_finite() || !strength.is_finite() || glass.emission.min_element() < 0.0 {
+            bail!("{file}: {what}: emissiveFactor and KHR_materials_emissive_strength must be finite and ≥ 0");
+        }
+        if glass.emission != Vec3::ZERO {
+            if let Some(info) = m.emissive_texture() {
+                maps.push(("emissive", UvMap::of(&info, file, what)?));
+                glass.emission_texture = Some(self.texture(&info, what, "emissive", true)?);
+            }
+            warnings.about(what, "glows (emissive) and is transmissive: refrakt shows the glass's glow where it is seen, but it lights nothing (a lamp's glowing shade does not light its room); put a light inside");
+        }
         warn_uv_maps_differ(&maps, what, warnings);
         if m.transmission().and_then(|t| t.transmission_texture()).is_some() {
             warnings.about(what, "refrakt does not read a transmissionTexture: all of the glass transmits");
         }
         if m.normal_texture().is_some() {
             warnings.about(what, "refrakt does not read a normal map on glass yet: the glass takes its mesh's interpolated normals");
-        }
-        if m.emissive_factor() != [0.0; 3] && m.emissive_strength().unwrap_or(1.0) > 0.0 {
-            warnings.about(what, "glows (emissive) and is transmissive: refrakt's glass does not glow, so it neither shows its emission nor lights the scene (a lamp's glowing shade stays dark); put the glow on an opaque mesh or a light inside");
         }
         if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
             warnings.about(what, "refrakt does not cut glass by alpha (MASK or BLEND) yet: all of the glass is there");

@@ -323,6 +323,11 @@ gpu_struct! {
         pub roughness_texture: [u32; 4],
         /// Its tint texture (rgb × `tint`), likewise.
         pub tint_texture: [u32; 4],
+        /// Its emissive texture (rgb × `emission`), likewise.
+        pub emission_texture: [u32; 4],
+        /// Radiance the surface gives off toward a ray that meets its front (`Glass::emission`).
+        pub emission: [f32; 3],
+        pub _pad3: u32,
     }
 }
 

@@ -8,7 +8,7 @@ use super::convert::{self as cv, FieldName, error_at};
 use super::objects::{Obj, construct, number_value, vec_value};
 use crate::scene::{Glass, Material};
 
-pub const FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin", "dispersion", "abbe", "priority", "multiscatter"];
+pub const FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin", "dispersion", "abbe", "priority", "multiscatter", "emission"];
 
 /// Glass field `key` of `g`; None when glass has no such field.
 pub fn get(lua: &Lua, g: &Glass, key: &str) -> Option<mlua::Result<Value>> {
@@ -23,6 +23,7 @@ pub fn get(lua: &Lua, g: &Glass, key: &str) -> Option<mlua::Result<Value>> {
         "dispersion" => Ok(number_value(g.dispersion)),
         "priority" => Ok(Value::Integer(g.priority as i64)),
         "multiscatter" => Ok(Value::Boolean(g.multiscatter)),
+        "emission" => vec_value(lua, g.emission),
         // The Abbe number V_d = 20/dispersion; nil without dispersion.
         "abbe" => Ok(if g.dispersion > 0.0 { number_value(20.0 / g.dispersion) } else { Value::Nil }),
         // Transmittance over one metre (the color a 1 m thick piece has).
@@ -45,6 +46,7 @@ fn set_field(lua: &Lua, g: &mut Glass, key: &str, value: Value) -> mlua::Result<
         }
         "absorption" => g.absorption = cv::color(lua, name, &value)?,
         "scattering" => g.scattering = cv::color(lua, name, &value)?,
+        "emission" => g.emission = cv::color(lua, name, &value)?,
         "tint" => {
             let c = cv::color(lua, name, &value)?;
             if c.max_element() > 1.0 {

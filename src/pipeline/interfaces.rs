@@ -32,7 +32,7 @@ pub const MARK_WIDTH_VOXELS: f32 = 1.75;
 /// (`receivers::layout`; zeros for none). Each solid gets its rank among the overlapping
 /// (`ranks`) and the contact distance where another solid's box comes that close to its own
 /// (elsewhere 0: no crossing searches for a partner that cannot be there).
-pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; 2]]) -> Vec<Interface> {
+pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; 3]]) -> Vec<Interface> {
     let analytic = desc.fields.iter().filter(|f| f.sharp).map(analytic_record);
     let meshes = sharp_meshes(desc).enumerate().map(|(j, m)| Interface {
         world_to_local: m.world.inverse().to_cols_array_2d(),
@@ -44,6 +44,8 @@ pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; 2]]) -> Vec<Interface> {
         dispersion: m.glass.dispersion,
         roughness_texture: textures.get(j).map_or([0; 4], |t| t[0]),
         tint_texture: textures.get(j).map_or([0; 4], |t| t[1]),
+        emission_texture: textures.get(j).map_or([0; 4], |t| t[2]),
+        emission: m.glass.emission.into(),
         ..Default::default()
     });
     let mut table: Vec<Interface> = analytic.chain(meshes).collect();
@@ -119,6 +121,7 @@ fn analytic_record(f: &FieldDesc) -> Interface {
         absorption: f.absorption.into(),
         roughness: f.roughness,
         dispersion: f.dispersion,
+        emission: f.emission.into(),
         ..Default::default()
     }
 }
@@ -146,7 +149,7 @@ pub struct SharpTriangles {
     /// Corner texture coordinates (zeros on a mesh without them).
     pub uvs: Vec<[Vec2; 3]>,
     /// Each sharp mesh's (roughness, tint) textures, where it has texture coordinates.
-    pub textures: Vec<[Option<Arc<Texture2d>>; 2]>,
+    pub textures: Vec<[Option<Arc<Texture2d>>; 3]>,
 }
 
 pub fn triangles(desc: &FrameDesc) -> SharpTriangles {
@@ -168,7 +171,7 @@ pub fn triangles(desc: &FrameDesc) -> SharpTriangles {
         }
         let textured = m.mesh.uvs.is_some();
         let texture = |t: &Option<Arc<Texture2d>>| t.clone().filter(|_| textured);
-        out.textures.push([texture(&m.glass.roughness_texture), texture(&m.glass.tint_texture)]);
+        out.textures.push([texture(&m.glass.roughness_texture), texture(&m.glass.tint_texture), texture(&m.glass.emission_texture)]);
         out.meshes.push(Placed { mesh: Arc::as_ptr(&m.mesh) as usize, triangles });
     }
     out
@@ -206,14 +209,14 @@ fn field_contains(f: &FieldDesc, p: Vec3) -> bool {
 
 
 /// A sharp mesh by pointer, its placement, and its textures by pointer.
-pub type MeshKey = (usize, glam::Mat4, [usize; 2]);
+pub type MeshKey = (usize, glam::Mat4, [usize; 3]);
 
 /// What identifies the sharp meshes' triangles and textures (so the BVH and the texel atlas
 /// are rebuilt when one moves or another texture takes its place).
 pub fn mesh_key(desc: &FrameDesc) -> Vec<MeshKey> {
     let ptr = |t: &Option<Arc<Texture2d>>| t.as_ref().map_or(0, |t| Arc::as_ptr(t) as usize);
     sharp_meshes(desc)
-        .map(|m| (Arc::as_ptr(&m.mesh) as usize, m.world, [ptr(&m.glass.roughness_texture), ptr(&m.glass.tint_texture)]))
+        .map(|m| (Arc::as_ptr(&m.mesh) as usize, m.world, [ptr(&m.glass.roughness_texture), ptr(&m.glass.tint_texture), ptr(&m.glass.emission_texture)]))
         .collect()
 }
 

@@ -286,11 +286,11 @@ fn receiver_gpu(r: &Receiver, atlas: &mut TexelAtlas) -> ReceiverGpu {
 
 /// Every texture the atlas will hold, fitted to `max_texels` (`fit_textures`), warning when
 /// any had to be reduced.
-fn fitted_atlas(receivers: &[Receiver], glass_textures: &[[Option<Arc<Texture2d>>; 2]], max_texels: u64) -> HashMap<*const Texture2d, Arc<Texture2d>> {
+fn fitted_atlas(receivers: &[Receiver], glass_textures: &[[Option<Arc<Texture2d>>; 3]], max_texels: u64) -> HashMap<*const Texture2d, Arc<Texture2d>> {
     use texel_encoding::{LINEAR, SRGB};
     let mut stored: Vec<(&Arc<Texture2d>, u32)> = Vec::new();
     let used = receivers.iter().filter(|r| textured(r).is_some()).flat_map(|r| textures(&r.diffuse));
-    let glass = glass_textures.iter().flat_map(|[roughness, tint]| [(roughness.as_ref(), LINEAR), (tint.as_ref(), SRGB)]);
+    let glass = glass_textures.iter().flat_map(|[roughness, tint, emission]| [(roughness.as_ref(), LINEAR), (tint.as_ref(), SRGB), (emission.as_ref(), SRGB)]);
     for (t, encoding) in used.chain(glass) {
         if let Some(t) = t.filter(|t| !stored.iter().any(|(s, e)| Arc::ptr_eq(s, t) && *e == encoding)) {
             stored.push((t, encoding));
@@ -333,9 +333,9 @@ pub struct ReceiverLayout {
     pub triangle_normals: Vec<[f32; 4]>,
     /// Every texture's texels, 8-bit packed (`pack_texel`), one after another.
     pub albedo_texels: Vec<u32>,
-    /// Each sharp glass mesh's (roughness, tint) textures in `albedo_texels` (for
+    /// Each sharp glass mesh's (roughness, tint, emission) textures in `albedo_texels` (for
     /// `interfaces::table`).
-    pub interface_textures: Vec<[[u32; 4]; 2]>,
+    pub interface_textures: Vec<[[u32; 4]; 3]>,
 }
 
 /// Texels along the longest side of an indirect chart, at most: bounced light is smooth, and the
@@ -446,10 +446,13 @@ pub fn layout(receivers: &[Receiver], interfaces: SharpTriangles, texel: f32, ma
         });
     }
     // A glass's roughness is the metallic-roughness texture's green channel, stored linear; its
-    // tint the base colour texture, stored sRGB-encoded as a receiver's is.
+    // tint the base colour texture and its glow the emissive texture, stored sRGB-encoded as a
+    // receiver's are.
     let interface_textures = glass_textures
         .iter()
-        .map(|[roughness, tint]| [atlas.place(roughness.as_ref(), texel_encoding::LINEAR), atlas.place(tint.as_ref(), texel_encoding::SRGB)])
+        .map(|[roughness, tint, emission]| {
+            [atlas.place(roughness.as_ref(), texel_encoding::LINEAR), atlas.place(tint.as_ref(), texel_encoding::SRGB), atlas.place(emission.as_ref(), texel_encoding::SRGB)]
+        })
         .collect();
     let triangle_uvs = triangle_uvs(&bvh, receivers, &interface_uvs);
     let triangle_normals = triangle_normals(&bvh, receivers, &interface_normals);

@@ -47,6 +47,14 @@ pub struct Glass {
     /// *Multiscatter GGX* keeps it; false: single-scattering GGX (Cycles' *GGX*, the glTF Sample
     /// Viewer), darker the rougher it is — a fully rough ball loses about a tenth of its light.
     pub multiscatter: bool,
+    /// Light the surface gives off, radiance per channel (glTF's emissive × emissive strength on
+    /// a transmissive material: a lamp's glowing shade): seen where a ray meets the surface from
+    /// its front (either side of a thin sheet). It lights nothing else (no photons, no shadow
+    /// rays aim at it).
+    pub emission: Vec3,
+    /// An emissive texture (glTF, sRGB): its rgb multiplies `emission` — a sharp mesh with
+    /// texture coordinates only.
+    pub emission_texture: Option<Arc<Texture2d>>,
 }
 
 impl Glass {
@@ -67,7 +75,7 @@ impl Glass {
 impl Default for Glass {
     fn default() -> Self {
         Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0, tint: Vec3::ONE, roughness: 0.0, thin: None, dispersion: 0.0,
-               roughness_texture: None, tint_texture: None, priority: 0, multiscatter: true }
+               roughness_texture: None, tint_texture: None, priority: 0, multiscatter: true, emission: Vec3::ZERO, emission_texture: None }
     }
 }
 

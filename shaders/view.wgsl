@@ -346,7 +346,7 @@ struct Branch {
     // Which branch this is: 1 for the camera's, then 2p at each event for the path going on
     // and 2p + 1 for the reflection it leaves — the counter its random numbers hash.
     path: u32,
-    // The density of its direction where a rough crossing sent it into the open and the suns
+    // The density of its direction where a rough crossing sent it into the open and the lights
     // were sampled there too (`lights_through_rough`); 0 otherwise.
     lobe_pdf: f32,
 }
@@ -380,8 +380,8 @@ fn end_in_environment(out: ptr<function, ViewSample>, b: Branch, piece: vec3<f32
 // A branch meets a receiver: its shading, weighted by the branch and by the receiver's
 // coverage there (and, once it met glass, the lights it passed since `piece`, the start of its
 // last straight piece: one in front of the receiver ends the branch, as full coverage). Returns
-// the coverage: below 1 (a cut-out, a see-through surface) the
-// branch goes on past it with the rest of its weight.
+// the coverage: below 1 (a cut-out, a see-through surface) the branch goes on past it with the
+// rest of its weight.
 fn meet_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, b: Branch, piece: vec3<f32>, lobe_from: vec3<f32>, k: u32) -> f32 {
     if companion_ends_here() {
         return 1.0;

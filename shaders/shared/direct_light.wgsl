@@ -346,11 +346,10 @@ fn share_of_lobe(lobe_pdf: f32, light_pdf: f32) -> f32 {
 // area light seen from its front (a one-sided panel of radiance L: a softbox's highlight in
 // glass), which ends the path as a surface would (`ends`); else the suns' discs (a uniform disc
 // of its angular radius: E over its solid angle 2π(1 − cos α)), seen by a path that leaves the
-// scene, over the sky. Where the path's last rough
-// crossing (at `lobe_from`, on the same line behind o) also sampled the lights (`lobe_pdf` > 0:
-// `lights_through_rough`), each light gives its share by the balance heuristic, its density
-// taken as that crossing drew it: a sun's 1/Ω, a bulb's 1/Ω(lobe_from), an area light's
-// distance² / (A cos θ) from lobe_from.
+// scene, over the sky. Where the path's last rough crossing (at `lobe_from`, on the same line
+// behind o) also sampled the lights (`lobe_pdf` > 0: `lights_through_rough`), each light gives
+// its share by the balance heuristic, its density taken as that crossing drew it: a sun's 1/Ω,
+// a bulb's 1/Ω(lobe_from), an area light's distance² / (A cos θ) from lobe_from.
 struct LightsSeen {
     radiance: vec3<f32>,
     ends: bool,

@@ -34,8 +34,8 @@ pub struct Light {
     pub target: Option<Vec3>,
     /// World-space direction the light travels (sun), overriding the node's orientation.
     pub direction: Option<Vec3>,
-    /// Radius of a point or spot light's bulb, metres: what glass shows of it as a highlight
-    /// (Blender's light radius). Its shading of receivers stays a point's.
+    /// Radius of a point or spot light's bulb, metres (Blender's light radius): its soft
+    /// shadows, and the sphere glass shows of it. Its photons still leave from its centre.
     pub radius: f32,
 }
 

@@ -284,13 +284,20 @@ fn receiver_gpu(r: &Receiver, atlas: &mut TexelAtlas) -> ReceiverGpu {
 }
 
 
+/// A sharp glass mesh's (roughness, tint, emission) textures with the encoding each is stored
+/// in: the roughness is the metallic-roughness texture's green channel, stored linear; the tint
+/// (base colour) and the glow (emissive) are stored sRGB-encoded, as a receiver's colours are.
+fn glass_texture_encodings(t: &[Option<Arc<Texture2d>>; 3]) -> [(Option<&Arc<Texture2d>>, u32); 3] {
+    use texel_encoding::{LINEAR, SRGB};
+    [(t[0].as_ref(), LINEAR), (t[1].as_ref(), SRGB), (t[2].as_ref(), SRGB)]
+}
+
 /// Every texture the atlas will hold, fitted to `max_texels` (`fit_textures`), warning when
 /// any had to be reduced.
 fn fitted_atlas(receivers: &[Receiver], glass_textures: &[[Option<Arc<Texture2d>>; 3]], max_texels: u64) -> HashMap<*const Texture2d, Arc<Texture2d>> {
-    use texel_encoding::{LINEAR, SRGB};
     let mut stored: Vec<(&Arc<Texture2d>, u32)> = Vec::new();
     let used = receivers.iter().filter(|r| textured(r).is_some()).flat_map(|r| textures(&r.diffuse));
-    let glass = glass_textures.iter().flat_map(|[roughness, tint, emission]| [(roughness.as_ref(), LINEAR), (tint.as_ref(), SRGB), (emission.as_ref(), SRGB)]);
+    let glass = glass_textures.iter().flat_map(glass_texture_encodings);
     for (t, encoding) in used.chain(glass) {
         if let Some(t) = t.filter(|t| !stored.iter().any(|(s, e)| Arc::ptr_eq(s, t) && *e == encoding)) {
             stored.push((t, encoding));
@@ -445,15 +452,7 @@ pub fn layout(receivers: &[Receiver], interfaces: SharpTriangles, texel: f32, ma
             ..receiver_gpu(r, &mut atlas)
         });
     }
-    // A glass's roughness is the metallic-roughness texture's green channel, stored linear; its
-    // tint the base colour texture and its glow the emissive texture, stored sRGB-encoded as a
-    // receiver's are.
-    let interface_textures = glass_textures
-        .iter()
-        .map(|[roughness, tint, emission]| {
-            [atlas.place(roughness.as_ref(), texel_encoding::LINEAR), atlas.place(tint.as_ref(), texel_encoding::SRGB), atlas.place(emission.as_ref(), texel_encoding::SRGB)]
-        })
-        .collect();
+    let interface_textures = glass_textures.iter().map(|t| glass_texture_encodings(t).map(|(t, encoding)| atlas.place(t, encoding))).collect();
     let triangle_uvs = triangle_uvs(&bvh, receivers, &interface_uvs);
     let triangle_normals = triangle_normals(&bvh, receivers, &interface_normals);
     let (indirect_charts, indirect_texels) = indirect_charts(&charts);

@@ -252,17 +252,19 @@ def area_light(obj, warnings):
 def node_extras(obj, scene, warnings=None):
     """A node's extras: an index field, or 'ignore' (the volume bounds object, or by choice);
     a point or spot light's radius (glTF's KHR_lights_punctual has none); an area light (which
-    KHR_lights_punctual lacks, so Blender's exporter writes none)."""
+    KHR_lights_punctual lacks, so Blender's exporter writes none); whether the camera sees the
+    light (Object ▸ Visibility ▸ Ray Visibility ▸ Camera, on by default as in Cycles)."""
     warnings = Warnings() if warnings is None else warnings
     s = obj.refrakt
     if s.role == "IGNORE" or obj == scene.refrakt.volume_bounds:
         return {"role": "ignore"}
+    seen = {"light_visible": bool(getattr(obj, "visible_camera", False))}
     if obj.type == "LIGHT" and obj.data.type in ("POINT", "SPOT"):
-        return {"light_radius": obj.data.shadow_soft_size}
+        return {"light_radius": obj.data.shadow_soft_size, **seen}
     if obj.type == "LIGHT" and obj.data.type == "AREA":
         # A Cycles portal only guides the sampling of the World's light: it emits nothing.
         portal = getattr(getattr(obj.data, "cycles", None), "is_portal", False)
-        return None if portal else {"light": area_light(obj, warnings)}
+        return None if portal else {"light": area_light(obj, warnings), **seen}
     if s.role != "FIELD":
         return None
     half = _local_half_extents(obj) if s.use_bounds else None

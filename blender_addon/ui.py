@@ -191,9 +191,14 @@ class OBJECT_PT_refrakt(PropertiesPanel, bpy.types.Panel):
     bl_context = "object"
 
     def draw(self, context):
-        s = context.object.refrakt
+        obj = context.object
+        s = obj.refrakt
         layout = self.layout
         layout.use_property_split = True
+        if obj.type == "LIGHT" and obj.data.type != "SUN":
+            # The one setting of Cycles' Ray Visibility panel (Cycles' own, not shown for refrakt)
+            # that refrakt reads: whether the camera sees the bulb or panel.
+            layout.prop(obj, "visible_camera", text="Seen by Camera")
         layout.prop(s, "role")
         if context.object == context.scene.refrakt.volume_bounds:
             layout.label(text="Volume bounds of the scene: not rendered", icon="INFO")

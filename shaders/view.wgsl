@@ -359,40 +359,39 @@ fn facet_numbers(k: u32, path: u32) -> vec2<f32> {
     return vec2<f32>(random01(key, path, 0u), random01(key, path, 1u));
 }
 
-// Ends a branch in the environment (and the lights it passes since `piece`, the start of its
-// last straight piece, once it met glass; `lobe_from`: where its last rough crossing was).
+// Whether a branch looks for the lights it passes (`lights_seen`): once it met glass, which shows
+// every light with a size, and before that where some light is visible to the camera.
+fn sees_lights(b: Branch) -> bool {
+    return b.events > 0u || has(VIEW_FLAG_VISIBLE_LIGHTS);
+}
+
+// Adds the light of the lights a branch passes from `piece` (the start of its last straight
+// piece) to `t_max` (`lights_seen`; `lobe_from`: where its last rough crossing was).
+fn pass_lights(out: ptr<function, ViewSample>, b: Branch, piece: vec3<f32>, t_max: f32, lobe_from: vec3<f32>) {
+    if sees_lights(b) {
+        (*out).radiance += b.weight * lights_seen(piece, b.d, t_max, b.lobe_pdf, lobe_from, b.events == 0u);
+    }
+}
+
+// Ends a branch in the environment, past the lights on its last straight piece.
 fn end_in_environment(out: ptr<function, ViewSample>, b: Branch, piece: vec3<f32>, lobe_from: vec3<f32>) {
     if companion_ends_here() {
         return;
     }
-    if b.events > 0u {
-        let seen = lights_seen(piece, b.d, NO_HIT, b.lobe_pdf, lobe_from);
-        (*out).radiance += b.weight * seen.radiance;
-        if seen.ends {
-            return;
-        }
-    }
+    pass_lights(out, b, piece, NO_HIT, lobe_from);
     if (*out).covered || params.env.visible != 0u {
         (*out).radiance += b.weight * env_radiance(env_map, env_sampler, params.env, b.d);
     }
 }
 
-// A branch meets a receiver: its shading, weighted by the branch and by the receiver's
-// coverage there (and, once it met glass, the lights it passed since `piece`, the start of its
-// last straight piece: one in front of the receiver ends the branch, as full coverage). Returns
-// the coverage: below 1 (a cut-out, a see-through surface) the branch goes on past it with the
-// rest of its weight.
+// A branch meets a receiver, past the lights on its last straight piece: the receiver's shading,
+// weighted by the branch and by its coverage there. Returns the coverage: below 1 (a cut-out, a
+// see-through surface) the branch goes on past it with the rest of its weight.
 fn meet_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, b: Branch, piece: vec3<f32>, lobe_from: vec3<f32>, k: u32) -> f32 {
     if companion_ends_here() {
         return 1.0;
     }
-    if b.events > 0u {
-        let seen = lights_seen(piece, b.d, distance(piece, p), b.lobe_pdf, lobe_from);
-        (*out).radiance += b.weight * seen.radiance;
-        if seen.ends {
-            return 1.0;
-        }
-    }
+    pass_lights(out, b, piece, distance(piece, p), lobe_from);
     let cover = coverage_of(receivers[bvh_triangles[hit.triangle].receiver], hit.triangle, hit.u, hit.v);
     if cover <= 0.0 {
         return cover;
@@ -407,6 +406,10 @@ fn meet_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, 
     return cover;
 }
 
+// cos(1 mrad): how far a curved path may turn before the lights it passes are looked for along a
+// new straight piece (`trace_branch`).
+const STRAIGHT_PIECE_COS: f32 = 0.9999995;
+
 // Cut-outs and see-through receivers a view branch goes on past, at most (its own bound beside
 // the shadow rays' `MAX_SEE_THROUGH`, the same count today).
 const MAX_RECEIVERS_PASSED: u32 = 8u;
@@ -418,9 +421,10 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
     var b = b0;
     let box_max = grid_box_max(grid);
     // Where the branch's current straight piece began (the lights it passes are looked for from
-    // there), and where it last crossed rough glass (whose light sampling the lights it meets
-    // share by multiple importance sampling, `lights_seen`).
+    // there) and its direction there, and where it last crossed rough glass (whose light
+    // sampling the lights it meets share by multiple importance sampling, `lights_seen`).
     var piece = b.x;
+    var piece_d = b.d;
     var lobe_from = b.x;
     // Each round marches the volume (where the branch is in it or before it) and ends on a
     // receiver, shaded at the one call of `meet_receiver` below (lavapipe inlines every call
@@ -479,15 +483,9 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                         break;
                     }
                     first_depth(out, s.x);
-                    if b.events > 0u {
-                        // The lights on the straight piece that ends here (a bulb in a glass
-                        // shade): the nearest ends the branch.
-                        let seen = lights_seen(piece, b.d, distance(piece, s.x), b.lobe_pdf, lobe_from);
-                        (*out).radiance += b.weight * seen.radiance;
-                        if seen.ends {
-                            return;
-                        }
-                    }
+                    // The lights on the straight piece that ends here (a bulb in a glass shade, a
+                    // softbox before the glass).
+                    pass_lights(out, b, piece, distance(piece, s.x), lobe_from);
                     let surface = glass_surface_at(hit);
                     // A glowing surface seen from its front (either side of a thin sheet).
                     if dot(hit.normal, b.d) < 0.0 || (interfaces[hit.interface_id].kind & INTERFACE_THIN) != 0u {
@@ -528,6 +526,7 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                         return;
                     }
                     piece = crossing_exit(c, s.x, b.d, next, 1e-3 * grid.voxel_size);
+                    piece_d = next;
                     lobe_from = piece;
                     s = ray_start(ior_grid, grid_sampler, grid, piece, next);
                     b.d = next;
@@ -540,7 +539,13 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                 if bends && dot(d_new, b.d) < 1.0 - 1e-9 {
                     b.d = d_new;
                     ahead_of.valid = false;
-                    piece = s.x;
+                    // A new straight piece once the path has turned by a milliradian: not at
+                    // every rounding of d, which near glass moved the piece's start past a
+                    // softbox the camera saw before it.
+                    if dot(b.d, piece_d) < STRAIGHT_PIECE_COS {
+                        piece = s.x;
+                        piece_d = b.d;
+                    }
                 }
                 if all(b.weight < vec3<f32>(1e-4)) {
                     return;

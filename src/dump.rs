@@ -148,6 +148,7 @@ fn light_json(l: &crate::scene::Light, d: &LightDesc) -> Value {
     let mut v = json!({
         "node": d.name, "kind": kind, "unit": unit, "intensity": l.intensity, "color": vec3(l.color),
         "radiant": vec3(d.radiant), "position": vec3(d.position), "direction": vec3(d.direction),
+        "visible": d.visible,
     });
     match l.kind {
         LightKind::Spot { angle, blend } => {

@@ -417,6 +417,8 @@ pub struct LightDesc {
     pub radiant: Vec3,
     /// Point and spot lights: the bulb's radius glass shows as a highlight, metres.
     pub radius: f32,
+    /// The camera sees its bulb or panel directly (`scene::Light::visible`).
+    pub visible: bool,
 }
 
 /// A homogeneous scattering medium filling the volume box.

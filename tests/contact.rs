@@ -158,21 +158,17 @@ fn priority_and_contact_are_read_from_lua_and_gltf() {
     let error = load_error("local g = require('refrakt').glass{ priority = 1.5 }", &Default::default());
     assert!(error.contains("priority") && error.contains("whole number"), "{error}");
 
-    let mut g = common::gltf_builder::GltfBuilder::new();
-    g.uses("KHR_materials_transmission", false);
-    let water = g.push("materials", serde_json::json!({ "name": "Water", "extras": { "refrakt": { "priority": 2 } },
-        "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } } }));
-    let mesh = g.mesh(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], &[[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], Some(water));
-    let node = g.push("nodes", serde_json::json!({ "name": "Drop", "mesh": mesh }));
-    let scene = g.scene("S", &[node]);
+    let (mut g, water, scene) = common::gltf_builder::tetrahedron_of(
+        serde_json::json!({ "name": "Water", "extras": { "refrakt": { "priority": 2 } },
+            "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } } }),
+        &["KHR_materials_transmission"],
+    );
     g.json["scenes"][scene]["extras"] = serde_json::json!({ "refrakt": { "volume": { "contact": 0.002 } } });
     let dir = tempfile::tempdir().unwrap();
-    let path = g.write_glb(&dir.path().join("drop.glb"));
-    let source = refrakt::render::GltfScene::load(&path, &[], &Default::default()).unwrap();
-    let desc = refrakt::scene::eval::evaluate(&source.scene, 0.0, &Default::default()).unwrap();
+    let desc = common::gltf_builder::frame_of_glb(&g, &dir.path().join("drop.glb")).unwrap();
     assert_eq!((desc.meshes[0].glass.priority, desc.volume.contact), (2, 0.002));
     g.json["materials"][water]["extras"]["refrakt"]["priority"] = serde_json::json!(5000);
-    let error = refrakt::render::GltfScene::load(&g.write_glb(&dir.path().join("bad.glb")), &[], &Default::default()).err().unwrap();
+    let error = common::gltf_builder::frame_of_glb(&g, &dir.path().join("bad.glb")).err().unwrap();
     assert!(format!("{error:#}").contains("priority"), "{error:#}");
 }
 

@@ -245,6 +245,10 @@ fn a_light_radius_in_node_extras_sizes_point_and_spot_bulbs() {
     let spot = g.push("nodes", light("Spot", 1, Some(0.0)));
     let plain = g.push("nodes", light("Plain", 0, None));
     let sun = g.push("nodes", light("Sun", 2, Some(0.3)));
+    // Seen by the camera: the bulb (and, skipped with a word, the sun).
+    for node in [bulb, sun] {
+        g.json["nodes"][node]["extras"]["refrakt"]["light_visible"] = json!(true);
+    }
     g.scene("S", &[bulb, spot, plain, sun]);
     let dir = tempfile::tempdir().unwrap();
     let s = load(&g.write_glb(&dir.path().join("r.glb"))).scene;
@@ -255,8 +259,11 @@ fn a_light_radius_in_node_extras_sizes_point_and_spot_bulbs() {
     let import = refrakt::gltf::import(&dir.path().join("r.glb"), "r.glb", &access, &ImportOptions::default()).unwrap();
     let warned = "r.glb: nodes[3] \"Sun\": extras.refrakt.light_radius is for point and spot lights; skipped";
     assert!(import.warnings.iter().any(|w| w.to_string() == warned), "{:?}", import.warnings);
+    let warned = "r.glb: nodes[3] \"Sun\": extras.refrakt.light_visible is for point, spot and area lights (a sun is never seen); skipped";
+    assert!(import.warnings.iter().any(|w| w.to_string() == warned), "{:?}", import.warnings);
     let desc = evaluate(&s, 0.0, &EvalOptions::default()).unwrap();
     assert_eq!(desc.lights.iter().map(|l| l.radius).take(3).collect::<Vec<_>>(), [0.25, 0.0, DEFAULT_LIGHT_RADIUS]);
+    assert_eq!(desc.lights.iter().map(|l| l.visible).collect::<Vec<_>>(), [true, false, false, false]);
 
     let mut bad = GltfBuilder::new();
     bad.uses("KHR_lights_punctual", false);

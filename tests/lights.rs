@@ -488,3 +488,51 @@ fn a_bulbs_radius_softens_its_shadow_as_its_disc_is_covered() {
     });
     assert!(worst < 0.03, "the penumbra departs from the covered disc's by {worst}");
 }
+
+/// Lights the camera sees (`visible = true`, Blender's Ray Visibility ▸ Camera), as Cycles shows
+/// them: a light is no surface, so what it adds goes on top of what lies behind it and it covers
+/// nothing. Looking up at a panel of radiance 1 W/m²/sr (683 nits) facing down, over a black
+/// sky, every pixel is 1 and transparent; before a glass block, every pixel is the block's plus
+/// 1, with the block's alpha and depth. A bulb of radius R and intensity π R² W/sr is a disc of
+/// radiance 1; a spot aimed away is not seen, nor a panel from behind, and a light left
+/// invisible (the default) adds nothing.
+#[test]
+fn the_camera_sees_visible_lights_added_to_what_lies_behind() {
+    let render = |eye: f32, light: &str, block: bool| {
+        let block = if block { "scene:add(r.node{ name = 'block', translation = {0, 1.3, 0}, shape = r.box{ size = {1, 0.2, 1} }, material = r.glass{ ior = 1.5 } })" } else { "" };
+        let desc = frame_from_lua(&format!(
+            "local r = require('refrakt')
+             local scene = r.scene{{ camera = r.camera{{ position = {{0, {eye}, 0}}, target = {{0, 1, 0}}, up = {{0, 0, -1}}, orthographic = 0.2, size = {{4, 4}} }},
+                                    environment = r.environment{{ color = {{0, 0, 0}} }}, photons = 2000, bounces = 0, samples = 4 }}
+             scene:add(r.node{{ name = 'floor', shape = r.plane{{ size = {{6, 6}} }}, material = r.diffuse{{ color = {{1, 1, 1}} }} }})
+             {block}
+             scene:add(r.node{{ name = 'lamp', translation = {{0, 1, 0}}, rotation = {{-90, 0, 0}}, light = {light} }})
+             return scene"
+        ));
+        shared_renderer().frame(&desc).unwrap()
+    };
+    let pixels = |image: &Image| (0..16).map(|i| rgb(layer(image, "beauty"), i)).collect::<Vec<_>>();
+    let alpha = |image: &Image| (0..16).map(|i| layer(image, "beauty").data[4 * i + 3]).collect::<Vec<_>>();
+    let panel = |visible: bool| format!("r.rect{{ size = {{1, 1}}, intensity = 683, visible = {visible} }}");
+    let over_sky = render(0.2, &panel(true), false);
+    assert!(pixels(&over_sky).iter().all(|p| (*p - Vec3::ONE).abs().max_element() < 1e-5), "a visible panel: {:?}", pixels(&over_sky));
+    assert!(alpha(&over_sky).iter().all(|&a| a == 0.0), "a light covers nothing: {:?}", alpha(&over_sky));
+    assert_eq!(pixels(&render(0.2, &panel(false), false)), vec![Vec3::ZERO; 16], "an invisible panel");
+    let (seen, unseen) = (render(0.2, &panel(true), true), render(0.2, &panel(false), true));
+    for (i, (p, q)) in pixels(&seen).iter().zip(pixels(&unseen)).enumerate() {
+        assert!((*p - q - Vec3::ONE).abs().max_element() < 1e-4, "pixel {i}: the block's {q} plus the panel's 1, got {p}");
+    }
+    assert!(pixels(&unseen).iter().all(|p| p.max_element() > 0.0), "the block shows the lit floor");
+    assert_eq!((alpha(&seen), &layer(&seen, "depth").data), (alpha(&unseen), &layer(&unseen, "depth").data), "the block's alpha and depth");
+    // From above, the camera sees the panel's back and the lit floor beyond it.
+    assert_eq!(pixels(&render(3.0, &panel(true), false)), pixels(&render(3.0, &panel(false), false)), "a panel seen from behind adds nothing");
+
+    // A bulb of radiance 1 (I = π R² W/sr) filling the view, and a spot aimed up, away from it.
+    let r = 0.3f32;
+    let bulb = format!("r.point{{ radius = {r}, intensity = {}, visible = true }}", 683.0 * PI * r * r);
+    for p in pixels(&render(0.2, &bulb, false)) {
+        assert!((p - Vec3::ONE).abs().max_element() < 1e-4, "a visible bulb of radiance 1: {p}");
+    }
+    let spot = format!("r.spot{{ radius = {r}, intensity = 1000, angle = 30, target = {{0, 2, 0}}, visible = true }}");
+    assert_eq!(pixels(&render(0.2, &spot, false)), vec![Vec3::ZERO; 16], "a spot aimed away is dark from behind");
+}

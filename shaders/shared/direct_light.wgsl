@@ -115,6 +115,13 @@ fn visibility(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
     return shadow_transmittance(p, w, dist);
 }
 
+// A point or spot light with a radius, seen from p outside its sphere: a bulb, lighting p from
+// the cone it fills. From inside (or on) the sphere it lights p as the point it is.
+fn is_bulb_seen_from(l: LightGpu, p: vec3<f32>) -> bool {
+    let to_centre = l.position - p;
+    return (l.kind == LIGHT_POINT || l.kind == LIGHT_SPOT) && l.radius > 0.0 && dot(to_centre, to_centre) > l.radius * l.radius * 1.0001;
+}
+
 // Light l as seen from p (one shadow sample, k picks it): the unit direction toward it, its
 // intensity toward p (the sun: its illuminance) and the squared distance it falls off with
 // (1 for the sun), and how far the shadow ray goes.
@@ -144,9 +151,7 @@ fn light_arrival(l: LightGpu, p: vec3<f32>, k: u32) -> LightArrival {
     if l.kind == LIGHT_MESH {
         return glowing_mesh_arrival(l, p, rotated);
     }
-    let to_centre = l.position - p;
-    let bulb = (l.kind == LIGHT_POINT || l.kind == LIGHT_SPOT) && l.radius > 0.0;
-    if bulb && dot(to_centre, to_centre) > l.radius * l.radius * 1.0001 {
+    if is_bulb_seen_from(l, p) {
         return bulb_arrival(l, p, rotated);
     }
     var aim = l.position;
@@ -341,42 +346,40 @@ fn share_of_lobe(lobe_pdf: f32, light_pdf: f32) -> f32 {
     return select(1.0, lobe_pdf / (lobe_pdf + light_pdf), lobe_pdf > 0.0);
 }
 
-// The lights a path that met glass sees along o + t·d, 0 < t < t_max: the nearest bulb of a point
-// or spot light (a sphere of its radius r whose radiance toward the viewer is I(ω) / (π r²)) or
-// area light seen from its front (a one-sided panel of radiance L: a softbox's highlight in
-// glass), which ends the path as a surface would (`ends`); else the suns' discs (a uniform disc
-// of its angular radius: E over its solid angle 2π(1 − cos α)), seen by a path that leaves the
-// scene, over the sky. Where the path's last rough crossing (at `lobe_from`, on the same line
-// behind o) also sampled the lights (`lobe_pdf` > 0: `lights_through_rough`), each light gives
-// its share by the balance heuristic, its density taken as that crossing drew it: a sun's 1/Ω,
-// a bulb's 1/Ω(lobe_from), an area light's distance² / (A cos θ) from lobe_from.
-struct LightsSeen {
-    radiance: vec3<f32>,
-    ends: bool,
-}
-
-fn lights_seen(o: vec3<f32>, d: vec3<f32>, t_max: f32, lobe_pdf: f32, lobe_from: vec3<f32>) -> LightsSeen {
-    var suns = vec3<f32>(0.0);
-    var nearest = t_max;
-    var seen = LightsSeen(vec3<f32>(0.0), false);
+// The light a path sees of the lights along o + t·d, 0 < t < t_max: each bulb of a point or spot
+// light it passes (a sphere of its radius r whose radiance toward the viewer is I(ω) / (π r²)),
+// each area light it passes in front of (a one-sided panel of radiance L: a softbox's highlight
+// in glass) and, where the path leaves the scene, the suns' discs over the sky (a uniform disc of
+// its angular radius: E over its solid angle 2π(1 − cos α)). As in Cycles, a light is no
+// surface: it adds its light and the path goes on to what lies behind it (and covers nothing
+// in the frame's alpha and depth). Where the path's last rough crossing (at `lobe_from`, on the
+// same line behind o) also sampled the lights (`lobe_pdf` > 0: `lights_through_rough`), each
+// light gives its share by the balance heuristic, its density taken as that crossing drew it: a
+// sun's 1/Ω, a bulb's 1/Ω(lobe_from), an area light's distance² / (A cos θ) from lobe_from. A
+// camera ray that met no glass (`camera`) sees only the lights marked visible (Blender's Ray
+// Visibility ▸ Camera; never a sun's disc).
+fn lights_seen(o: vec3<f32>, d: vec3<f32>, t_max: f32, lobe_pdf: f32, lobe_from: vec3<f32>, camera: bool) -> vec3<f32> {
+    var seen = vec3<f32>(0.0);
     for (var i = 0u; i < params.light_count; i++) {
         let light = lights[i];
+        if camera && light.visible == 0u {
+            continue;
+        }
         if light.kind == LIGHT_SUN {
             if t_max >= NO_HIT && light.half_angle > 0.0 && dot(d, -light.direction) >= cos(light.half_angle) {
                 let solid_angle = cone_solid_angle(light.half_angle);
-                suns += light.radiant / solid_angle * share_of_lobe(lobe_pdf, 1.0 / solid_angle);
+                seen += light.radiant / solid_angle * share_of_lobe(lobe_pdf, 1.0 / solid_angle);
             }
         } else if light.kind == LIGHT_RECT || light.kind == LIGHT_DISK {
             let facing = -dot(d, light.direction);
             let t = dot(light.position - o, light.direction) / -facing;
-            if facing > 0.0 && t > 0.0 && t < nearest {
+            if facing > 0.0 && t > 0.0 && t < t_max {
                 let q = o + d * t - light.position;
                 let xy = vec2<f32>(dot(q, light.right) / light.size_x, dot(q, light.up) / light.size_y) * 2.0;
                 let inside = select(max(abs(xy.x), abs(xy.y)) <= 1.0, dot(xy, xy) <= 1.0, light.kind == LIGHT_DISK);
                 if inside {
                     let from_crossing = distance(lobe_from, o + d * t);
-                    nearest = t;
-                    seen = LightsSeen(light.radiant * share_of_lobe(lobe_pdf, from_crossing * from_crossing / (area_light_area(light) * facing)), true);
+                    seen += light.radiant * share_of_lobe(lobe_pdf, from_crossing * from_crossing / (area_light_area(light) * facing));
                 }
             }
         } else if light.radius > 0.0 {
@@ -384,15 +387,11 @@ fn lights_seen(o: vec3<f32>, d: vec3<f32>, t_max: f32, lobe_pdf: f32, lobe_from:
             let b = dot(oc, d);
             let disc = b * b - (dot(oc, oc) - light.radius * light.radius);
             let t = -b - sqrt(max(disc, 0.0));
-            if disc >= 0.0 && t > 0.0 && t < nearest {
+            if disc >= 0.0 && t > 0.0 && t < t_max {
                 let radiance = light_intensity(light, -d) / (PI * light.radius * light.radius);
-                nearest = t;
-                seen = LightsSeen(radiance * share_of_lobe(lobe_pdf, 1.0 / bulb_solid_angle(light, lobe_from)), true);
+                seen += radiance * share_of_lobe(lobe_pdf, 1.0 / bulb_solid_angle(light, lobe_from));
             }
         }
-    }
-    if !seen.ends {
-        seen.radiance = suns;
     }
     return seen;
 }
@@ -444,8 +443,7 @@ fn lights_through_rough(p: vec3<f32>, b: Branch, c: Crossing, alpha: f32, k: u32
     var light = vec3<f32>(0.0);
     for (var i = 0u; i < params.light_count; i++) {
         let l = lights[i];
-        let to_centre = l.position - p;
-        let bulb = (l.kind == LIGHT_POINT || l.kind == LIGHT_SPOT) && l.radius > 0.0 && dot(to_centre, to_centre) > l.radius * l.radius * 1.0001;
+        let bulb = is_bulb_seen_from(l, p);
         let area = l.kind == LIGHT_RECT || l.kind == LIGHT_DISK;
         if l.kind == LIGHT_MESH || (l.kind != LIGHT_SUN && !bulb && !area && l.radius > 0.0) {
             continue;

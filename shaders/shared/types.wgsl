@@ -265,6 +265,11 @@ struct LightGpu {
     triangle_count: u32,
     area: f32,
     sides: u32,
+    // 1: camera rays see the bulb or panel; 0: only glass shows it.
+    visible: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // One triangle of a glowing mesh: corner v0, edges e1 and e2, and the mesh's area fraction up to
@@ -393,6 +398,7 @@ const VIEW_FLAG_SEE_THROUGH: u32 = 8u;
 const VIEW_FLAG_SPECULAR: u32 = 16u;
 const VIEW_FLAG_SPECTRAL: u32 = 32u;
 const VIEW_FLAG_INDIRECT: u32 = 64u;
+const VIEW_FLAG_VISIBLE_LIGHTS: u32 = 128u;
 
 const MARCH_FLAG_DEPOSIT_RADIANCE: u32 = 1u;
 const MARCH_FLAG_DEPOSIT_DIRECTION: u32 = 2u;

@@ -3,7 +3,7 @@
 //!
 //! - `scenes[i].extras.refrakt`: photons, samples, volume, environment, fog;
 //! - `nodes[i].extras.refrakt`: an analytic index field instead of the node's mesh, or
-//!   `{"role": "ignore"}`; `light_radius` for the node's point or spot light; `light`, an area
+//!   `{"role": "ignore"}`; `light_radius` and `light_visible` for the node's light; `light`, an area
 //!   light KHR_lights_punctual has no type for (a `rect`: Blender's area lights);
 //! - `materials[i].extras.refrakt`: absorption, scattering, g and boundary of the medium;
 //! - `cameras[i].extras.refrakt`: a thin lens (aperture, focus, blades, blade_rotation).
@@ -147,6 +147,9 @@ pub struct NodeExtras {
     pub boundary: Option<f32>,
     /// The bulb radius of the node's point or spot light, metres (Blender's light radius).
     pub light_radius: Option<f32>,
+    /// Whether the camera sees the node's point, spot or area light (Blender's Ray Visibility ▸
+    /// Camera; refrakt's `visible`). Absent: not seen, as KHR_lights_punctual's points are not.
+    pub light_visible: Option<bool>,
     /// A light of a kind KHR_lights_punctual lacks.
     pub light: Option<LightExtras>,
 }
@@ -181,11 +184,12 @@ pub struct RectExtras {
     pub intensity: f32,
 }
 
-/// What a node's extras say: its role, its light's radius, and an area light.
+/// What a node's extras say: its role, its light's radius and visibility, and an area light.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct NodeSettings {
     pub role: Option<NodeRole>,
     pub light_radius: Option<f32>,
+    pub light_visible: Option<bool>,
     pub rect: Option<RectExtras>,
 }
 
@@ -216,7 +220,7 @@ pub enum FieldType {
     Slab,
 }
 
-const NODE_KEYS: &[&str] = &["role", "field", "radius", "size", "ior", "gradient", "boundary", "light_radius", "light"];
+const NODE_KEYS: &[&str] = &["role", "field", "radius", "size", "ior", "gradient", "boundary", "light_radius", "light_visible", "light"];
 const LIGHT_KEYS: &[&str] = &["type", "size", "color", "intensity"];
 
 pub fn node_settings(node: &gltf::Node, file: &str, warnings: &mut Collector) -> Result<NodeSettings> {
@@ -228,7 +232,8 @@ pub fn node_settings(node: &gltf::Node, file: &str, warnings: &mut Collector) ->
         Some(l) => Some(rect_light(l, file, &what, warnings)?),
         None => None,
     };
-    Ok(NodeSettings { role: node_role(n, file, &what)?, light_radius, rect })
+    let light_visible = n.light_visible;
+    Ok(NodeSettings { role: node_role(n, file, &what)?, light_radius, light_visible, rect })
 }
 
 fn rect_light(l: &LightExtras, file: &str, what: &str, warnings: &mut Collector) -> Result<RectExtras> {

@@ -104,11 +104,7 @@ impl<'a> Materials<'a> {
         if !factors.iter().all(|f| f.is_finite()) {
             bail!("{file}: {what}: baseColorFactor, metallicFactor, roughnessFactor and alphaCutoff must be finite");
         }
-        let emission = Vec3::from(m.emissive_factor());
-        let strength = m.emissive_strength().unwrap_or(1.0);
-        if !emission.is_finite() || !strength.is_finite() || strength < 0.0 {
-            bail!("{file}: {what}: emissiveFactor and KHR_materials_emissive_strength must be finite (the strength ≥ 0)");
-        }
+        let (emission, strength) = emissive(m, file, what)?;
         let mut d = Diffuse {
             color: Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE),
             alpha: a.clamp(0.0, 1.0),
@@ -121,7 +117,7 @@ impl<'a> Materials<'a> {
             metallic: pbr.metallic_factor().clamp(0.0, 1.0),
             roughness: pbr.roughness_factor().clamp(0.0, 1.0),
             specular: m.specular().map_or(1.0, |s| s.specular_factor()).clamp(0.0, 1.0),
-            emission: emission.max(Vec3::ZERO),
+            emission,
             emission_strength: strength,
             ..Diffuse::pbr()
         };
@@ -223,11 +219,8 @@ impl<'a> Materials<'a> {
             maps.push(("metallic-roughness", UvMap::of(&info, file, what)?));
             glass.roughness_texture = Some(self.texture(&info, what, "metallic-roughness", false)?);
         }
-        let strength = m.emissive_strength().unwrap_or(1.0);
-        glass.emission = Vec3::from(m.emissive_factor()) * strength;
-        if !glass.emission.is_finite() || !strength.is_finite() || glass.emission.min_element() < 0.0 {
-            bail!("{file}: {what}: emissiveFactor and KHR_materials_emissive_strength must be finite and ≥ 0");
-        }
+        let (emission, strength) = emissive(m, file, what)?;
+        glass.emission = emission * strength;
         if glass.emission != Vec3::ZERO {
             if let Some(info) = m.emissive_texture() {
                 maps.push(("emissive", UvMap::of(&info, file, what)?));
@@ -289,6 +282,17 @@ fn wrap(mode: gltf::texture::WrappingMode) -> Wrap {
         gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
         gltf::texture::WrappingMode::MirroredRepeat => Wrap::Mirror,
     }
+}
+
+/// A material's emission: glTF's emissiveFactor (components below 0, outside the spec's 0..1,
+/// taken as 0) and KHR_materials_emissive_strength (1 when absent), for receivers and glass alike.
+fn emissive(m: &gltf::Material, file: &str, what: &str) -> Result<(Vec3, f32)> {
+    let factor = Vec3::from(m.emissive_factor());
+    let strength = m.emissive_strength().unwrap_or(1.0);
+    if !factor.is_finite() || !strength.is_finite() || strength < 0.0 {
+        bail!("{file}: {what}: emissiveFactor and KHR_materials_emissive_strength must be finite (the strength ≥ 0)");
+    }
+    Ok((factor.max(Vec3::ZERO), strength))
 }
 
 /// KHR_materials_transmission's roughness is the material's metallic-roughness roughness

@@ -118,12 +118,12 @@ impl<'a> Builder<'a, '_> {
         node.origin = Origin(format!("{} nodes[{}]", self.file(), g.index()));
         node.transform = transform(g, self.file(), &what)?;
         let settings = extras::node_settings(g, self.file(), self.warnings)?;
-        let role = settings.role;
+        let role = settings.role.clone();
         let node = shared(node);
         self.graph.nodes[g.index()] = Rc::downgrade(&node);
         if role != Some(NodeRole::Ignore) {
             self.camera(g, &node, &what)?;
-            self.light(g, &node, settings.light_radius, settings.rect)?;
+            self.light(g, &node, &settings)?;
             match role {
                 Some(NodeRole::Field(f)) => self.field(g, &node, &f)?,
                 _ => self.mesh(g, &node)?,
@@ -177,21 +177,25 @@ impl<'a> Builder<'a, '_> {
     /// KHR_lights_punctual: intensity in candela (point, spot) or lux (directional), which is
     /// what refrakt's lights take; spot cones by their outer and inner half-angles; a point or
     /// spot light's bulb radius from the node's `extras.refrakt.light_radius`. An area light
-    /// (which KHR_lights_punctual lacks) from the node's `extras.refrakt.light`.
-    fn light(&mut self, g: &gltf::Node, node: &Shared<Node>, radius: Option<f32>, rect: Option<extras::RectExtras>) -> Result<()> {
+    /// (which KHR_lights_punctual lacks) from the node's `extras.refrakt.light`; whether the
+    /// camera sees either from `extras.refrakt.light_visible`.
+    fn light(&mut self, g: &gltf::Node, node: &Shared<Node>, settings: &extras::NodeSettings) -> Result<()> {
         let bulb = g.light().is_some_and(|l| !matches!(l.kind(), gltf::khr_lights_punctual::Kind::Directional));
-        if radius.is_some() && !bulb {
-            let what = format!("nodes[{}]{}", g.index(), mesh::quoted(g.name()));
-            self.warnings.about(what, "extras.refrakt.light_radius is for point and spot lights; skipped");
+        let what = || format!("nodes[{}]{}", g.index(), mesh::quoted(g.name()));
+        if settings.light_radius.is_some() && !bulb {
+            self.warnings.about(what(), "extras.refrakt.light_radius is for point and spot lights; skipped");
         }
-        if let Some(r) = rect {
+        let visible = settings.light_visible.unwrap_or(false);
+        if settings.light_visible.is_some() && !bulb && settings.rect.is_none() {
+            self.warnings.about(what(), "extras.refrakt.light_visible is for point, spot and area lights (a sun is never seen); skipped");
+        }
+        if let Some(r) = &settings.rect {
             if g.light().is_some() {
-                let what = format!("nodes[{}]{}", g.index(), mesh::quoted(g.name()));
-                self.warnings.about(what, "has a KHR_lights_punctual light, which it keeps; extras.refrakt.light skipped");
+                self.warnings.about(what(), "has a KHR_lights_punctual light, which it keeps; extras.refrakt.light skipped");
             } else {
                 // The node's transform, animated or not, places and aims it; its power, colour
                 // and size animate through pointers into the node's extras.
-                let light = shared(Light { color: r.color, intensity: r.intensity, ..Light::new(LightKind::Rect { size: r.size, round: r.round }) });
+                let light = shared(Light { color: r.color, intensity: r.intensity, visible, ..Light::new(LightKind::Rect { size: r.size, round: r.round }) });
                 self.graph.animated.area_lights[g.index()] = Rc::downgrade(&light);
                 node.borrow_mut().light = Some(light);
                 return Ok(());
@@ -215,8 +219,8 @@ impl<'a> Builder<'a, '_> {
         if !(color.is_finite() && color.min_element() >= 0.0 && intensity.is_finite() && intensity >= 0.0) {
             bail!("{}: {what}: color and intensity must be finite and ≥ 0", self.file());
         }
-        let mut light = Light { color, intensity, ..Light::new(kind) };
-        if let (true, Some(r)) = (bulb, radius) {
+        let mut light = Light { color, intensity, visible: bulb && visible, ..Light::new(kind) };
+        if let (true, Some(r)) = (bulb, settings.light_radius) {
             light.radius = r;
         }
         let light = shared(light);

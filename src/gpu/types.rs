@@ -419,6 +419,11 @@ gpu_struct! {
         /// light would only land on the mesh itself).
         pub area: f32,
         pub sides: u32,
+        /// 1: camera rays see the bulb or panel (`frame::LightDesc::visible`), 0: only glass shows it.
+        pub visible: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+        pub _pad2: u32,
     }
 }
 
@@ -678,6 +683,8 @@ pub mod view_flags {
     pub const SPECTRAL: u32 = 32;
     /// Bounce photons were traced: receivers read their indirect maps.
     pub const INDIRECT: u32 = 64;
+    /// Some light's bulb or panel is seen by camera rays (`LightGpu::visible`).
+    pub const VISIBLE_LIGHTS: u32 = 128;
 }
 
 /// `PhotonParams::flags` bits.
@@ -773,7 +780,7 @@ mod tests {
         check::<CausticLevel>(&module);
     }
 
-    /// Every `const INTERFACE_*` and `FIELD_*` of types.wgsl has the value its Rust twin has
+    /// Every `const INTERFACE_*`, `FIELD_*` and `VIEW_FLAG_*` of types.wgsl has the value its Rust twin has
     /// (a flag added on one side only would be read as another).
     #[test]
     fn rust_and_wgsl_kind_constants_agree() {
@@ -783,12 +790,16 @@ mod tests {
             ("INTERFACE_SHAPE", i::SHAPE), ("INTERFACE_THIN", i::THIN), ("INTERFACE_SINGLE_SCATTERING", i::SINGLE_SCATTERING),
             ("INTERFACE_BIT", i::BIT), ("FIELD_SPHERE", field_kind::SPHERE), ("FIELD_BOX", field_kind::BOX),
             ("FIELD_LUNEBURG", field_kind::LUNEBURG), ("FIELD_SLAB", field_kind::SLAB), ("FIELD_SAMPLED", field_kind::SAMPLED),
+            ("VIEW_FLAG_MEDIA", view_flags::MEDIA), ("VIEW_FLAG_SCATTERING", view_flags::SCATTERING),
+            ("VIEW_FLAG_CAUSTICS", view_flags::CAUSTICS), ("VIEW_FLAG_SEE_THROUGH", view_flags::SEE_THROUGH),
+            ("VIEW_FLAG_SPECULAR", view_flags::SPECULAR), ("VIEW_FLAG_SPECTRAL", view_flags::SPECTRAL),
+            ("VIEW_FLAG_INDIRECT", view_flags::INDIRECT), ("VIEW_FLAG_VISIBLE_LIGHTS", view_flags::VISIBLE_LIGHTS),
         ];
         let text = include_str!("../../shaders/shared/types.wgsl");
         let wgsl: Vec<(&str, u32)> = text
             .lines()
             .filter_map(|l| l.strip_prefix("const ")?.split_once(": u32 = "))
-            .filter(|(name, _)| name.starts_with("INTERFACE_") || name.starts_with("FIELD_"))
+            .filter(|(name, _)| ["INTERFACE_", "FIELD_", "VIEW_FLAG_"].iter().any(|p| name.starts_with(p)))
             .map(|(name, v)| {
                 let v = v.trim_end_matches(';').trim_end_matches('u');
                 (name, v.strip_prefix("0x").map_or_else(|| v.parse(), |hex| u32::from_str_radix(hex, 16)).unwrap())

@@ -511,10 +511,10 @@ impl LuaObject for Material {
 // ---------------------------------------------------------------------------------------------
 // Lights.
 
-const POINT_FIELDS: &[&str] = &["color", "intensity", "power", "radius"];
-const SPOT_FIELDS: &[&str] = &["color", "intensity", "power", "angle", "blend", "target", "radius"];
+const POINT_FIELDS: &[&str] = &["color", "intensity", "power", "radius", "visible"];
+const SPOT_FIELDS: &[&str] = &["color", "intensity", "power", "angle", "blend", "target", "radius", "visible"];
 const SUN_FIELDS: &[&str] = &["color", "intensity", "strength", "direction", "angular_diameter"];
-const RECT_FIELDS: &[&str] = &["color", "intensity", "size", "target"];
+const RECT_FIELDS: &[&str] = &["color", "intensity", "size", "target", "visible"];
 
 /// Candela per watt of a point light radiating equally in all directions: 683 lm/W / 4π sr.
 const CANDELA_PER_WATT: f32 = LUMENS_PER_WATT / (4.0 * std::f32::consts::PI);
@@ -547,6 +547,7 @@ impl LuaObject for Light {
             (LightKind::Spot { angle, .. }, "angle") => num(angle.to_degrees()),
             (LightKind::Spot { blend, .. }, "blend") => num(*blend),
             (LightKind::Point | LightKind::Spot { .. }, "radius") => num(self.radius),
+            (LightKind::Point | LightKind::Spot { .. } | LightKind::Rect { .. }, "visible") => Ok(Value::Boolean(self.visible)),
             (LightKind::Sun { angular_diameter }, "angular_diameter") => num(angular_diameter.to_degrees()),
             (LightKind::Rect { size, .. }, "size") => lua.create_sequence_from(size.to_array().map(decimal))?.into_lua(lua),
             (LightKind::Spot { .. } | LightKind::Rect { .. }, "target") => self.target.map_or(Ok(Value::Nil), |t| vec_value(lua, t)),
@@ -567,6 +568,9 @@ impl LuaObject for Light {
             (LightKind::Sun { .. }, "strength") => self.intensity = cv::non_negative(lua, name, &value)? * LUMENS_PER_WATT,
             (LightKind::Point | LightKind::Spot { .. }, "radius") => {
                 self.radius = cv::number_in(lua, name, &value, Some(0.0), Some(10.0), "a radius in metres from 0 to 10")? as f32
+            }
+            (LightKind::Point | LightKind::Spot { .. } | LightKind::Rect { .. }, "visible") => {
+                self.visible = cv::boolean(lua, name, &value)?
             }
             (LightKind::Spot { angle, .. }, "angle") => {
                 *angle = (cv::number_in(lua, name, &value, Some(0.1), Some(90.0), "a half-angle in degrees from 0.1 to 90")?

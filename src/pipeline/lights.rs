@@ -41,6 +41,10 @@ pub fn light_gpu(l: &LightDesc, media: [u32; 2]) -> LightGpu {
         triangle_count,
         area,
         sides,
+        visible: l.visible.into(),
+        _pad0: 0,
+        _pad1: 0,
+        _pad2: 0,
     }
 }
 

@@ -89,6 +89,8 @@ pub fn mesh_lights<'a>(receivers: impl IntoIterator<Item = &'a Receiver>) -> Mes
             up: Vec3::Z,
             radiant: radiance,
             radius: 0.0,
+            // The camera sees the glowing mesh itself.
+            visible: false,
         });
     }
     out

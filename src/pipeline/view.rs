@@ -151,6 +151,9 @@ pub fn view_params(desc: &FrameDesc, inputs: &ViewInputs) -> ViewParams {
     if desc.receivers.iter().any(|r| r.diffuse.is_pbr()) {
         flags |= view_flags::SPECULAR;
     }
+    if desc.lights.iter().any(|l| l.visible) {
+        flags |= view_flags::VISIBLE_LIGHTS;
+    }
     let spectrum = desc.spectrum();
     if spectrum.spectral {
         flags |= view_flags::SPECTRAL;

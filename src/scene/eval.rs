@@ -331,6 +331,7 @@ fn light_of(p: &Placed) -> Result<Option<LightDesc>> {
         up,
         radiant: light.color * light.intensity / LUMENS_PER_WATT,
         radius: light.radius,
+        visible: light.visible && !matches!(light.kind, LightKind::Sun { .. }),
     }))
 }
 

@@ -37,6 +37,11 @@ pub struct Light {
     /// Radius of a point or spot light's bulb, metres (Blender's light radius): its soft
     /// shadows, and the sphere glass shows of it. Its photons still leave from its centre.
     pub radius: f32,
+    /// The camera sees the bulb (a point or spot light's sphere of `radius`) or the panel (rect,
+    /// disk) directly, as Blender's *Ray Visibility ▸ Camera*: a softbox in the frame shows as
+    /// the bright surface it is. Glass shows every light with a size, whatever this says; a sun
+    /// is never seen directly (Cycles' neither).
+    pub visible: bool,
 }
 
 /// A point or spot light's radius unless set (Blender's default is 0.1 m; a smaller bulb keeps
@@ -45,6 +50,6 @@ pub const DEFAULT_LIGHT_RADIUS: f32 = 0.05;
 
 impl Light {
     pub fn new(kind: LightKind) -> Self {
-        Self { kind, color: Vec3::ONE, intensity: 1.0, target: None, direction: None, radius: DEFAULT_LIGHT_RADIUS }
+        Self { kind, color: Vec3::ONE, intensity: 1.0, target: None, direction: None, radius: DEFAULT_LIGHT_RADIUS, visible: false }
     }
 }

@@ -63,6 +63,8 @@ def lights_scene():
         disk.data.keyframe_insert("color", frame=frame)
     oval = area_light("Oval", "ELLIPSE", (0.8, 0.3), 20.0, (-2.0, 0.0, 2.0))
     oval.data.spread = math.radians(90.0)
+    # Ray Visibility ▸ Camera (off by default in Blender 4.5), on for the panel only.
+    panel.visible_camera, square.visible_camera, oval.visible_camera = True, False, False
     portal = area_light("Portal", "SQUARE", (1.0, 1.0), 10.0, (0.0, 3.0, 1.0))
     portal.data.cycles.is_portal = True
     scene.frame_set(1)
@@ -111,6 +113,7 @@ def test_area_lights_reach_the_node_extras(addon, saved_blend):
     assert any("'Oval': its spread is 90°" in w for w in warnings), warnings
     assert not any("'Panel': its spread" in w for w in warnings), warnings
     assert "refrakt" not in (gltf.node("Portal").get("extras") or {})
+    assert [gltf.node(n)["extras"]["refrakt"]["light_visible"] for n in ("Panel", "Square", "Oval")] == [True, False, False]
     # The exporter's light nodes keep Blender's local axes: −Z forward, the size along X and Y,
     # at every frame of the animation.
     fps = 24.0
@@ -146,6 +149,7 @@ def test_refrakt_reads_area_lights_as_rects_and_disks(addon, real_refrakt, saved
             assert light["intensity"] == pytest.approx(intensity, rel=1e-5)
             # radiant: W/(m²·sr), Cycles' P / (π · A) times the colour.
             assert light["radiant"] == pytest.approx([c * intensity / 683.0 for c in obj.data.color], rel=1e-5)
+            assert light["visible"] == obj.visible_camera, name
             world = scenes.gltf_world(obj)
             assert (Vector(light["position"]) - world.translation).length < MATRIX_TOLERANCE, (name, k)
             forward = (world @ Vector((0, 0, -1, 0))).xyz.normalized()
@@ -188,21 +192,27 @@ def floor_scene(shape):
     Cycles' default surface (diffuse 0.8), a black world, and a camera 0.6 m above the floor
     looking straight down (90° field of view: it sees 1.2 × 1.2 m of floor under the light,
     which is behind it)."""
-    scene = bpy.context.scene
-    scene.render.resolution_x = scene.render.resolution_y = SIZE
-    scene.render.resolution_percentage = 100
-    scene.frame_start = scene.frame_end = 1
     bpy.ops.mesh.primitive_plane_add(size=6.0)
     bpy.context.object.name = "Floor"
     if shape == "GLOWING":
         glowing_square("Lamp", WATTS / math.pi, (0.0, 0.0, 1.0))
     else:
         area_light("Lamp", shape, (1.0, 1.0), WATTS, (0.0, 0.0, 1.0))
+    return wide_camera_scene((0.0, 0.0, 0.6), (0.0, 0.0, 0.0))
+
+
+def wide_camera_scene(location, rotation):
+    """The scene's camera (90° field of view, SIZE² pixels) at `location`, turned by `rotation`
+    (radians), a black world, and frames as 32-bit EXR of linear radiance."""
+    scene = bpy.context.scene
+    scene.render.resolution_x = scene.render.resolution_y = SIZE
+    scene.render.resolution_percentage = 100
+    scene.frame_start = scene.frame_end = 1
     cam_data = bpy.data.cameras.new("Camera")
     cam_data.sensor_fit, cam_data.sensor_width, cam_data.lens = "AUTO", 36.0, 18.0
     cam = bpy.data.objects.new("Camera", cam_data)
     scene.collection.objects.link(cam)
-    cam.location = (0.0, 0.0, 0.6)
+    cam.location, cam.rotation_euler = location, rotation
     scene.camera = cam
     world = bpy.data.worlds.new("Black")
     world.use_nodes = True
@@ -226,14 +236,33 @@ def rgb(path):
     return np.stack([channels[c] for c in "RGB"], axis=-1)
 
 
-def central(size=SIZE):
-    """The middle half of the image's rows and columns: 0.6 × 0.6 m of floor under the light."""
-    q = size // 4
-    return slice(q, size - q)
+def central(size=SIZE, keep=2):
+    """The middle 1/keep of the image's rows and columns (a half: 0.6 × 0.6 m of floor under the
+    light)."""
+    q = size // (2 * keep)
+    return slice(size // 2 - q, size // 2 + q)
 
 
-def central_mean(pixels):
-    return float(pixels[central(), central()].mean())
+def central_mean(pixels, keep=2):
+    return float(pixels[central(keep=keep), central(keep=keep)].mean())
+
+
+def render_both(scene, tmp_path, saved_blend, real_refrakt, cycles_samples):
+    """The scene's frame by Cycles (CPU, no denoising, no clamping) and by refrakt through the
+    engine (the real binary): their RGB."""
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples, scene.cycles.use_adaptive_sampling, scene.cycles.use_denoising = cycles_samples, False, False
+    scene.cycles.sample_clamp_direct = scene.cycles.sample_clamp_indirect = 0.0
+    scene.render.filepath = str(tmp_path / "cycles")
+    saved_blend()
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    scene.render.engine = "REFRAKT"
+    prefs().binary = real_refrakt
+    scene.refrakt.samples, scene.refrakt.photons, scene.refrakt.volume_resolution = REFRAKT_SAMPLES, 1000, 16
+    scene.render.filepath = str(tmp_path / "refrakt")
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    return rgb(tmp_path / "cycles.exr"), rgb(tmp_path / "refrakt.exr")
 
 
 def form_factor(x, y):
@@ -261,22 +290,7 @@ def test_area_light_on_a_floor_matches_cycles(shape, addon, real_refrakt, saved_
     """Cycles (no denoising, no clamping) and refrakt through the engine on the same scene: the
     mean floor radiance under the light (a disk reaches refrakt as a disk, a glowing plane as a
     glowing mesh)."""
-    scene = floor_scene(shape)
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples, scene.cycles.use_adaptive_sampling, scene.cycles.use_denoising = CYCLES_SAMPLES, False, False
-    scene.cycles.sample_clamp_direct = scene.cycles.sample_clamp_indirect = 0.0
-    scene.render.filepath = str(tmp_path / "cycles")
-    saved_blend()
-    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
-    cycles = central_mean(rgb(tmp_path / "cycles.exr"))
-
-    scene.render.engine = "REFRAKT"
-    prefs().binary = real_refrakt
-    scene.refrakt.samples, scene.refrakt.photons, scene.refrakt.volume_resolution = REFRAKT_SAMPLES, 1000, 16
-    scene.render.filepath = str(tmp_path / "refrakt")
-    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
-    ours = central_mean(rgb(tmp_path / "refrakt.exr"))
+    cycles, ours = map(central_mean, render_both(floor_scene(shape), tmp_path, saved_blend, real_refrakt, CYCLES_SAMPLES))
 
     line = f"\n{shape}: mean floor radiance over 0.6 × 0.6 m: Cycles {cycles:.4f}, refrakt {ours:.4f} ({100 * (ours / cycles - 1):+.2f} %)"
     if shape in ("SQUARE", "GLOWING"):
@@ -288,3 +302,28 @@ def test_area_light_on_a_floor_matches_cycles(shape, addon, real_refrakt, saved_
     else:
         print(line)
     assert ours == pytest.approx(cycles, rel=0.05)
+
+
+@pytest.mark.parametrize("kind", ["SQUARE", "POINT", "HIDDEN"])
+def test_lights_the_camera_sees_match_cycles(kind, addon, real_refrakt, saved_blend, tmp_path):
+    """A camera at the origin looking straight up at a light 1 m above, as Cycles shows it where
+    its Ray Visibility ▸ Camera is on: a 1 m square of WATTS facing down is a panel of radiance
+    P / (π · 1 m²); a point light of WATTS and radius 0.4 m a sphere of radiance
+    P / (4π · π r²); the square with Camera visibility off is not seen (black world, nothing
+    else). The mean over the middle quarter of the frame's rows and columns, well inside the light."""
+    if kind == "POINT":
+        data = bpy.data.lights.new("Lamp", "POINT")
+        data.energy, data.shadow_soft_size = WATTS, 0.4
+        lamp = bpy.data.objects.new("Lamp", data)
+        bpy.context.scene.collection.objects.link(lamp)
+        lamp.location, lamp.visible_camera = (0.0, 0.0, 1.0), True
+        expected = WATTS / (4 * math.pi) / (math.pi * 0.4 ** 2)
+    else:
+        lamp = area_light("Lamp", "SQUARE", (1.0, 1.0), WATTS, (0.0, 0.0, 1.0))
+        lamp.visible_camera = kind != "HIDDEN"
+        expected = WATTS / math.pi if kind == "SQUARE" else 0.0
+    scene = wide_camera_scene((0.0, 0.0, 0.0), (math.pi, 0.0, 0.0))
+    cycles, ours = (central_mean(p, keep=4) for p in render_both(scene, tmp_path, saved_blend, real_refrakt, 16))
+    print(f"\n{kind} seen by the camera: Cycles {cycles:.4f}, refrakt {ours:.4f}, closed form {expected:.4f}")
+    assert cycles == pytest.approx(expected, rel=0.01, abs=1e-6)
+    assert ours == pytest.approx(expected, rel=0.01, abs=1e-6)

@@ -285,15 +285,18 @@ def test_an_object_without_a_material_keeps_cycles_default_surface(addon, saved_
 
 def test_light_radius_reaches_the_node_extras(addon, saved_blend):
     """Blender's light Radius (shadow_soft_size) of point and spot lights travels as
-    nodes[i].extras.refrakt.light_radius (KHR_lights_punctual has no size); suns have none."""
+    nodes[i].extras.refrakt.light_radius (KHR_lights_punctual has no size), with whether the
+    camera sees it (Ray Visibility ▸ Camera) as light_visible; suns have neither."""
     scenes.round_trip_scene()
     bpy.data.lights["Spot"].shadow_soft_size = 0.3
+    next(o for o in bpy.data.objects if o.data == bpy.data.lights["Spot"]).visible_camera = True
     bulb = bpy.data.objects.new("Bulb", bpy.data.lights.new("Bulb", "POINT"))
     bulb.data.shadow_soft_size = 0.12
+    bulb.visible_camera = False
     bpy.context.scene.collection.objects.link(bulb)
     _, gltf = export(saved_blend)
-    assert gltf.node("Spot")["extras"]["refrakt"] == {"light_radius": pytest.approx(0.3)}
-    assert gltf.node("Bulb")["extras"]["refrakt"] == {"light_radius": pytest.approx(0.12)}
+    assert gltf.node("Spot")["extras"]["refrakt"] == {"light_radius": pytest.approx(0.3), "light_visible": True}
+    assert gltf.node("Bulb")["extras"]["refrakt"] == {"light_radius": pytest.approx(0.12), "light_visible": False}
     assert "refrakt" not in (gltf.node("Sun").get("extras") or {})
 
 

@@ -105,6 +105,13 @@ def test_object_panel_shows_field_settings_for_index_fields(addon):
     assert shown == ["role", "field", "use_bounds", "size", "ior", "gradient", "boundary"]
 
 
+def test_object_panel_offers_camera_visibility_for_lights_with_a_size(addon):
+    for kind in ("POINT", "SPOT", "AREA", "SUN"):
+        obj = bpy.data.objects.new(kind, bpy.data.lights.new(kind, kind))
+        shown = [name for _, name in draw("OBJECT_PT_refrakt", Context(object=obj))]
+        assert shown == (["role"] if kind == "SUN" else ["visible_camera", "role"]), kind
+
+
 def test_material_panel_shows_what_it_read_from_the_nodes(addon):
     scenes.round_trip_scene()
     log = draw("MATERIAL_PT_refrakt", Context(material=bpy.data.materials["Glass"]))

@@ -144,6 +144,27 @@ impl GltfBuilder {
     }
 }
 
+/// A file of one glass tetrahedron, node "Drop" in scene "S", of `material` (the `extensions`
+/// it names declared used): what a test of one material setting needs. Returns the builder,
+/// the material's index and the scene's.
+pub fn tetrahedron_of(material: Value, extensions: &[&str]) -> (GltfBuilder, usize, usize) {
+    let mut g = GltfBuilder::new();
+    for ext in extensions {
+        g.uses(ext, false);
+    }
+    let material = g.push("materials", material);
+    let mesh = g.mesh(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], &[[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], Some(material));
+    let node = g.push("nodes", json!({ "name": "Drop", "mesh": mesh }));
+    let scene = g.scene("S", &[node]);
+    (g, material, scene)
+}
+
+/// The frame at time 0 of the .glb `g` writes to `path`, or the import's or evaluation's error.
+pub fn frame_of_glb(g: &GltfBuilder, path: &Path) -> anyhow::Result<refrakt::frame::FrameDesc> {
+    let source = refrakt::render::GltfScene::load(&g.write_glb(path), &[], &Default::default())?;
+    refrakt::scene::eval::evaluate(&source.scene, 0.0, &Default::default())
+}
+
 /// A .glb from its JSON text and binary chunk (glTF 2.0 §4.4).
 pub fn glb(json: &[u8], bin: &[u8]) -> Vec<u8> {
     let pad = |v: &[u8], with: u8| {

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """The Cycles parity suite: Blender scenes built by script — a glass ball on a floor under a sun,
 a spot, an area light, a uniform sky and an HDRI sky with a sun in it; tinted, frosted and fully
-rough glass and the Stanford bunny (from ../shared/assets) under the sun — each rendered by
+rough glass, the Stanford bunny (from ../shared/assets) and a glass of water under the sun —
+each rendered by
 Cycles (converged: many samples, caustics on, no clamp, box pixel filter) and by refrakt through
 its render engine, and scored over the whole image and over the caustic region.
 
@@ -59,7 +60,16 @@ SCENES = {
     "frosted": ("SUN", (1.0, 1.0, 1.0), 0.15, "ball"),
     "bunny": ("SUN", (1.0, 1.0, 1.0), 0.0, "bunny"),
     "rough": ("SUN", (1.0, 1.0, 1.0), 1.0, "ball"),
+    "water": ("SUN", (1.0, 1.0, 1.0), 0.0, "water"),
 }
+# The glass of water, as Blender users model one: a tumbler (outer radius, height, wall and
+# bottom thickness, m; large, to fill the small frame as the ball does) resting on the floor, and
+# the water in it a cylinder to WATER_LEVEL that reaches WATER_OVERLAP into the glass's wall and
+# bottom (refrakt's priority rule gives the overlap to the water, the smaller box, and crosses
+# glass to water as one interface; Cycles meets the two surfaces there one after the other).
+TUMBLER = (0.2, 0.5, 0.015, 0.03)
+WATER_LEVEL = 0.34
+WATER_OVERLAP = 0.001
 
 
 def look_at(obj, target):
@@ -113,15 +123,40 @@ def add_light(bpy, scene, kind):
     look_at(light, (0.0, 0.0, 0.0))
 
 
-def glass_material(bpy, color, roughness):
-    m = bpy.data.materials.new("Glass")
+def glass_material(bpy, color, roughness, ior=1.5, name="Glass"):
+    m = bpy.data.materials.new(name)
     m.use_nodes = True
     bsdf = m.node_tree.nodes["Principled BSDF"]
     bsdf.inputs["Base Color"].default_value = (*color, 1.0)
     bsdf.inputs["Roughness"].default_value = roughness
     bsdf.inputs["Transmission Weight"].default_value = 1.0
-    bsdf.inputs["IOR"].default_value = 1.5
+    bsdf.inputs["IOR"].default_value = ior
     return m
+
+
+def add_glass_of_water(bpy):
+    """The tumbler (TUMBLER: a cylinder less a cylinder, its rims sharp, its sides smooth) resting
+    on the floor, the active object, and the water in it (IOR 1.33)."""
+    radius, height, wall, bottom = TUMBLER
+    segments = 64
+    bpy.ops.mesh.primitive_cylinder_add(vertices=segments, radius=radius - wall, depth=height, location=(0.0, 0.0, bottom + height / 2))
+    hollow = bpy.context.object
+    bpy.ops.mesh.primitive_cylinder_add(vertices=segments, radius=radius, depth=height, location=(0.0, 0.0, height / 2))
+    tumbler = bpy.context.object
+    cut = tumbler.modifiers.new("Hollow", "BOOLEAN")
+    cut.operation, cut.object, cut.solver = "DIFFERENCE", hollow, "EXACT"
+    bpy.ops.object.modifier_apply(modifier=cut.name)
+    bpy.data.objects.remove(hollow)
+    bpy.ops.object.shade_smooth_by_angle(angle=math.radians(30.0))
+    depth = WATER_LEVEL - bottom + WATER_OVERLAP
+    bpy.ops.mesh.primitive_cylinder_add(vertices=segments, radius=radius - wall + WATER_OVERLAP, depth=depth,
+                                        location=(0.0, 0.0, bottom - WATER_OVERLAP + depth / 2))
+    water = bpy.context.object
+    water.name = "Water"
+    bpy.ops.object.shade_smooth_by_angle(angle=math.radians(30.0))
+    water.data.materials.append(glass_material(bpy, (1.0, 1.0, 1.0), 0.0, ior=1.33, name="Water"))
+    bpy.context.view_layer.objects.active = tumbler
+    tumbler.select_set(True)
 
 
 def add_bunny(bpy):
@@ -161,9 +196,12 @@ def build(bpy, name, size, refrakt_settings):
     bpy.context.object.name = "Floor"
     if shape == "ball":
         bpy.ops.mesh.primitive_uv_sphere_add(radius=BALL_RADIUS, location=(0.0, 0.0, BALL_RADIUS + 0.01), segments=48, ring_count=24)
-    else:
+        bpy.ops.object.shade_smooth()
+    elif shape == "bunny":
         add_bunny(bpy)
-    bpy.ops.object.shade_smooth()
+        bpy.ops.object.shade_smooth()
+    else:
+        add_glass_of_water(bpy)
     ball = bpy.context.object
     ball.name = "Ball"
     ball.data.materials.append(glass_material(bpy, color, roughness))

@@ -399,7 +399,9 @@ pub enum LightShape {
     /// light triangles (`pipeline::mesh_lights`), `area` m² in all, glowing with `radiant` on
     /// both sides as Cycles' emission does — or, `closed`, on its outer side (its triangles
     /// wound outward), the inner side's light having nowhere to go but the mesh itself.
-    Mesh { first: u32, count: u32, area: f32, closed: bool },
+    /// `outside`: a point just off its first triangle's glowing side, where the media its
+    /// photons start in are found (its centroid may lie inside it: glass that glows).
+    Mesh { first: u32, count: u32, area: f32, closed: bool, outside: Vec3 },
 }
 
 /// A light in world space, in radiometric units (see `scene::light`).
@@ -497,6 +499,13 @@ impl FrameDesc {
                 "{}: glass mesh \"{}\" has index {}: it bends no light, and refrakt renders such glass as air, without \
                  its tint (give it an index above {})",
                 m.origin, m.name, m.glass.ior, 1.0 + crate::pipeline::photons::EPS_REFRACT
+            ));
+        }
+        for f in self.fields.iter().filter(|f| f.sharp && f.emission.max_element() > 0.0) {
+            out.push(format!(
+                "glass \"{}\" glows on an analytic shape: its glow shows where it is seen but lights nothing (a glass \
+                 mesh's glow lights the scene: r.icosphere, r.mesh)",
+                f.name
             ));
         }
         for f in self.fields.iter().filter(|f| !f.sharp && f.tint != Vec3::ONE) {

@@ -309,6 +309,38 @@ fn a_glowing_ball_lights_the_floor_as_its_facets_do() {
     assert!((e / expected - 1.0).abs() < 0.01, "{e} vs {expected}");
 }
 
+/// Glass that glows lights the scene as a glowing mesh does: a glass icosphere (r = 0.2 m, n =
+/// 1.5, emission 2 W/m²/sr) 1 m over a white floor gives the point below it what Lambert's
+/// polygon formula says its facets' outer sides give (as the glowing ball above), within 1 %.
+/// Its photons start outside it, in air, where its centroid is in the glass.
+#[test]
+fn glowing_glass_lights_the_floor_as_a_glowing_mesh_does() {
+    let desc = frame_from_lua(
+        "local r = require('refrakt')
+         local scene = r.scene{ camera = r.camera{ position = {0, 0.5, 0}, target = {0, 0, 0}, up = {0, 0, -1}, orthographic = 0.02, size = {8, 8} },
+                                environment = r.environment{ color = {0, 0, 0} }, photons = 0, bounces = 0, samples = 256 }
+         scene:add(r.node{ name = 'floor', shape = r.plane{ size = {6, 6} }, material = r.diffuse{ color = {1, 1, 1} } })
+         scene:add(r.node{ name = 'shade', translation = {0, 1, 0}, shape = r.icosphere{ radius = 0.2, subdivisions = 2 },
+                           material = r.glass{ ior = 1.5, emission = {2, 2, 2} } })
+         return scene",
+    );
+    let shade = &desc.meshes[0];
+    assert!(shade.sharp, "a closed glass mesh is a sharp surface");
+    let mut glowing = refrakt::pipeline::mesh_lights::GlowingMeshes::default();
+    glowing.update(&desc.receivers, &desc.meshes, usize::MAX).unwrap();
+    let light = &glowing.built.lights[0];
+    let media = |p| refrakt::pipeline::interfaces::media_at(&desc, p);
+    assert_ne!(media(light.position), [0, 0], "the centroid is in the glass");
+    assert_eq!(media(refrakt::pipeline::lights::photon_start(light, &desc.volume)), [0, 0], "its photons start in air");
+
+    let world: Vec<Vec3> = shade.mesh.positions.iter().map(|p| shade.world.transform_point3(*p)).collect();
+    let expected = glowing_polyhedron_irradiance(&world, &shade.mesh.triangles, Vec3::Y, Vec3::ZERO, Vec3::Y, 2.0);
+    let image = shared_renderer().frame(&desc).unwrap();
+    let e = (0..64).map(|i| rgb(layer(&image, "direct"), i).x as f64).sum::<f64>() / 64.0 * PI as f64;
+    println!("glowing glass: E = {e:.5} vs its facets' {expected:.5} ({:+.2} %)", 100.0 * (e / expected - 1.0));
+    assert!((e / expected - 1.0).abs() < 0.01, "{e} vs {expected}");
+}
+
 /// A disk light (r = 0.5 m, radiance 1 W/m²/sr = 683 nits) 1 m over a white floor, facing it:
 /// on its axis the floor gets E = π L r²/(h² + r²) (the disk's form factor), within 1 %, from
 /// shadow rays to points spread evenly over the disk.

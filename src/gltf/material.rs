@@ -226,7 +226,6 @@ impl<'a> Materials<'a> {
                 maps.push(("emissive", UvMap::of(&info, file, what)?));
                 glass.emission_texture = Some(self.texture(&info, what, "emissive", true)?);
             }
-            warnings.about(what, "glows (emissive) and is transmissive: refrakt shows the glass's glow where it is seen, but it lights nothing (a lamp's glowing shade does not light its room); put a light inside");
         }
         warn_uv_maps_differ(&maps, what, warnings);
         if m.transmission().and_then(|t| t.transmission_texture()).is_some() {

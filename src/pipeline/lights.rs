@@ -20,7 +20,7 @@ pub fn light_gpu(l: &LightDesc, media: [u32; 2]) -> LightGpu {
         LightShape::Mesh { .. } => (light_kind::MESH, -1.0, -1.0, 0.0, glam::Vec2::ZERO),
     };
     let (first_triangle, triangle_count, area, sides) = match l.shape {
-        LightShape::Mesh { first, count, area, closed } => (first, count, area, if closed { 1 } else { 2 }),
+        LightShape::Mesh { first, count, area, closed, .. } => (first, count, area, if closed { 1 } else { 2 }),
         _ => (0, 0, 0.0, 0),
     };
     LightGpu {
@@ -70,8 +70,9 @@ fn box_corners(lo: Vec3, hi: Vec3) -> [Vec3; 8] {
     std::array::from_fn(|i| Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z }))
 }
 
-/// Where a light's photons start: its position, or for the sun the plane across its direction
-/// just outside the volume's bounding sphere (where its emitter raster lies, `emitter_for`).
+/// Where a light's photons start: its position, a glowing mesh's surface just off its glowing
+/// side, or for the sun the plane across its direction just outside the volume's bounding
+/// sphere (where its emitter raster lies, `emitter_for`).
 /// (Unlike the environment's, the sun's photons start there, inside any room around the
 /// volume: a room's walls do not stop them. Starting them beyond every receiver moves every sun
 /// caustic by float rounding, and `tests/dispersion_off.rs` holds them to the bit.)
@@ -81,6 +82,7 @@ pub fn photon_start(l: &LightDesc, volume: &VolumeDesc) -> Vec3 {
             let (lo, hi) = (volume.min, volume.max());
             0.5 * (lo + hi) - l.direction * (0.5 * (hi - lo).length() * 1.01)
         }
+        LightShape::Mesh { outside, .. } => outside,
         _ => l.position,
     }
 }

@@ -1,6 +1,7 @@
 //! Glowing meshes as lights: every receiver whose material emits (glTF's emissive ×
 //! KHR_materials_emissive_strength, Lua's `emission`) is a light too, as in Cycles, where an
-//! emission shader lights the scene. Its triangles go to the GPU in world space with their
+//! emission shader lights the scene — and so is glass that glows (a sharp glass mesh with
+//! `Glass::emission`: a lamp's glowing shade), as a receiver of its glow in its place would. Its triangles go to the GPU in world space with their
 //! share of its area (`LightTriangle::cdf`), so the view's shadow rays and the photons stage
 //! pick a point uniformly over the surface (`shaders/shared/mesh_light.wgsl`).
 //!
@@ -15,7 +16,7 @@ use std::sync::Arc;
 
 use glam::{Vec3, Vec4Swizzles};
 
-use crate::frame::{LightDesc, LightShape, Receiver};
+use crate::frame::{LightDesc, LightShape, MeshInstance, Receiver};
 use crate::gpu::types::LightTriangle;
 
 /// The frame's glowing meshes: one light per emissive receiver, and their triangles.
@@ -45,11 +46,13 @@ pub struct GlowingMeshes {
 }
 
 impl GlowingMeshes {
-    /// Brings the glowing meshes up to this frame's receivers. A frame whose glowing meshes
-    /// have more than `max_triangles` triangles in all is refused before anything is built:
-    /// `Err` holds their count.
-    pub fn update(&mut self, receivers: &[Receiver], max_triangles: usize) -> Result<(), usize> {
-        let glowing: Vec<&Receiver> = receivers.iter().filter(|r| r.diffuse.emitted().max_element() > 0.0).collect();
+    /// Brings the glowing meshes up to this frame's receivers and glass. A frame whose glowing
+    /// meshes have more than `max_triangles` triangles in all is refused before anything is
+    /// built: `Err` holds their count.
+    pub fn update(&mut self, receivers: &[Receiver], glass: &[MeshInstance], max_triangles: usize) -> Result<(), usize> {
+        let glowing_glass: Vec<Receiver> = glass.iter().filter_map(glow_of_glass).collect();
+        let glowing: Vec<&Receiver> =
+            receivers.iter().filter(|r| r.diffuse.emitted().max_element() > 0.0).chain(&glowing_glass).collect();
         self.changed = !glowing.iter().map(|r| key_of(r)).eq(self.built_from.iter().map(key_of));
         if !self.changed {
             return Ok(());
@@ -62,6 +65,25 @@ impl GlowingMeshes {
         self.built_from = glowing.into_iter().cloned().collect();
         Ok(())
     }
+}
+
+/// A sharp glass mesh's glow as the receiver that would give it off: the same mesh in the same
+/// place, black but for its emission (and emission texture). None where the glass does not glow
+/// (or is a voxelized solid, whose surface the view does not meet and so shows no glow).
+fn glow_of_glass(m: &MeshInstance) -> Option<Receiver> {
+    let g = &m.glass;
+    (m.sharp && g.emission.max_element() > 0.0).then(|| Receiver {
+        name: m.name.clone(),
+        mesh: m.mesh.clone(),
+        world: m.world,
+        diffuse: crate::scene::material::Diffuse {
+            color: Vec3::ZERO,
+            emission: g.emission,
+            emission_strength: 1.0,
+            emission_texture: g.emission_texture.clone(),
+            ..crate::scene::material::Diffuse::pbr()
+        },
+    })
 }
 
 /// Every receiver given that glows, as a light over its world-space triangles (degenerate ones
@@ -82,7 +104,7 @@ pub fn mesh_lights<'a>(receivers: impl IntoIterator<Item = &'a Receiver>) -> Mes
         }
         out.lights.push(LightDesc {
             name: r.name.clone(),
-            shape: LightShape::Mesh { first: first as u32, count: (out.triangles.len() - first) as u32, area, closed },
+            shape: LightShape::Mesh { first: first as u32, count: (out.triangles.len() - first) as u32, area, closed, outside: just_outside(&out.triangles[first]) },
             position: centroid,
             direction: Vec3::NEG_Y,
             right: Vec3::X,
@@ -94,6 +116,14 @@ pub fn mesh_lights<'a>(receivers: impl IntoIterator<Item = &'a Receiver>) -> Mes
         });
     }
     out
+}
+
+/// A point 0.1 mm off triangle t's centre on the side its cross product points to (a closed
+/// mesh's outer side: `push_triangles` winds them outward), as far as the photons stage lifts
+/// the photons it starts on a glowing mesh.
+fn just_outside(t: &LightTriangle) -> Vec3 {
+    let (v0, e1, e2) = (Vec3::from(t.v0), Vec3::from(t.e1), Vec3::from(t.e2));
+    v0 + (e1 + e2) / 3.0 + e1.cross(e2).normalize() * 1e-4
 }
 
 /// The radiance a receiver glows with (W·m⁻²·sr⁻¹): its emission at full texture times the
@@ -206,14 +236,14 @@ mod tests {
         let lamp = receiver(crate::scene::mesh::cuboid(Vec3::ONE), Vec3::ONE, glam::Mat4::IDENTITY);
         let dark = receiver(plane(glam::Vec2::ONE), Vec3::ZERO, glam::Mat4::IDENTITY);
         let mut glowing = GlowingMeshes::default();
-        glowing.update(&[lamp.clone(), dark.clone()], 12).unwrap();
+        glowing.update(&[lamp.clone(), dark.clone()], &[], 12).unwrap();
         assert!(glowing.changed && glowing.built.lights.len() == 1);
         let moved_dark = Receiver { world: glam::Mat4::from_translation(Vec3::X), ..dark };
-        glowing.update(&[lamp.clone(), moved_dark.clone()], 12).unwrap();
+        glowing.update(&[lamp.clone(), moved_dark.clone()], &[], 12).unwrap();
         assert!(!glowing.changed, "a receiver that does not glow moved");
         let moved = Receiver { world: glam::Mat4::from_translation(Vec3::Y), ..lamp };
-        glowing.update(&[moved.clone(), moved_dark], 12).unwrap();
+        glowing.update(&[moved.clone(), moved_dark], &[], 12).unwrap();
         assert!(glowing.changed && (glowing.built.lights[0].position - Vec3::Y).length() < 1e-5);
-        assert_eq!(GlowingMeshes::default().update(&[moved], 11), Err(12));
+        assert_eq!(GlowingMeshes::default().update(&[moved], &[], 11), Err(12));
     }
 }

@@ -415,10 +415,10 @@ impl Renderer {
         let bvh = &self.receivers.layout.bvh;
         let surfaces = bvh.nodes.first().filter(|_| !bvh.triangles.is_empty()).map(|n| (glam::Vec3::from(n.min), glam::Vec3::from(n.max)));
         let reach = lights::scene_reach(&desc.volume, surfaces);
-        // The scene's lights, then its glowing meshes (receivers that emit light).
+        // The scene's lights, then its glowing meshes (receivers and glass that emit light).
         let triangle_size = std::mem::size_of::<crate::gpu::types::LightTriangle>() as u64;
         let max_triangles = (self.binding_limit() / triangle_size) as usize;
-        if let Err(count) = self.glowing.update(&desc.receivers, max_triangles) {
+        if let Err(count) = self.glowing.update(&desc.receivers, &desc.meshes, max_triangles) {
             bail!(
                 "the glowing meshes (emissive materials) have {count} triangles in all, and {} holds at most \
                  {max_triangles} in one buffer: simplify them or turn their emission off",

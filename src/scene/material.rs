@@ -49,8 +49,8 @@ pub struct Glass {
     pub multiscatter: bool,
     /// Light the surface gives off, radiance per channel (glTF's emissive × emissive strength on
     /// a transmissive material: a lamp's glowing shade): seen where a ray meets the surface from
-    /// its front (either side of a thin sheet). It lights nothing else (no photons, no shadow
-    /// rays aim at it).
+    /// its front (either side of a thin sheet), and lighting the scene as a glowing receiver of
+    /// it would (`pipeline::mesh_lights`: a sharp glass mesh; an analytic shape lights nothing).
     pub emission: Vec3,
     /// An emissive texture (glTF, sRGB): its rgb multiplies `emission` — a sharp mesh with
     /// texture coordinates only.

@@ -278,29 +278,39 @@ fn glowing_polyhedron_irradiance(positions: &[Vec3], triangles: &[[u32; 3]], cen
     e
 }
 
+/// A scene of a white floor and, 1 m over it, `glowing` (a node's shape and material), seen
+/// from above over 8 × 8 pixels 2 cm across at 256 samples, without photons or bounces.
+fn glowing_over_floor(glowing: &str) -> refrakt::frame::FrameDesc {
+    frame_from_lua(&format!(
+        "local r = require('refrakt')
+         local scene = r.scene{{ camera = r.camera{{ position = {{0, 0.5, 0}}, target = {{0, 0, 0}}, up = {{0, 0, -1}}, orthographic = 0.02, size = {{8, 8}} }},
+                                environment = r.environment{{ color = {{0, 0, 0}} }}, photons = 0, bounces = 0, samples = 256 }}
+         scene:add(r.node{{ name = 'floor', shape = r.plane{{ size = {{6, 6}} }}, material = r.diffuse{{ color = {{1, 1, 1}} }} }})
+         scene:add(r.node{{ name = 'glowing', translation = {{0, 1, 0}}, {glowing} }})
+         return scene"
+    ))
+}
+
+/// The floor's irradiance under `glowing_over_floor`'s mesh of radiance 2 (the mean over the
+/// pixels), and Lambert's polygon formula's for its facets at the point below its centre.
+fn irradiance_under(desc: &refrakt::frame::FrameDesc, mesh: &refrakt::scene::mesh::MeshData, world: glam::Mat4) -> (f64, f64) {
+    let corners: Vec<Vec3> = mesh.positions.iter().map(|p| world.transform_point3(*p)).collect();
+    let expected = glowing_polyhedron_irradiance(&corners, &mesh.triangles, Vec3::Y, Vec3::ZERO, Vec3::Y, 2.0);
+    let image = shared_renderer().frame(desc).unwrap();
+    let e = (0..64).map(|i| rgb(layer(&image, "direct"), i).x as f64).sum::<f64>() / 64.0 * PI as f64;
+    (e, expected)
+}
+
 /// A glowing ball (an emissive mesh sphere, r = 0.2 m, radiance 2 W/m²/sr) 1 m over a white
 /// floor lights the point below it as Lambert's polygon formula says its facets do
 /// (`glowing_polyhedron_irradiance`; ≈ π L r²/d² for a true sphere), within 1 %, from shadow
 /// rays to points spread over its whole surface (those on its far side facing away: a closed mesh
-/// glows on its outer side),
-/// 256 a pixel over 8 × 8 pixels 2 cm across.
+/// glows on its outer side).
 #[test]
 fn a_glowing_ball_lights_the_floor_as_its_facets_do() {
-    let desc = frame_from_lua(
-        "local r = require('refrakt')
-         local scene = r.scene{ camera = r.camera{ position = {0, 0.5, 0}, target = {0, 0, 0}, up = {0, 0, -1}, orthographic = 0.02, size = {8, 8} },
-                                environment = r.environment{ color = {0, 0, 0} }, photons = 0, bounces = 0, samples = 256 }
-         scene:add(r.node{ name = 'floor', shape = r.plane{ size = {6, 6} }, material = r.diffuse{ color = {1, 1, 1} } })
-         scene:add(r.node{ name = 'ball', translation = {0, 1, 0}, shape = r.sphere{ radius = 0.2 },
-                           material = r.pbr{ color = {0, 0, 0}, emission = {1, 1, 1}, emission_strength = 2 } })
-         return scene",
-    );
-    let ball = desc.receivers.iter().find(|r| r.name == "ball").expect("the ball is a receiver");
-    let world: Vec<Vec3> = ball.mesh.positions.iter().map(|p| ball.world.transform_point3(*p)).collect();
-    let expected = glowing_polyhedron_irradiance(&world, &ball.mesh.triangles, Vec3::Y, Vec3::ZERO, Vec3::Y, 2.0);
-    let image = shared_renderer().frame(&desc).unwrap();
-    let direct = layer(&image, "direct");
-    let e = (0..64).map(|i| rgb(direct, i).x as f64).sum::<f64>() / 64.0 * PI as f64;
+    let desc = glowing_over_floor("shape = r.sphere{ radius = 0.2 }, material = r.pbr{ color = {0, 0, 0}, emission = {1, 1, 1}, emission_strength = 2 }");
+    let ball = desc.receivers.iter().find(|r| r.name == "glowing").expect("the ball is a receiver");
+    let (e, expected) = irradiance_under(&desc, &ball.mesh, ball.world);
     println!(
         "glowing ball: E = {e:.5} vs its facets' {expected:.5} ({:+.2} %; a true sphere's π L r²/d² = {:.5})",
         100.0 * (e / expected - 1.0),
@@ -315,15 +325,7 @@ fn a_glowing_ball_lights_the_floor_as_its_facets_do() {
 /// Its photons start outside it, in air, where its centroid is in the glass.
 #[test]
 fn glowing_glass_lights_the_floor_as_a_glowing_mesh_does() {
-    let desc = frame_from_lua(
-        "local r = require('refrakt')
-         local scene = r.scene{ camera = r.camera{ position = {0, 0.5, 0}, target = {0, 0, 0}, up = {0, 0, -1}, orthographic = 0.02, size = {8, 8} },
-                                environment = r.environment{ color = {0, 0, 0} }, photons = 0, bounces = 0, samples = 256 }
-         scene:add(r.node{ name = 'floor', shape = r.plane{ size = {6, 6} }, material = r.diffuse{ color = {1, 1, 1} } })
-         scene:add(r.node{ name = 'shade', translation = {0, 1, 0}, shape = r.icosphere{ radius = 0.2, subdivisions = 2 },
-                           material = r.glass{ ior = 1.5, emission = {2, 2, 2} } })
-         return scene",
-    );
+    let desc = glowing_over_floor("shape = r.icosphere{ radius = 0.2, subdivisions = 2 }, material = r.glass{ ior = 1.5, emission = {2, 2, 2} }");
     let shade = &desc.meshes[0];
     assert!(shade.sharp, "a closed glass mesh is a sharp surface");
     let mut glowing = refrakt::pipeline::mesh_lights::GlowingMeshes::default();
@@ -332,11 +334,7 @@ fn glowing_glass_lights_the_floor_as_a_glowing_mesh_does() {
     let media = |p| refrakt::pipeline::interfaces::media_at(&desc, p);
     assert_ne!(media(light.position), [0, 0], "the centroid is in the glass");
     assert_eq!(media(refrakt::pipeline::lights::photon_start(light, &desc.volume)), [0, 0], "its photons start in air");
-
-    let world: Vec<Vec3> = shade.mesh.positions.iter().map(|p| shade.world.transform_point3(*p)).collect();
-    let expected = glowing_polyhedron_irradiance(&world, &shade.mesh.triangles, Vec3::Y, Vec3::ZERO, Vec3::Y, 2.0);
-    let image = shared_renderer().frame(&desc).unwrap();
-    let e = (0..64).map(|i| rgb(layer(&image, "direct"), i).x as f64).sum::<f64>() / 64.0 * PI as f64;
+    let (e, expected) = irradiance_under(&desc, &shade.mesh, shade.world);
     println!("glowing glass: E = {e:.5} vs its facets' {expected:.5} ({:+.2} %)", 100.0 * (e / expected - 1.0));
     assert!((e / expected - 1.0).abs() < 0.01, "{e} vs {expected}");
 }

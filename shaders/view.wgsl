@@ -277,9 +277,9 @@ fn pbr_surface(r: ReceiverGpu, hit: SurfaceHit, uv: vec2<f32>, base: vec3<f32>, 
 // lights, the environment and the surface's own emission) and indirect (bounced) light. A
 // receiver of the full model takes the lights through both lobes, the environment by the split
 // sum, the caustic and bounced light on the diffuse lobe only; a Lambertian one (metallic 0,
-// specular 0) reflects albedo / π of each. (One call of `direct_light` for both: lavapipe
-// inlines every call site anew.)
-fn shade_receiver(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, k: u32, path: u32) -> Shading {
+// specular 0) reflects albedo / π of each; its emission times `glow` (`glow_share`). (One
+// call of `direct_light` for both: lavapipe inlines every call site anew.)
+fn shade_receiver(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, k: u32, path: u32, glow: f32) -> Shading {
     let n = hit.normal;
     let back = dot(n, d) > 0.0;
     let facing = select(n, -n, back);
@@ -287,7 +287,7 @@ fn shade_receiver(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, k: u32, path: u32
     let r = receivers[receiver];
     let uv = hit_uv(hit.triangle, hit.u, hit.v);
     let base = base_color_at(r, uv).rgb;
-    let emission = emission_at(r, uv);
+    let emission = emission_at(r, uv) * glow;
     // Lift the shading point off the surface so its own triangle does not shadow it.
     let q = p + facing * (1e-4 + 1e-3 * params.grid.voxel_size);
     let e_caustic = map_irradiance_at(receiver, p, facing, back, false);
@@ -365,6 +365,24 @@ fn sees_lights(b: Branch) -> bool {
     return b.events > 0u || has(VIEW_FLAG_VISIBLE_LIGHTS);
 }
 
+// The share of a glowing mesh's glow (world area `area`, lighting from `side`:
+// `mesh_lights::glow_measure`) that a branch meeting it at p on `triangle` keeps, where the
+// branch left a rough crossing at `lobe_from` that drew the same light (`lights_through_rough`):
+// by the balance heuristic, the light's density there distance² / (A cos θ). All of it where
+// nothing else drew it: no rough crossing before, a glow not drawn (area 0), or the side of a
+// closed mesh its light is not drawn on.
+fn glow_share(b: Branch, lobe_from: vec3<f32>, p: vec3<f32>, triangle: u32, area: f32, side: f32) -> f32 {
+    if b.lobe_pdf <= 0.0 || area <= 0.0 {
+        return 1.0;
+    }
+    let cos_l = dot(bvh_triangle_normal(triangle), -b.d);
+    if side * cos_l < 0.0 {
+        return 1.0;
+    }
+    let to = p - lobe_from;
+    return share_of_lobe(b.lobe_pdf, dot(to, to) / (area * max(abs(cos_l), 1e-6)));
+}
+
 // Adds the light of the lights a branch passes from `piece` (the start of its last straight
 // piece) to `t_max` (`lights_seen`; `lobe_from`: where its last rough crossing was).
 fn pass_lights(out: ptr<function, ViewSample>, b: Branch, piece: vec3<f32>, t_max: f32, lobe_from: vec3<f32>) {
@@ -392,12 +410,13 @@ fn meet_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, 
         return 1.0;
     }
     pass_lights(out, b, piece, distance(piece, p), lobe_from);
-    let cover = coverage_of(receivers[bvh_triangles[hit.triangle].receiver], hit.triangle, hit.u, hit.v);
+    let r = receivers[bvh_triangles[hit.triangle].receiver];
+    let cover = coverage_of(r, hit.triangle, hit.u, hit.v);
     if cover <= 0.0 {
         return cover;
     }
     first_depth(out, p);
-    let sh = shade_receiver(hit, p, b.d, k, b.path);
+    let sh = shade_receiver(hit, p, b.d, k, b.path, glow_share(b, lobe_from, p, hit.triangle, r.glow_area, r.glow_side));
     let w = b.weight * cover;
     (*out).caustic += w * sh.caustic;
     (*out).direct += w * sh.direct;
@@ -488,8 +507,9 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                     pass_lights(out, b, piece, distance(piece, s.x), lobe_from);
                     let surface = glass_surface_at(hit);
                     // A glowing surface seen from its front (either side of a thin sheet).
-                    if dot(hit.normal, b.d) < 0.0 || (interfaces[hit.interface_id].kind & INTERFACE_THIN) != 0u {
-                        (*out).radiance += b.weight * surface.emission;
+                    let glass = interfaces[hit.interface_id];
+                    if dot(hit.normal, b.d) < 0.0 || (glass.kind & INTERFACE_THIN) != 0u {
+                        (*out).radiance += b.weight * surface.emission * glow_share(b, lobe_from, s.x, hit.triangle, glass.glow_area, glass.glow_side);
                     }
                     let c = cross_interface(s.x, b.d, hit, surface, b.media, facet_numbers(k, b.path));
                     b.events += u32(c.seen);

@@ -401,7 +401,9 @@ pub enum LightShape {
     /// wound outward), the inner side's light having nowhere to go but the mesh itself.
     /// `outside`: a point just off its first triangle's glowing side, where the media its
     /// photons start in are found (its centroid may lie inside it: glass that glows).
-    Mesh { first: u32, count: u32, area: f32, closed: bool, outside: Vec3 },
+    /// `patterned`: it glows through an emission texture, so it lights by the texture's mean
+    /// where the camera sees the pattern — not sampled at rough crossings, whose branches see it.
+    Mesh { first: u32, count: u32, area: f32, closed: bool, outside: Vec3, patterned: bool },
 }
 
 /// A light in world space, in radiometric units (see `scene::light`).

@@ -366,11 +366,13 @@ fn a_suns_glint_on_frosted_glass_matches_the_microfacet_closed_form() {
 /// direction: every pixel sees L · F(θ_v) (to 0.1 %). Frosted (roughness 0.5), the disk 30° off
 /// the mirror direction: L ∫ F D G₁(v) G₁(l) / (4 cos θ_v) / E dω over the disk, dω = cos θ_l dA / d²;
 /// and a bulb (a point light of radius R, radiance I / π R²) in its place, over the cone it
-/// fills — each light found by both strategies (sampled at the crossing, and by the branches'
-/// own directions), each by the balance heuristic: within 1 % at 64 samples. (Before, an area
-/// light did not show in glass at all, and a bulb in frosted glass only by the branches.)
+/// fills; and a glowing square (side 2R, a two-sided mesh of radiance L, and the same as a
+/// glowing thin glass pane) over its area — each light found by both strategies (sampled at
+/// the crossing, and by the branches' own directions), each by the balance heuristic: within
+/// 1 % at 64 samples. (Before, an area light did not show in glass at all, a bulb in frosted
+/// glass only by the branches, and a glowing mesh only by the branches.)
 #[test]
-fn a_softbox_and_a_bulb_are_seen_in_polished_and_frosted_glass() {
+fn a_softbox_a_bulb_and_a_glowing_square_are_seen_in_polished_and_frosted_glass() {
     use refrakt::cpu::interface::{fresnel_dielectric, ggx_distribution, smith_g1};
     use std::f32::consts::{PI, TAU};
     let v = Vec3::new(0.0, 1.0, 1.0).normalize();
@@ -390,6 +392,12 @@ fn a_softbox_and_a_bulb_are_seen_in_polished_and_frosted_glass() {
     let mut over_disk = 0.0f64;
     // Over the bulb's cone (sin α = R/d) by rings of equal solid angle.
     let mut over_cone = 0.0f64;
+    // Over the square of side 2R by a grid of equal areas.
+    let mut over_square = 0.0f64;
+    let square_point = |i: usize, j: usize| {
+        let at = |k: usize| radius * (2.0 * (k as f32 + 0.5) / rings as f32 - 1.0);
+        off_mirror * distance + right * at(i) + up * at(j)
+    };
     let cos_cone = (1.0 - (radius / distance).powi(2)).sqrt();
     for i in 0..rings {
         let r = radius * ((i as f32 + 0.5) / rings as f32).sqrt();
@@ -403,27 +411,43 @@ fn a_softbox_and_a_bulb_are_seen_in_polished_and_frosted_glass() {
             over_disk += glint(q.normalize()) * d_omega as f64;
             let w = (off_mirror * cos_t + around(phi) * sin_t).normalize();
             over_cone += glint(w) * (TAU * (1.0 - cos_cone) / (rings * spokes) as f32) as f64;
+            let q = square_point(i, j);
+            let d_omega = q.normalize().dot(off_mirror) / q.length_squared() * (4.0 * radius * radius / (rings * spokes) as f32);
+            over_square += glint(q.normalize()) * d_omega as f64;
         }
     }
-    let disk = |d: f32| format!("r.disk{{ size = {{{d}, {d}}}, intensity = 683, target = {{0, 0, 0}} }}", d = 2.0 * radius);
+    // Each light as the node that holds it, at `toward`'s distance.
+    let at = |toward: Vec3| {
+        let c = toward * distance;
+        format!("translation = {{{}, {}, {}}}", c.x, c.y, c.z)
+    };
+    let disk = |toward: Vec3| format!("{}, light = r.disk{{ size = {{{d}, {d}}}, intensity = 683, target = {{0, 0, 0}} }}", at(toward), d = 2.0 * radius);
     // A bulb of radiance 1: I = π R² W/sr, × 683 cd.
-    let bulb = format!("r.point{{ radius = {radius}, intensity = {} }}", 683.0 * PI * radius * radius);
+    let bulb = format!("{}, light = r.point{{ radius = {radius}, intensity = {} }}", at(off_mirror), 683.0 * PI * radius * radius);
+    // The square as a mesh in world space, glowing with radiance 1.
+    let corners = [(0, 0), (rings - 1, 0), (rings - 1, rings - 1), (0, rings - 1)].map(|(i, j)| {
+        let q = square_point(i, j) + (square_point(i, j) - off_mirror * distance) / (rings - 1) as f32;
+        format!("{{{}, {}, {}}}", q.x, q.y, q.z)
+    });
+    let square = |material: &str| format!("shape = r.mesh{{ vertices = {{{}}}, triangles = {{{{1, 2, 3}}, {{1, 3, 4}}}} }}, material = {material}", corners.join(", "));
     let cases = [
-        ("a softbox in polished glass", 0.0, mirror, disk(0.0), fresnel_dielectric(v.y, 1.5) as f64, 0.001),
-        ("a softbox in frosted glass", roughness, off_mirror, disk(0.0), over_disk, 0.01),
-        ("a bulb in frosted glass", roughness, off_mirror, bulb, over_cone, 0.01),
+        ("a softbox in polished glass", 0.0, disk(mirror), fresnel_dielectric(v.y, 1.5) as f64, 0.001),
+        ("a softbox in frosted glass", roughness, disk(off_mirror), over_disk, 0.01),
+        ("a bulb in frosted glass", roughness, bulb, over_cone, 0.01),
+        ("a glowing square in frosted glass", roughness, square("r.pbr{ color = {0, 0, 0}, emission = {1, 1, 1} }"), over_square, 0.01),
+        ("a glowing glass pane in frosted glass", roughness, square("r.glass{ ior = 1.5, thin = true, emission = {1, 1, 1} }"), over_square, 0.01),
     ];
-    for (what, roughness, toward, light, expected, bound) in cases {
-        let (eye, centre) = (v * 40.0, toward * distance);
+    for (what, roughness, node, expected, bound) in cases {
+        let eye = v * 40.0;
         let desc = frame_from_lua(&format!(
             r#"local r = require("refrakt")
             local scene = r.scene{{ camera = r.camera{{ position = {{{}, {}, {}}}, target = {{0, 0, 0}}, fov = 0.5, size = {{8, 8}} }},
                                    environment = r.environment{{ color = {{0, 0, 0}} }}, photons = 0, samples = 64, volume = {{ resolution = 16 }} }}
             scene:add(r.node{{ name = "slab", translation = {{0, -0.1, 0}}, shape = r.box{{ size = {{2, 0.2, 2}} }},
                               material = r.glass{{ ior = 1.5, roughness = {roughness}, absorption = {{1000, 1000, 1000}} }} }})
-            scene:add(r.node{{ name = "light", translation = {{{}, {}, {}}}, light = {light} }})
+            scene:add(r.node{{ name = "light", {node} }})
             return scene"#,
-            eye.x, eye.y, eye.z, centre.x, centre.y, centre.z
+            eye.x, eye.y, eye.z
         ));
         let image = renderer().frame(&desc).unwrap();
         let layer = beauty(&image);

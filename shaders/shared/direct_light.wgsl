@@ -435,17 +435,19 @@ fn rough_lobe(d: vec3<f32>, n: vec3<f32>, w: vec3<f32>, alpha: f32, eta: f32) ->
 // softbox only now and then — their glints through frosted glass were the fireflies of frosted
 // frames — so at a rough crossing, each is also sampled directly where the direction toward it
 // leaves into the open: a direction over a sun's disc or a bulb's cone, or a point of an area
-// light, the weight the crossing would give a branch along it (`rough_lobe`), a shadow ray. A
-// sun or point of no size, which no branch can find, is all light sampling. Returns the light;
-// `lobe_pdf` then weighs what the branches find (`lights_seen`). Glowing meshes are left to the
-// branches.
+// light or of a glowing mesh, the weight the crossing would give a branch along it
+// (`rough_lobe`), a shadow ray. A sun or point of no size, which no branch can find, is all
+// light sampling. Returns the light; `lobe_pdf` then weighs what the branches find
+// (`lights_seen`, `glow_share`). A glowing mesh whose glow has a pattern is left to the branches
+// (its light is drawn by the pattern's mean).
 fn lights_through_rough(p: vec3<f32>, b: Branch, c: Crossing, alpha: f32, k: u32) -> vec3<f32> {
     var light = vec3<f32>(0.0);
     for (var i = 0u; i < params.light_count; i++) {
         let l = lights[i];
         let bulb = is_bulb_seen_from(l, p);
         let area = l.kind == LIGHT_RECT || l.kind == LIGHT_DISK;
-        if l.kind == LIGHT_MESH || (l.kind != LIGHT_SUN && !bulb && !area && l.radius > 0.0) {
+        let glowing = l.kind == LIGHT_MESH;
+        if (glowing && l.rough_sampled == 0u) || (l.kind != LIGHT_SUN && !bulb && !area && l.radius > 0.0) {
             continue;
         }
         let a = light_arrival(l, p, k);
@@ -454,7 +456,8 @@ fn lights_through_rough(p: vec3<f32>, b: Branch, c: Crossing, alpha: f32, k: u32
             continue;
         }
         // (L/p_light)·X·pdf_lobe·w_light: the radiance over the light's density — a sun's E, a
-        // bulb's L·Ω, an area light's L·A cos θ / d² (intensity / dist²) — times the lobe's weight
+        // bulb's L·Ω, an area light's or a glowing mesh's L·A cos θ / d² (intensity / dist²) —
+        // times the lobe's weight
         // per unit of light X (kept from masking as the branches are: c.energy) times its
         // density, times the balance heuristic's share (none for a light of no size).
         var light_pdf = 0.0;
@@ -464,6 +467,10 @@ fn lights_through_rough(p: vec3<f32>, b: Branch, c: Crossing, alpha: f32, k: u32
             light_pdf = 1.0 / bulb_solid_angle(l, p);
         } else if area {
             light_pdf = a.dist2 / (area_light_area(l) * max(dot(-a.w, l.direction), 1e-6));
+        } else if glowing {
+            // A point uniform over its area A: d² / (A cos θ), with A cos θ = intensity / L.
+            let radiance = max(l.radiant.r, max(l.radiant.g, l.radiant.b));
+            light_pdf = a.dist2 * radiance / max(a.intensity.r, max(a.intensity.g, a.intensity.b));
         }
         let share = select(1.0, light_pdf / (light_pdf + lobe.pdf), light_pdf > 0.0);
         let tint = select(c.tint, vec3<f32>(1.0), dot(a.w, c.normal) > 0.0);

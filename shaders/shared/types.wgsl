@@ -183,12 +183,13 @@ struct Interface {
     dispersion: f32,
     rank: u32,
     contact: f32,
-    _pad2: u32,
+    // A glowing glass mesh's side and world area, as a receiver's (glow_side, glow_area).
+    glow_side: f32,
     roughness_texture: vec4<u32>,
     tint_texture: vec4<u32>,
     emission_texture: vec4<u32>,
     emission: vec3<f32>,
-    _pad3: u32,
+    glow_area: f32,
 }
 
 struct ReceiverGpu {
@@ -220,8 +221,10 @@ struct ReceiverGpu {
     sheen_roughness_texture: vec4<u32>,
     clearcoat_normal_texture: vec4<u32>,
     clearcoat_normal_scale: f32,
-    _pad0: f32,
-    _pad1: f32,
+    // A glowing receiver's world area and the side it lights from (0 both, ±1 the side its
+    // triangles' normals point to or the other); area 0: its glow is not weighed (view.wgsl).
+    glow_area: f32,
+    glow_side: f32,
     _pad2: f32,
 }
 
@@ -267,7 +270,8 @@ struct LightGpu {
     sides: u32,
     // 1: camera rays see the bulb or panel; 0: only glass shows it.
     visible: u32,
-    _pad0: u32,
+    // 1: sampled at rough crossings; 0: a glowing mesh with a pattern, left to the branches.
+    rough_sampled: u32,
     _pad1: u32,
     _pad2: u32,
 }

@@ -317,7 +317,8 @@ gpu_struct! {
         /// How far along a ray another solid's surface may lie from this one's and still be
         /// crossed with it as one interface (world units; 0: never) — a liquid against its glass.
         pub contact: f32,
-        pub _pad2: u32,
+        /// A glowing glass mesh's side its light is drawn on (`ReceiverGpu::glow_side`).
+        pub glow_side: f32,
         /// A glass mesh's roughness texture (green channel × `roughness`), as a receiver's
         /// textures are given: (first texel, width, height, encoding | wrap); zeros for none.
         pub roughness_texture: [u32; 4],
@@ -327,7 +328,9 @@ gpu_struct! {
         pub emission_texture: [u32; 4],
         /// Radiance the surface gives off toward a ray that meets its front (`Glass::emission`).
         pub emission: [f32; 3],
-        pub _pad3: u32,
+        /// A glowing glass mesh's world area (`ReceiverGpu::glow_area`); 0 on analytic shapes,
+        /// whose glow lights nothing.
+        pub glow_area: f32,
     }
 }
 
@@ -372,8 +375,10 @@ gpu_struct! {
         pub sheen_roughness_texture: [u32; 4],
         pub clearcoat_normal_texture: [u32; 4],
         pub clearcoat_normal_scale: f32,
-        pub _pad0: f32,
-        pub _pad1: f32,
+        /// A glowing receiver's world area and the side it lights from (`mesh_lights::glow_measure`),
+        /// for weighing its glow that branches leaving rough glass find; area 0: not weighed.
+        pub glow_area: f32,
+        pub glow_side: f32,
         pub _pad2: f32,
     }
 }
@@ -421,7 +426,9 @@ gpu_struct! {
         pub sides: u32,
         /// 1: camera rays see the bulb or panel (`frame::LightDesc::visible`), 0: only glass shows it.
         pub visible: u32,
-        pub _pad0: u32,
+        /// 1: sampled at rough crossings (`lights_through_rough`); 0: a glowing mesh whose glow
+        /// has a pattern (`LightShape::Mesh::patterned`), left to the branches.
+        pub rough_sampled: u32,
         pub _pad1: u32,
         pub _pad2: u32,
     }

@@ -34,19 +34,24 @@ pub const MARK_WIDTH_VOXELS: f32 = 1.75;
 /// (elsewhere 0: no crossing searches for a partner that cannot be there).
 pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; 3]]) -> Vec<Interface> {
     let analytic = desc.fields.iter().filter(|f| f.sharp).map(analytic_record);
-    let meshes = sharp_meshes(desc).enumerate().map(|(j, m)| Interface {
-        world_to_local: m.world.inverse().to_cols_array_2d(),
-        kind: interface_kind::MESH | thin_bit(m.thin) | single_scattering_bit(m.glass.multiscatter),
-        tint: m.glass.tint.into(),
-        ior: m.glass.ior,
-        absorption: m.glass.absorption.into(),
-        roughness: m.glass.roughness,
-        dispersion: m.glass.dispersion,
-        roughness_texture: textures.get(j).map_or([0; 4], |t| t[0]),
-        tint_texture: textures.get(j).map_or([0; 4], |t| t[1]),
-        emission_texture: textures.get(j).map_or([0; 4], |t| t[2]),
-        emission: m.glass.emission.into(),
-        ..Default::default()
+    let meshes = sharp_meshes(desc).enumerate().map(|(j, m)| {
+        let (glow_area, glow_side) = super::mesh_lights::glow_measure(&m.mesh, m.world, m.glass.emission, m.glass.emission_texture.is_some());
+        Interface {
+            world_to_local: m.world.inverse().to_cols_array_2d(),
+            kind: interface_kind::MESH | thin_bit(m.thin) | single_scattering_bit(m.glass.multiscatter),
+            tint: m.glass.tint.into(),
+            ior: m.glass.ior,
+            absorption: m.glass.absorption.into(),
+            roughness: m.glass.roughness,
+            dispersion: m.glass.dispersion,
+            roughness_texture: textures.get(j).map_or([0; 4], |t| t[0]),
+            tint_texture: textures.get(j).map_or([0; 4], |t| t[1]),
+            emission_texture: textures.get(j).map_or([0; 4], |t| t[2]),
+            emission: m.glass.emission.into(),
+            glow_area,
+            glow_side,
+            ..Default::default()
+        }
     });
     let mut table: Vec<Interface> = analytic.chain(meshes).collect();
     let solids = solids(desc);

@@ -42,7 +42,7 @@ pub fn light_gpu(l: &LightDesc, media: [u32; 2]) -> LightGpu {
         area,
         sides,
         visible: l.visible.into(),
-        _pad0: 0,
+        rough_sampled: (!matches!(l.shape, LightShape::Mesh { patterned: true, .. })).into(),
         _pad1: 0,
         _pad2: 0,
     }

@@ -17,6 +17,7 @@ use std::sync::Arc;
 use glam::{Vec3, Vec4Swizzles};
 
 use crate::frame::{LightDesc, LightShape, MeshInstance, Receiver};
+use crate::scene::mesh::MeshData;
 use crate::gpu::types::LightTriangle;
 
 /// The frame's glowing meshes: one light per emissive receiver, and their triangles.
@@ -104,7 +105,14 @@ pub fn mesh_lights<'a>(receivers: impl IntoIterator<Item = &'a Receiver>) -> Mes
         }
         out.lights.push(LightDesc {
             name: r.name.clone(),
-            shape: LightShape::Mesh { first: first as u32, count: (out.triangles.len() - first) as u32, area, closed, outside: just_outside(&out.triangles[first]) },
+            shape: LightShape::Mesh {
+                first: first as u32,
+                count: (out.triangles.len() - first) as u32,
+                area,
+                closed,
+                outside: just_outside(&out.triangles[first]),
+                patterned: r.diffuse.emission_texture.is_some(),
+            },
             position: centroid,
             direction: Vec3::NEG_Y,
             right: Vec3::X,
@@ -116,6 +124,27 @@ pub fn mesh_lights<'a>(receivers: impl IntoIterator<Item = &'a Receiver>) -> Mes
         });
     }
     out
+}
+
+/// What the view needs to weigh a glowing mesh's glow that a branch leaving rough glass finds
+/// against the same light drawn at that crossing (`lights_through_rough`, by the balance
+/// heuristic): its world area and the side its light is drawn on — 0 both (an open mesh), +1 the
+/// side its triangles' normals point to, −1 the other (a closed mesh glows on its outer side,
+/// `push_triangles`). (0, 0) where it does not glow, or glows through a texture (`patterned`:
+/// its light is drawn by the texture's mean, so the branches keep all of what they see).
+pub fn glow_measure(mesh: &MeshData, world: glam::Mat4, emission: Vec3, patterned: bool) -> (f32, f32) {
+    if emission.max_element() <= 0.0 || patterned {
+        return (0.0, 0.0);
+    }
+    let corners = |t: &[u32; 3]| t.map(|i| world.transform_point3(mesh.positions[i as usize]).as_dvec3());
+    let (mut area, mut volume) = (0.0f64, 0.0f64);
+    for t in &mesh.triangles {
+        let [a, b, c] = corners(t);
+        area += 0.5 * (b - a).cross(c - a).length();
+        volume += a.dot(b.cross(c));
+    }
+    let side = if !mesh.is_closed() { 0.0 } else if volume >= 0.0 { 1.0 } else { -1.0 };
+    (area as f32, side)
 }
 
 /// A point 0.1 mm off triangle t's centre on the side its cross product points to (a closed

@@ -253,6 +253,7 @@ fn receiver_gpu(r: &Receiver, atlas: &mut TexelAtlas) -> ReceiverGpu {
         AlphaMode::Mask => receiver_flags::MASK,
         AlphaMode::Blend => receiver_flags::BLEND,
     };
+    let (glow_area, glow_side) = super::mesh_lights::glow_measure(&r.mesh, r.world, d.emitted(), d.emission_texture.is_some());
     ReceiverGpu {
         albedo: d.color.into(),
         alpha: d.alpha,
@@ -279,6 +280,8 @@ fn receiver_gpu(r: &Receiver, atlas: &mut TexelAtlas) -> ReceiverGpu {
         sheen_roughness_texture: tex[8],
         clearcoat_normal_texture: tex[9],
         clearcoat_normal_scale: d.clearcoat_normal_scale,
+        glow_area,
+        glow_side,
         ..Default::default()
     }
 }

@@ -14,7 +14,7 @@
 
 use std::sync::Arc;
 
-use glam::{Vec3, Vec4Swizzles};
+use glam::Vec3;
 
 use crate::frame::{LightDesc, LightShape, MeshInstance, Receiver};
 use crate::scene::mesh::MeshData;
@@ -129,22 +129,34 @@ pub fn mesh_lights<'a>(receivers: impl IntoIterator<Item = &'a Receiver>) -> Mes
 /// What the view needs to weigh a glowing mesh's glow that a branch leaving rough glass finds
 /// against the same light drawn at that crossing (`lights_through_rough`, by the balance
 /// heuristic): its world area and the side its light is drawn on — 0 both (an open mesh), +1 the
-/// side its triangles' normals point to, −1 the other (a closed mesh glows on its outer side,
+/// side its triangles' normals point to, −1 the other (a `closed` mesh glows on its outer side,
 /// `push_triangles`). (0, 0) where it does not glow, or glows through a texture (`patterned`:
 /// its light is drawn by the texture's mean, so the branches keep all of what they see).
-pub fn glow_measure(mesh: &MeshData, world: glam::Mat4, emission: Vec3, patterned: bool) -> (f32, f32) {
+pub fn glow_measure(mesh: &MeshData, world: glam::Mat4, emission: Vec3, patterned: bool, closed: bool) -> (f32, f32) {
     if emission.max_element() <= 0.0 || patterned {
         return (0.0, 0.0);
     }
-    let corners = |t: &[u32; 3]| t.map(|i| world.transform_point3(mesh.positions[i as usize]).as_dvec3());
-    let (mut area, mut volume) = (0.0f64, 0.0f64);
-    for t in &mesh.triangles {
-        let [a, b, c] = corners(t);
-        area += 0.5 * (b - a).cross(c - a).length();
-        volume += a.dot(b.cross(c));
-    }
-    let side = if !mesh.is_closed() { 0.0 } else if volume >= 0.0 { 1.0 } else { -1.0 };
+    let corners = world_positions(mesh, world);
+    let area: f64 = mesh.triangles.iter().map(|t| {
+        let [a, b, c] = t.map(|i| corners[i as usize].as_dvec3());
+        0.5 * (b - a).cross(c - a).length()
+    }).sum();
+    let side = if !closed { 0.0 } else if enclosed_volume(&corners, &mesh.triangles) >= 0.0 { 1.0 } else { -1.0 };
     (area as f32, side)
+}
+
+/// A mesh's vertices in world space.
+fn world_positions(mesh: &MeshData, world: glam::Mat4) -> Vec<Vec3> {
+    mesh.positions.iter().map(|p| world.transform_point3(*p)).collect()
+}
+
+/// Six times the volume the triangles enclose, signed: positive where their normals (by their
+/// winding) point outward — which a mirroring transform turns.
+fn enclosed_volume(corners: &[Vec3], triangles: &[[u32; 3]]) -> f64 {
+    triangles.iter().map(|t| {
+        let [a, b, c] = t.map(|i| corners[i as usize].as_dvec3());
+        a.dot(b.cross(c))
+    }).sum()
 }
 
 /// A point 0.1 mm off triangle t's centre on the side its cross product points to (a closed
@@ -170,13 +182,9 @@ fn emitted_radiance(r: &Receiver) -> Vec3 {
 /// outward where `closed` (by the sign of the volume they enclose, which a mirroring transform
 /// turns) — and returns the mesh's area and its area-weighted centroid.
 fn push_triangles(r: &Receiver, closed: bool, out: &mut Vec<LightTriangle>) -> (f32, Vec3) {
-    let world: Vec<Vec3> = r.mesh.positions.iter().map(|p| (r.world * p.extend(1.0)).xyz()).collect();
+    let world = world_positions(&r.mesh, r.world);
     let corners = |t: &[u32; 3]| t.map(|i| world[i as usize]);
-    let volume: f64 = r.mesh.triangles.iter().map(|t| {
-        let [a, b, c] = corners(t);
-        a.as_dvec3().dot(b.as_dvec3().cross(c.as_dvec3()))
-    }).sum();
-    let inward = closed && volume < 0.0;
+    let inward = closed && enclosed_volume(&world, &r.mesh.triangles) < 0.0;
     let first = out.len();
     let (mut area, mut moment) = (0.0f64, glam::DVec3::ZERO);
     for t in &r.mesh.triangles {

@@ -253,7 +253,8 @@ fn receiver_gpu(r: &Receiver, atlas: &mut TexelAtlas) -> ReceiverGpu {
         AlphaMode::Mask => receiver_flags::MASK,
         AlphaMode::Blend => receiver_flags::BLEND,
     };
-    let (glow_area, glow_side) = super::mesh_lights::glow_measure(&r.mesh, r.world, d.emitted(), d.emission_texture.is_some());
+    let glowing = d.emitted().max_element() > 0.0;
+    let (glow_area, glow_side) = super::mesh_lights::glow_measure(&r.mesh, r.world, d.emitted(), d.emission_texture.is_some(), glowing && r.mesh.is_closed());
     ReceiverGpu {
         albedo: d.color.into(),
         alpha: d.alpha,

@@ -253,7 +253,7 @@ def node_extras(obj, scene, warnings=None):
     """A node's extras: an index field, or 'ignore' (the volume bounds object, or by choice);
     a point or spot light's radius (glTF's KHR_lights_punctual has none); an area light (which
     KHR_lights_punctual lacks, so Blender's exporter writes none); whether the camera sees the
-    light (Object ▸ Visibility ▸ Ray Visibility ▸ Camera, on by default as in Cycles)."""
+    light (Object ▸ Visibility ▸ Ray Visibility ▸ Camera; off on new lights in Blender 4.5)."""
     warnings = Warnings() if warnings is None else warnings
     s = obj.refrakt
     if s.role == "IGNORE" or obj == scene.refrakt.volume_bounds:

@@ -14,7 +14,7 @@ seed scaling sweeps, the photon count against caustic noise curve, the voxelize-
 import json
 import sys
 
-STAGES = ["voxelize.meshes", "voxelize", "gradient", "octree", "photons", "march", "caustics", "view"]
+STAGES = ["voxelize.meshes", "voxelize", "gradient", "octree", "photons", "march", "caustics", "indirect", "view"]
 
 
 def ms(value):
@@ -25,6 +25,17 @@ def adapter(report):
     return report["adapter"].split(" (")[0]
 
 
+def photons(settings):
+    """The photons a frame traces: the caustic ones and the bounce population where the bench
+    says (newer reports), else the scene's `photons`."""
+    traced = settings.get("photons_traced")
+    if not traced:
+        return f"{settings['photons']:,} photons"
+    if not traced["bounce"]:
+        return f"{traced['caustic']:,} photons"
+    return f"{traced['caustic']:,} + {traced['bounce']:,} bounce photons"
+
+
 def scene_rows(report):
     rows = []
     for s in report["scenes"]:
@@ -33,8 +44,9 @@ def scene_rows(report):
                 rows.append(f"| {s['name']} | {adapter(report)} | skipped: {s['skipped']} |" + " |" * (len(STAGES) + 5))
             continue
         st = s["settings"]
-        settings = f"{st['size'][0]}×{st['size'][1]}, {'×'.join(map(str, st['volume']))}, {st['photons']:,} photons" + (
-            f", {st['triangles']:,} tris" if st["triangles"] else "") + (", fog" if st["fog"] else "")
+        settings = f"{st['size'][0]}×{st['size'][1]}, {'×'.join(map(str, st['volume']))}, {photons(st)}" + (
+            f", {st['triangles']:,} tris" if st["triangles"] else "") + (", fog" if st["fog"] else "") + (
+            f", {st['environment_shadow_rays']} sky shadow rays" if st.get("environment_shadow_rays") else "")
         stages = [ms(s["stages_ms"].get(k, {}).get("median")) for k in STAGES]
         frac = s.get("fraction_of_bare_kernels") or {}
         pct = lambda v: "—" if v is None else f"{100 * v:.1f}%"

@@ -85,7 +85,8 @@ struct BenchArgs {
     /// Also sweep photons, volume and image size on `seed` (stage times for a scaling table).
     #[arg(long)]
     scaling: bool,
-    /// Also measure caustic noise against photon count on `seed` (RMSE to 64× the photons).
+    /// Also measure caustic noise against photon count on `seed`, its twins and scene files (RMSE
+    /// to 64× the photons).
     #[arg(long)]
     quality: bool,
     /// Write the JSON here as well as to stdout.

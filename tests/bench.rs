@@ -42,6 +42,13 @@ fn quick_bench_emits_complete_json() {
         for key in ["size", "volume", "photons", "samples", "triangles", "lights", "fog"] {
             assert!(!s["settings"][key].is_null(), "{name}.settings.{key} missing");
         }
+        // What the frame's light costs: every built-in scene has receivers under a lit
+        // environment, so its caustic photons, a bounce population as large (the default) and
+        // the environment's shadow rays, two per pair (`ENV_PAIRS_PER_SAMPLE`).
+        let traced = &s["settings"]["photons_traced"];
+        assert_eq!(traced["caustic"], s["settings"]["photons"], "{name}: caustic photons traced");
+        assert_eq!(traced["bounce"], s["settings"]["photons"], "{name}: bounce photons traced");
+        assert_eq!(s["settings"]["environment_shadow_rays"], 2 * refrakt::pipeline::view::ENV_PAIRS_PER_SAMPLE, "{name}: sky shadow rays");
     }
     // Saving edits of the default scene under `refrakt watch`: each kind timed, and a camera
     // move never built the volume again.

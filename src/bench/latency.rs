@@ -116,7 +116,7 @@ fn session(opts: &BenchOptions, eval: &EvalOptions, edits: u32, progressive: boo
     let dir = tempfile::Builder::new().prefix("refrakt-bench-watch-").tempdir()?;
     let script = dir.path().join("default.lua");
     std::fs::write(&script, DEFAULT_SCENE)?;
-    let settings = settings_json(&SceneSource::load(&script, &[], &Default::default())?.frame_desc(0.0, eval)?);
+    let settings = settings_json(&SceneSource::load(&script, &[], &Default::default())?.frame_desc(0.0, eval)?, None);
     let watch_opts = WatchOptions {
         out: dir.path().join("default.preview.exr"),
         moment: Moment::Frame(0),

@@ -137,9 +137,11 @@ struct SceneRun {
     photon_steps: Vec<f64>,
     view_steps: Vec<f64>,
     desc: FrameDesc,
+    /// The last measured frame's photons and environment shadow rays (`Renderer::light_work`).
+    light_work: (crate::pipeline::photons::Budget, u32),
 }
 
-/// How long each scene renders unmeasured frames before its timings count (at least two).
+/// How long each scene renders unmeasured frames, after the first two, before its timings count.
 const WARM_UP: std::time::Duration = std::time::Duration::from_secs(1);
 
 /// Frames whose wall time (with the image read back, as `refrakt render` does) is measured.
@@ -160,16 +162,20 @@ fn run_scene(renderer: &mut Renderer, source: &mut SceneSource, eval: &EvalOptio
         photon_steps: Vec::new(),
         view_steps: Vec::new(),
         desc: source.frame_desc(0.0, eval)?,
+        light_work: (crate::pipeline::photons::Budget { caustic: 0, bounce: 0 }, 0),
     };
     // Unmeasured frames first: the first two compile pipelines and grow buffers, and a GPU that
     // sat idle starts at low clocks (the H200 at 345 of its 1980 MHz) and runs at speed only
-    // after a moment of work — measured cold, its first scene took 2.5× as long.
-    let warm_up = Instant::now();
+    // after a moment of work — measured cold, its first scene took 2.5× as long. The moment is
+    // timed from the third frame: a scene whose pipelines compile for seconds (dispersion's on a
+    // fresh machine) leaves the GPU idle all that while, and timed from the first it read 3×.
     let first = source.frame_desc(0.0, eval)?;
-    for k in 0.. {
-        if k >= 2 && warm_up.elapsed() >= WARM_UP {
-            break;
-        }
+    for _ in 0..2 {
+        let ticket = renderer.submit(&first)?;
+        renderer.finish_without_image(ticket)?;
+    }
+    let warm_up = Instant::now();
+    while warm_up.elapsed() < WARM_UP {
         let ticket = renderer.submit(&first)?;
         renderer.finish_without_image(ticket)?;
     }
@@ -181,6 +187,7 @@ fn run_scene(renderer: &mut Renderer, source: &mut SceneSource, eval: &EvalOptio
             renderer.finish_without_image(previous)?;
             record_gpu(&mut run, renderer);
         }
+        run.light_work = renderer.light_work(&desc);
         run.desc = desc;
     }
     if let Some(last) = in_flight.take() {
@@ -224,8 +231,11 @@ fn steps_per_second(steps: &[f64], stage_ms: Option<&Vec<f64>>) -> Option<f64> {
     (ms > 0.0).then(|| median(steps) / (ms * 1e-3))
 }
 
-fn settings_json(d: &FrameDesc) -> Value {
-    json!({
+/// A scene's settings, and (`light_work`, for a measured scene) the photons its frames trace
+/// (the caustic ones and the bounce population, which is as large again by default) and the
+/// environment's shadow rays per receiver hit: what the environment and bounced light cost.
+fn settings_json(d: &FrameDesc, light_work: Option<(crate::pipeline::photons::Budget, u32)>) -> Value {
+    let mut settings = json!({
         "size": [d.camera.width, d.camera.height],
         "volume": [d.volume.dims.x, d.volume.dims.y, d.volume.dims.z],
         "photons": d.photons,
@@ -233,7 +243,12 @@ fn settings_json(d: &FrameDesc) -> Value {
         "triangles": d.meshes.iter().map(|m| m.mesh.triangles.len()).sum::<usize>(),
         "lights": d.lights.len(),
         "fog": d.fog.is_some(),
-    })
+    });
+    if let Some((budget, env_rays)) = light_work {
+        settings["photons_traced"] = json!({ "caustic": budget.caustic, "bounce": budget.bounce });
+        settings["environment_shadow_rays"] = json!(env_rays);
+    }
+    settings
 }
 
 fn scene_json(name: &str, run: &SceneRun, roofline: Option<&roofline::Roofline>) -> Value {
@@ -242,7 +257,7 @@ fn scene_json(name: &str, run: &SceneRun, roofline: Option<&roofline::Roofline>)
     let view_rate = steps_per_second(&run.view_steps, run.stages.get("view"));
     json!({
         "name": name,
-        "settings": settings_json(&run.desc),
+        "settings": settings_json(&run.desc, Some(run.light_work)),
         "frames": run.wall.len(),
         "stages_ms": stages,
         "gpu_ms": Spread::of(&run.gpu),
@@ -283,7 +298,7 @@ fn quality_curve(renderer: &mut Renderer, source: &mut SceneSource, eval: &EvalO
 fn scaling_row(what: &str, run: &SceneRun) -> Value {
     json!({
         "sweep": what,
-        "settings": settings_json(&run.desc),
+        "settings": settings_json(&run.desc, Some(run.light_work)),
         "stages_ms": run.stages.iter().map(|(k, v)| (k.to_string(), median(v))).collect::<BTreeMap<_, _>>(),
         "gpu_ms": median(&run.gpu),
     })
@@ -301,7 +316,7 @@ fn scaling(renderer: &mut Renderer, source: &mut SceneSource, base: &EvalOptions
     for (what, options) in sweeps {
         for o in options {
             if let Some(why) = beyond_adapter(renderer, source, &o)? {
-                rows.push(json!({ "sweep": what, "settings": settings_json(&source.frame_desc(0.0, &o)?), "skipped": why }));
+                rows.push(json!({ "sweep": what, "settings": settings_json(&source.frame_desc(0.0, &o)?, None), "skipped": why }));
                 continue;
             }
             let run = run_scene(renderer, source, &o, frames, 24.0)?;
@@ -400,7 +415,7 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
             renderer.settings.never_deposit = false;
             report["march_ms_without_deposits"] = json!(bare.stages.get("march").map(|v| Spread::of(v)));
         }
-        if is_seed(name) && opts.quality {
+        if opts.quality && (is_seed(name) || name.ends_with(".lua")) {
             // Each scene's caustic noise against its own 64× reference; `seed_quality` keeps seed's.
             let curve = quality_curve(&mut renderer, &mut scene, &eval, run.desc.photons)?;
             if name == "seed" {

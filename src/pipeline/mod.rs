@@ -723,6 +723,14 @@ impl Renderer {
         self.view_steps
     }
 
+    /// What `desc`'s light costs the photon and view stages (after a frame of it, so the
+    /// environment's table is built): the photons traced per population, and the shadow rays a
+    /// receiver hit casts toward the environment per camera sample (0 for a dark one).
+    pub fn light_work(&self, desc: &FrameDesc) -> (photons::Budget, u32) {
+        let budget = if self.traces_photons(desc) { self.photon_budget(desc) } else { photons::Budget { caustic: 0, bounce: 0 } };
+        (budget, 2 * view::env_pairs(desc, &self.environment))
+    }
+
     /// Photon statistics of the last frame that traced photons.
     pub fn photon_stats(&self) -> Option<PhotonStats> {
         self.stats

@@ -496,10 +496,10 @@ impl FrameDesc {
                 )
             });
         }
-        for m in self.meshes.iter().filter(|m| !m.glass.refracts() && (m.glass.tint != Vec3::ONE || m.glass.tint_texture.is_some())) {
+        for m in self.meshes.iter().filter(|m| !m.sharp && !m.glass.refracts() && m.glass.tinted()) {
             out.push(format!(
-                "{}: glass mesh \"{}\" has index {}: it bends no light, and refrakt renders such glass as air, without \
-                 its tint (give it an index above {})",
+                "{}: glass mesh \"{}\" has index {}: it bends no light, and refrakt renders such a solid as air, without \
+                 its tint (give it an index above {}, or make it a sheet: thin = true)",
                 m.origin, m.name, m.glass.ior, 1.0 + crate::pipeline::photons::EPS_REFRACT
             ));
         }
@@ -512,7 +512,7 @@ impl FrameDesc {
         }
         for f in self.fields.iter().filter(|f| !f.sharp && f.tint != Vec3::ONE) {
             let why = if matches!(f.kind, FieldKind::Sphere | FieldKind::Box) && (f.ior - 1.0).abs() <= crate::pipeline::photons::EPS_REFRACT {
-                format!("has index {}: it bends no light, and refrakt renders such glass as air (give it an index above {})", f.ior, 1.0 + crate::pipeline::photons::EPS_REFRACT)
+                format!("has index {}: it bends no light, and refrakt renders such glass as air (give it an index above {}, or make it a shell: thin = true)", f.ior, 1.0 + crate::pipeline::photons::EPS_REFRACT)
             } else {
                 "is a smooth index field, and a tint colours light where it crosses a sharp surface only (leave out `boundary` \
                  on a sphere or box, or colour the field with `absorption`)"

@@ -58,10 +58,11 @@ fn pane_mesh(size: f32) -> String {
 /// polarization's reflections summed; glTF's thin-walled transmission tints once), per channel, in
 /// absolute terms, within 1 %. The light passes the polished sheet as shadow rays (direct light:
 /// exact, noise-free), not as photons: the caustic there is none, so nothing counts twice.
+/// A pane of index 1 (a gel, a coloured film) reflects nothing and passes E cos θ · tint.
 #[test]
 fn a_thin_pane_casts_the_thin_slab_fraction_of_sunlight_tinted_once() {
     let tint = Vec3::new(0.9, 0.6, 0.3);
-    for degrees in [0.0f32, 60.0] {
+    for (degrees, ior) in [(0.0f32, 1.5f32), (60.0, 1.5), (60.0, 1.0)] {
         let (s, c) = degrees.to_radians().sin_cos();
         // The patch lies tan θ beyond the pane's foot, along x; an orthographic camera just under
         // the pane looks straight down at its middle (its rays start below the pane).
@@ -74,7 +75,7 @@ fn a_thin_pane_casts_the_thin_slab_fraction_of_sunlight_tinted_once() {
             scene:add(r.node{{ name = "floor", translation = {{0, -1, 0}}, shape = r.plane{{ size = {{6, 6}} }},
                               material = r.diffuse{{ color = {{1, 1, 1}} }} }})
             scene:add(r.node{{ name = "pane", rotation = {{-90, 0, 0}}, shape = {},
-                              material = r.glass{{ ior = 1.5, thin = true, tint = {{{}, {}, {}}} }} }})
+                              material = r.glass{{ ior = {ior}, thin = true, tint = {{{}, {}, {}}} }} }})
             scene:add(r.node{{ name = "sun", light = r.sun{{ direction = {{{s}, {}, 0}}, intensity = 683, angular_diameter = 0 }} }})
             return scene"#,
             pane_mesh(1.0),
@@ -92,10 +93,10 @@ fn a_thin_pane_casts_the_thin_slab_fraction_of_sunlight_tinted_once() {
         };
         // 683 lux is 1 W/m² across the beam; a white floor shows E/π.
         let (direct, caustic) = (layer_mean("direct") * std::f32::consts::PI, layer_mean("caustic") * std::f32::consts::PI);
-        let passed = 1.0 - thin_slab_reflectance(degrees.to_radians());
+        let passed = if ior == 1.0 { 1.0 } else { 1.0 - thin_slab_reflectance(degrees.to_radians()) };
         for k in 0..3 {
             let expected = c * tint[k] * passed;
-            eprintln!("thin pane at {degrees}°, channel {k}: patch irradiance {:.4} W/m² (caustic {:.5}), E cos θ · tint · (1 − R_thin) = {expected:.4}", direct[k], caustic[k]);
+            eprintln!("thin pane of index {ior} at {degrees}°, channel {k}: patch irradiance {:.4} W/m² (caustic {:.5}), E cos θ · tint · (1 − R_thin) = {expected:.4}", direct[k], caustic[k]);
             assert!((direct[k] / expected - 1.0).abs() < 0.01, "{degrees}°, channel {k}: {} vs {expected}", direct[k]);
             assert!(caustic[k] < 1e-3 * expected, "{degrees}°, channel {k}: the pane's light counted again as caustic ({})", caustic[k]);
         }
@@ -110,19 +111,20 @@ fn a_thin_pane_casts_the_thin_slab_fraction_of_sunlight_tinted_once() {
 /// A sheet that displaced the stripes (as a refracting slab would) or reflected a single
 /// surface's Fresnel fails it. (The wall and stripes glow rather than reflect: the sky lights the
 /// scene, and the pane shades the wall from part of it, which is not what this test measures.)
+/// A tinted pane of index 1 (a gel) shows what lies behind it times its tint, and reflects nothing.
 #[test]
 fn a_thin_pane_bends_nothing_and_reflects_a_thin_slabs_fresnel() {
-    for (angle, tint) in [(35.0f32, Vec3::new(0.9, 0.7, 0.5)), (55.0, Vec3::ONE)] {
-        pane_against_the_exact_thin_slab(angle, tint);
+    for (angle, tint, ior) in [(35.0f32, Vec3::new(0.9, 0.7, 0.5), 1.5f32), (55.0, Vec3::ONE, 1.5), (35.0, Vec3::new(0.3, 0.8, 1.0), 1.0)] {
+        pane_against_the_exact_thin_slab(angle, tint, ior);
     }
 }
 
-fn pane_against_the_exact_thin_slab(angle: f32, tint: Vec3) {
+fn pane_against_the_exact_thin_slab(angle: f32, tint: Vec3, ior: f32) {
     let scene = |with_pane: bool| {
         let pane = if with_pane {
             format!(
                 r#"scene:add(r.node{{ name = "pane", translation = {{0, 0.2, 0}}, rotation = {{0, {angle}, 0}}, shape = {},
-                                    material = r.glass{{ ior = 1.5, thin = true, tint = {{{}, {}, {}}} }} }})"#,
+                                    material = r.glass{{ ior = {ior}, thin = true, tint = {{{}, {}, {}}} }} }})"#,
                 pane_mesh(1.2),
                 tint.x,
                 tint.y,
@@ -168,7 +170,7 @@ fn pane_against_the_exact_thin_slab(angle: f32, tint: Vec3) {
             let behind = rgb(beauty(&bare), i);
             let theta = d.dot(normal).abs().min(1.0).acos();
             let slab = |r_thin: f32| tint * (1.0 - r_thin) * behind + r_thin * with.environment.radiance(reflect(d, normal));
-            let exact = slab(thin_slab_reflectance(theta));
+            let exact = slab(if ior == 1.0 { 0.0 } else { thin_slab_reflectance(theta) });
             let got = rgb(beauty(&seen), i);
             errors.push((got - exact).abs().element_sum() / 3.0);
             averaged_errors.push((slab(averaged_thin_slab_reflectance(theta)) - exact).abs().element_sum() / 3.0);
@@ -177,7 +179,7 @@ fn pane_against_the_exact_thin_slab(angle: f32, tint: Vec3) {
         }
     }
     let (mae, level) = (mean(&errors), mean(&values));
-    eprintln!("thin pane at {angle}°, tint {tint}: MAE {mae:.5} over {} pixels ({stripes} on stripes), mean radiance {level:.4}; the averaged-R slab would be off by {:.5}", errors.len(), mean(&averaged_errors));
+    eprintln!("thin pane of index {ior} at {angle}°, tint {tint}: MAE {mae:.5} over {} pixels ({stripes} on stripes), mean radiance {level:.4}; the averaged-R slab would be off by {:.5}", errors.len(), mean(&averaged_errors));
     assert!(errors.len() > 300 && stripes > 30, "the pane must cover the stripes: {} pixels, {stripes} on stripes", errors.len());
     assert!(mae < 0.012 && mae < 0.01 * level, "{angle}°: MAE {mae} against a mean of {level}");
     if angle > 50.0 {
@@ -545,12 +547,26 @@ fn a_tint_that_cannot_apply_to_an_analytic_shape_is_warned_about() {
         scene:add(r.node{ name = "air", shape = r.sphere{ radius = 0.1 }, material = r.glass{ ior = 1.0, tint = {1, 0.5, 0.5} } })
         scene:add(r.node{ name = "soft", translation = {0.3, 0, 0}, shape = r.sphere{ radius = 0.1, boundary = 2 }, material = r.glass{ tint = {1, 0.5, 0.5} } })
         scene:add(r.node{ name = "clear", translation = {-0.3, 0, 0}, shape = r.box{ size = {0.1, 0.1, 0.1} }, material = r.glass{ tint = {1, 0.5, 0.5} } })
+        scene:add(r.node{ name = "film", translation = {0, 0.3, 0}, shape = r.sphere{ radius = 0.1 }, material = r.glass{ ior = 1.0, thin = true, tint = {1, 0.5, 0.5} } })
+        scene:add(r.node{ name = "gel", translation = {0, -0.3, 0}, shape = r.mesh{ vertices = {{0, 0, 0}, {0.1, 0, 0}, {0, 0.1, 0}}, triangles = {{1, 2, 3}} },
+                          material = r.glass{ ior = 1.0, tint = {1, 0.5, 0.5} } })
+        scene:add(r.node{ name = "lump", translation = {0.3, 0.3, 0}, shape = r.icosphere{ radius = 0.1 }, material = r.glass{ ior = 1.0, tint = {1, 0.5, 0.5} } })
         return scene"#,
     );
     let said: Vec<String> = desc.warnings().into_iter().filter(|w| w.contains("its tint is not applied")).collect();
     assert_eq!(said.len(), 2, "{said:?}");
     assert!(said[0].starts_with("glass \"air\" has index 1: it bends no light"), "{}", said[0]);
     assert!(said[1].starts_with("glass \"soft\" is a smooth index field"), "{}", said[1]);
+    // Tinted sheets and shells of index 1 (a gel, a film) are sharp and keep their tint; a solid
+    // of index 1 is air, and said to be.
+    let film = desc.fields.iter().find(|f| f.name == "film").unwrap();
+    assert!(film.sharp, "a tinted shell of index 1 is a sharp sheet");
+    let gel = desc.meshes.iter().find(|m| m.name == "gel").unwrap();
+    assert!(gel.sharp && gel.thin, "a flat tinted mesh of index 1 is a sharp sheet");
+    let lump = desc.meshes.iter().find(|m| m.name == "lump").unwrap();
+    assert!(!lump.sharp);
+    let air: Vec<String> = desc.warnings().into_iter().filter(|w| w.contains("renders such a solid as air")).collect();
+    assert!(air.len() == 1 && air[0].contains("\"lump\"") && air[0].contains("thin = true"), "{air:?}");
 }
 
 /// A lamp in a thin glass shade: a point light (1 W/sr) at the centre of a thin, tinted glass

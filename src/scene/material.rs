@@ -70,6 +70,11 @@ impl Glass {
     pub fn refracts(&self) -> bool {
         (self.ior - 1.0).abs() > crate::pipeline::photons::EPS_REFRACT
     }
+
+    /// Whether it colours the light that crosses it (a tint or a tint texture).
+    pub fn tinted(&self) -> bool {
+        self.tint != Vec3::ONE || self.tint_texture.is_some()
+    }
 }
 
 impl Default for Glass {

@@ -60,6 +60,11 @@ pub enum MaterialProperty {
     Emissive,
     EmissiveStrength,
     AlphaCutoff,
+    /// KHR_materials_ior's index of a glass: an index keyed in Blender (a liquid that thickens,
+    /// a lens that changes).
+    Ior,
+    /// KHR_materials_dispersion's 20/V_d of a glass.
+    Dispersion,
 }
 
 /// The JSON without its pointer channels (the original bytes when it has none), and those
@@ -140,6 +145,8 @@ pub fn resolve(pointer: &str) -> Option<(Target, usize)> {
                 ["emissiveFactor"] => MaterialProperty::Emissive,
                 ["extensions", "KHR_materials_emissive_strength", "emissiveStrength"] => MaterialProperty::EmissiveStrength,
                 ["alphaCutoff"] => MaterialProperty::AlphaCutoff,
+                ["extensions", "KHR_materials_ior", "ior"] => MaterialProperty::Ior,
+                ["extensions", "KHR_materials_dispersion", "dispersion"] => MaterialProperty::Dispersion,
                 _ => return None,
             };
             (Target::Material(p), index(i)?)
@@ -205,8 +212,9 @@ pub fn apply_camera(camera: &mut Camera, p: CameraProperty, v: &[f32]) {
     }
 }
 
-/// Sets a material's animated factor, clamped as the import clamps it: a receiver's, or a
-/// glass's tint and roughness (what else glass does not have is left alone).
+/// Sets a material's animated factor, held within what the import accepts: a receiver's, or a
+/// glass's tint, roughness, index (1 to 4) and dispersion (0 to 20); what a material does not
+/// have (a receiver's index, a glass's metallic) is left alone.
 pub fn apply_material(material: &mut Material, p: MaterialProperty, v: &[f32]) {
     let unit = |x: f32| x.clamp(0.0, 1.0);
     match material {
@@ -220,10 +228,13 @@ pub fn apply_material(material: &mut Material, p: MaterialProperty, v: &[f32]) {
             MaterialProperty::Emissive => d.emission = Vec3::from_slice(v).max(Vec3::ZERO),
             MaterialProperty::EmissiveStrength => d.emission_strength = v[0].max(0.0),
             MaterialProperty::AlphaCutoff => d.alpha_cutoff = unit(v[0]),
+            MaterialProperty::Ior | MaterialProperty::Dispersion => {}
         },
         Material::Glass(g) => match p {
             MaterialProperty::BaseColor => g.tint = Vec3::from_slice(&v[..3]).clamp(Vec3::ZERO, Vec3::ONE),
             MaterialProperty::Roughness => g.roughness = unit(v[0]),
+            MaterialProperty::Ior => g.ior = v[0].clamp(1.0, 4.0),
+            MaterialProperty::Dispersion => g.dispersion = v[0].clamp(0.0, 20.0),
             _ => {}
         },
     }
@@ -245,6 +256,8 @@ mod tests {
         assert_eq!(resolve("/extensions/KHR_lights_punctual/lights/1/extras/refrakt/radius"), Some((Target::Light(LightProperty::Radius), 1)));
         assert_eq!(resolve("/nodes/7/extras/refrakt/light/size"), Some((Target::AreaLight(LightProperty::Size), 7)));
         assert_eq!(resolve("/nodes/7/extras/refrakt/light/intensity"), Some((Target::AreaLight(LightProperty::Intensity), 7)));
+        assert_eq!(resolve("/materials/1/extensions/KHR_materials_ior/ior"), Some((Target::Material(MaterialProperty::Ior), 1)));
+        assert_eq!(resolve("/materials/0/extensions/KHR_materials_dispersion/dispersion"), Some((Target::Material(MaterialProperty::Dispersion), 0)));
         for unread in ["/extensions/KHR_lights_punctual/lights/0/range", "/cameras/0/perspective/znear", "/cameras/0/extras/refrakt/blades", "/cameras/0/extras/other/focus", "/materials/x/alphaCutoff", "nodes/0/scale", ""] {
             assert_eq!(resolve(unread), None, "{unread}");
         }
@@ -260,6 +273,18 @@ mod tests {
         apply_light(&mut l, LightProperty::OuterCone, &[0.1]);
         let LightKind::Spot { angle, blend } = l.kind else { panic!() };
         assert!((angle - 0.1).abs() < 1e-6 && blend.abs() < 1e-6);
+    }
+
+    #[test]
+    fn an_animated_index_and_dispersion_stay_within_what_the_import_accepts() {
+        let mut m = Material::Glass(Default::default());
+        apply_material(&mut m, MaterialProperty::Ior, &[0.5]);
+        apply_material(&mut m, MaterialProperty::Dispersion, &[40.0]);
+        let Material::Glass(g) = &m else { unreachable!() };
+        assert_eq!((g.ior, g.dispersion), (1.0, 20.0));
+        apply_material(&mut m, MaterialProperty::Ior, &[1.33]);
+        let Material::Glass(g) = &m else { unreachable!() };
+        assert_eq!(g.ior, 1.33);
     }
 
     #[test]

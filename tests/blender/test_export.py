@@ -161,6 +161,34 @@ def test_animated_light_power_and_colour_reach_the_gltf_in_its_units(addon, save
         assert lit["radiant"] == pytest.approx(want, rel=1e-4), doc["frame"]
 
 
+def test_a_keyed_glass_index_reaches_refrakt_frame_by_frame(addon, saved_blend, real_refrakt):
+    """A glass's IOR keyed in Blender (the Principled BSDF's, 1.45 at frame 1 to 1.33 at frame 5)
+    goes out as Blender's KHR_animation_pointer channel into KHR_materials_ior, and refrakt's
+    glass has Blender's index at every frame (`refrakt dump`)."""
+    scene = scenes.round_trip_scene()
+    scene.frame_start, scene.frame_end = 1, 5
+    ior = bpy.data.materials["Glass"].node_tree.nodes["Principled BSDF"].inputs["IOR"]
+    for frame, value in ((1, scenes.GLASS_IOR), (5, 1.33)):
+        ior.default_value = value
+        ior.keyframe_insert("default_value", frame=frame)
+    paths, gltf = export(saved_blend)
+    pointers = [c["target"].get("extensions", {}).get("KHR_animation_pointer", {}).get("pointer", "")
+                for a in gltf.json.get("animations", []) for c in a["channels"]]
+    assert any(p.endswith("/extensions/KHR_materials_ior/ior") for p in pointers), pointers
+    fps = scene.render.fps / scene.render.fps_base
+    done = subprocess.run([real_refrakt, "dump", paths.glb, "--frames", "1..5", "--fps", str(fps), "--size", "32x18"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    seen = []
+    for doc in map(json.loads, done.stdout.splitlines()):
+        scene.frame_set(doc["frame"])
+        ball = next(n for n in doc["nodes"] if n["name"] == "Ball")
+        glass = doc["materials"][ball["material"]]
+        assert glass["kind"] == "glass" and glass["ior"] == pytest.approx(ior.default_value, abs=1e-4), doc["frame"]
+        seen.append(glass["ior"])
+    assert seen[0] == pytest.approx(scenes.GLASS_IOR, abs=1e-4) and seen[-1] == pytest.approx(1.33, abs=1e-4), seen
+
+
 def test_depth_of_field_reaches_refrakts_thin_lens(addon, saved_blend, real_refrakt):
     """A camera's Depth of Field as Cycles sets up its lens: aperture = focal length / f-stop,
     blades and their rotation, the focus distance or a focus object's distance along the view;

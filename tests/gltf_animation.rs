@@ -419,24 +419,29 @@ fn animation_pointers_drive_lights_cameras_and_materials() {
     assert!((desc.lights[0].radiant.x - 20.0 / 683.0).abs() < 1e-6, "{}", desc.lights[0].radiant);
 }
 
-/// A glass's index and dispersion keyed in Blender (KHR_materials_ior `ior`,
-/// KHR_materials_dispersion `dispersion`, through KHR_animation_pointer) follow their samplers
-/// into the frame: a liquid that thickens, a lens that changes.
+/// A glass's index, dispersion and glow keyed in Blender (KHR_materials_ior `ior`,
+/// KHR_materials_dispersion `dispersion`, KHR_materials_emissive_strength, through
+/// KHR_animation_pointer) follow their samplers into the frame: a liquid that thickens, a lens
+/// that changes, a lamp's shade that brightens.
 #[test]
-fn animation_pointers_drive_a_glasss_index_and_dispersion() {
+fn animation_pointers_drive_a_glasss_index_dispersion_and_glow() {
     use refrakt::scene::Material;
     let mut g = GltfBuilder::new();
     g.uses("KHR_animation_pointer", true);
-    for ext in ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_dispersion"] {
+    for ext in ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_dispersion", "KHR_materials_emissive_strength"] {
         g.uses(ext, false);
     }
-    let m = g.push("materials", json!({ "pbrMetallicRoughness": { "metallicFactor": 0.0 }, "extensions": {
+    let m = g.push("materials", json!({ "pbrMetallicRoughness": { "metallicFactor": 0.0 }, "emissiveFactor": [1.0, 0.5, 0.25], "extensions": {
         "KHR_materials_transmission": { "transmissionFactor": 1.0 }, "KHR_materials_ior": { "ior": 1.5 },
-        "KHR_materials_dispersion": { "dispersion": 0.0 } } }));
+        "KHR_materials_dispersion": { "dispersion": 0.0 }, "KHR_materials_emissive_strength": { "emissiveStrength": 2.0 } } }));
     let mesh = g.mesh(&TETRA, &[[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], Some(m));
     let thing = g.push("nodes", json!({ "name": "thing", "mesh": mesh }));
     let mut anim = Anim::default();
-    for (pointer, values) in [("/materials/0/extensions/KHR_materials_ior/ior", [1.5f32, 1.33, 1.33]), ("/materials/0/extensions/KHR_materials_dispersion/dispersion", [0.0, 1.0, 1.0])] {
+    for (pointer, values) in [
+        ("/materials/0/extensions/KHR_materials_ior/ior", [1.5f32, 1.33, 1.33]),
+        ("/materials/0/extensions/KHR_materials_dispersion/dispersion", [0.0, 1.0, 1.0]),
+        ("/materials/0/extensions/KHR_materials_emissive_strength/emissiveStrength", [2.0, 6.0, 6.0]),
+    ] {
         let input = g.floats(&TIMES, "SCALAR");
         let output = g.floats(&values, "SCALAR");
         anim.samplers.push(json!({ "input": input, "output": output, "interpolation": "LINEAR" }));
@@ -451,6 +456,8 @@ fn animation_pointers_drive_a_glasss_index_and_dispersion() {
     let material = s.scene.find("thing").unwrap().borrow().material.clone().unwrap();
     let Material::Glass(glass) = &*material.borrow() else { panic!("a transmissive material is glass") };
     assert!((glass.ior - 1.415).abs() < 1e-5 && (glass.dispersion - 0.5).abs() < 1e-6, "{} {}", glass.ior, glass.dispersion);
+    // A glowing shade's strength keyed (Blender's Emission Strength): 2 → 4 at t = 0.5.
+    assert!((glass.emitted() - Vec3::new(4.0, 2.0, 1.0)).length() < 1e-5, "{}", glass.emitted());
     let desc = refrakt::scene::eval::evaluate(&s.scene, 0.5, &Default::default()).unwrap();
     assert!((desc.meshes[0].glass.ior - 1.415).abs() < 1e-5, "the frame's glass: {}", desc.meshes[0].glass.ior);
 }

@@ -643,7 +643,8 @@ fn a_lamp_in_a_thin_tinted_shade_lights_the_floor_through_it() {
     }
 }
 
-/// Glowing glass (glTF's emissive on a transmissive material, Lua `glass.emission`): a thin pane
+/// Glowing glass (glTF's emissive on a transmissive material, Lua `glass.emission` ×
+/// `emission_strength`): a thin pane
 /// and a solid ball of emission E in front of a black sky show E exactly where the camera sees
 /// them square on — the pane once (either side of a sheet), the ball at its front only (its
 /// back, met from inside, does not add) — and the glTF importer reads emissiveFactor ×
@@ -656,9 +657,9 @@ fn glowing_glass_shows_its_emission_from_its_front() {
             r#"local r = require("refrakt")
             local scene = r.scene{{ volume = {{ resolution = 16 }}, photons = 0, samples = 1, environment = r.environment{{ color = {{0, 0, 0}} }},
                                     camera = r.camera{{ position = {{0, 0, 5}}, target = {{0, 0, 0}}, fov = 1, size = {{8, 8}} }} }}
-            scene:add(r.node{{ name = "glow", shape = {shape}, material = r.glass{{ ior = 1.5, thin = {thin}, emission = {{{}, {}, {}}} }} }})
+            scene:add(r.node{{ name = "glow", shape = {shape}, material = r.glass{{ ior = 1.5, thin = {thin}, emission = {{{}, {}, {}}}, emission_strength = 0.5 }} }})
             return scene"#,
-            glow.x, glow.y, glow.z
+            2.0 * glow.x, 2.0 * glow.y, 2.0 * glow.z
         ));
         let image = renderer().frame(&desc).unwrap();
         for i in 0..64 {
@@ -673,7 +674,8 @@ fn glowing_glass_shows_its_emission_from_its_front() {
     );
     let dir = tempfile::tempdir().unwrap();
     let desc = frame_of_glb(&g, &dir.path().join("shade.glb")).unwrap();
-    assert_eq!(desc.meshes[0].glass.emission, Vec3::new(4.0, 2.0, 1.0));
+    let glass = &desc.meshes[0].glass;
+    assert_eq!((glass.emission, glass.emission_strength, glass.emitted()), (Vec3::new(1.0, 0.5, 0.25), 4.0, Vec3::new(4.0, 2.0, 1.0)));
 }
 
 /// A real file: Khronos' TransmissionRoughnessTest (tests/data/khronos, CC BY 4.0, Ed Mackey /

@@ -220,8 +220,8 @@ impl<'a> Materials<'a> {
             glass.roughness_texture = Some(self.texture(&info, what, "metallic-roughness", false)?);
         }
         let (emission, strength) = emissive(m, file, what)?;
-        glass.emission = emission * strength;
-        if glass.emission != Vec3::ZERO {
+        (glass.emission, glass.emission_strength) = (emission, strength);
+        if glass.emitted() != Vec3::ZERO {
             if let Some(info) = m.emissive_texture() {
                 maps.push(("emissive", UvMap::of(&info, file, what)?));
                 glass.emission_texture = Some(self.texture(&info, what, "emissive", true)?);

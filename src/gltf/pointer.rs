@@ -213,7 +213,7 @@ pub fn apply_camera(camera: &mut Camera, p: CameraProperty, v: &[f32]) {
 }
 
 /// Sets a material's animated factor, held within what the import accepts: a receiver's, or a
-/// glass's tint, roughness, index (1 to 4) and dispersion (0 to 20); what a material does not
+/// glass's tint, roughness, emission, index (1 to 4) and dispersion (0 to 20); what a material does not
 /// have (a receiver's index, a glass's metallic) is left alone.
 pub fn apply_material(material: &mut Material, p: MaterialProperty, v: &[f32]) {
     let unit = |x: f32| x.clamp(0.0, 1.0);
@@ -233,6 +233,8 @@ pub fn apply_material(material: &mut Material, p: MaterialProperty, v: &[f32]) {
         Material::Glass(g) => match p {
             MaterialProperty::BaseColor => g.tint = Vec3::from_slice(&v[..3]).clamp(Vec3::ZERO, Vec3::ONE),
             MaterialProperty::Roughness => g.roughness = unit(v[0]),
+            MaterialProperty::Emissive => g.emission = Vec3::from_slice(v).max(Vec3::ZERO),
+            MaterialProperty::EmissiveStrength => g.emission_strength = v[0].max(0.0),
             MaterialProperty::Ior => g.ior = v[0].clamp(1.0, 4.0),
             MaterialProperty::Dispersion => g.dispersion = v[0].clamp(0.0, 20.0),
             _ => {}

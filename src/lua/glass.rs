@@ -8,7 +8,7 @@ use super::convert::{self as cv, FieldName, error_at};
 use super::objects::{Obj, construct, number_value, vec_value};
 use crate::scene::{Glass, Material};
 
-pub const FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin", "dispersion", "abbe", "priority", "multiscatter", "emission"];
+pub const FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin", "dispersion", "abbe", "priority", "multiscatter", "emission", "emission_strength"];
 
 /// Glass field `key` of `g`; None when glass has no such field.
 pub fn get(lua: &Lua, g: &Glass, key: &str) -> Option<mlua::Result<Value>> {
@@ -24,6 +24,7 @@ pub fn get(lua: &Lua, g: &Glass, key: &str) -> Option<mlua::Result<Value>> {
         "priority" => Ok(Value::Integer(g.priority as i64)),
         "multiscatter" => Ok(Value::Boolean(g.multiscatter)),
         "emission" => vec_value(lua, g.emission),
+        "emission_strength" => Ok(number_value(g.emission_strength)),
         // The Abbe number V_d = 20/dispersion; nil without dispersion.
         "abbe" => Ok(if g.dispersion > 0.0 { number_value(20.0 / g.dispersion) } else { Value::Nil }),
         // Transmittance over one metre (the color a 1 m thick piece has).
@@ -47,6 +48,7 @@ fn set_field(lua: &Lua, g: &mut Glass, key: &str, value: Value) -> mlua::Result<
         "absorption" => g.absorption = cv::color(lua, name, &value)?,
         "scattering" => g.scattering = cv::color(lua, name, &value)?,
         "emission" => g.emission = cv::color(lua, name, &value)?,
+        "emission_strength" => g.emission_strength = cv::non_negative(lua, name, &value)?,
         "tint" => {
             let c = cv::color(lua, name, &value)?;
             if c.max_element() > 1.0 {

@@ -36,7 +36,7 @@ pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; 3]]) -> Vec<Interface> {
     let analytic = desc.fields.iter().filter(|f| f.sharp).map(analytic_record);
     let meshes = sharp_meshes(desc).enumerate().map(|(j, m)| {
         // (Every frame: a sharp mesh is a sheet or a closed solid, so `thin` says which.)
-        let (glow_area, glow_side) = super::mesh_lights::glow_measure(&m.mesh, m.world, m.glass.emission, m.glass.emission_texture.is_some(), !m.thin);
+        let (glow_area, glow_side) = super::mesh_lights::glow_measure(&m.mesh, m.world, m.glass.emitted(), m.glass.emission_texture.is_some(), !m.thin);
         Interface {
             world_to_local: m.world.inverse().to_cols_array_2d(),
             kind: interface_kind::MESH | thin_bit(m.thin) | single_scattering_bit(m.glass.multiscatter),
@@ -48,7 +48,7 @@ pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; 3]]) -> Vec<Interface> {
             roughness_texture: textures.get(j).map_or([0; 4], |t| t[0]),
             tint_texture: textures.get(j).map_or([0; 4], |t| t[1]),
             emission_texture: textures.get(j).map_or([0; 4], |t| t[2]),
-            emission: m.glass.emission.into(),
+            emission: m.glass.emitted().into(),
             glow_area,
             glow_side,
             ..Default::default()

@@ -73,14 +73,14 @@ impl GlowingMeshes {
 /// (or is a voxelized solid, whose surface the view does not meet and so shows no glow).
 fn glow_of_glass(m: &MeshInstance) -> Option<Receiver> {
     let g = &m.glass;
-    (m.sharp && g.emission.max_element() > 0.0).then(|| Receiver {
+    (m.sharp && g.emitted().max_element() > 0.0).then(|| Receiver {
         name: m.name.clone(),
         mesh: m.mesh.clone(),
         world: m.world,
         diffuse: crate::scene::material::Diffuse {
             color: Vec3::ZERO,
             emission: g.emission,
-            emission_strength: 1.0,
+            emission_strength: g.emission_strength,
             emission_texture: g.emission_texture.clone(),
             ..crate::scene::material::Diffuse::pbr()
         },

@@ -292,7 +292,7 @@ fn field_of(node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) 
         roughness: glass.roughness,
         thin,
         multiscatter: glass.multiscatter,
-        emission: glass.emission,
+        emission: glass.emitted(),
         dispersion: glass.dispersion,
         priority: glass.priority,
         bounds: world_bounds(&world, half_size),

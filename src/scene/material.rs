@@ -51,7 +51,11 @@ pub struct Glass {
     /// a transmissive material: a lamp's glowing shade): seen where a ray meets the surface from
     /// its front (either side of a thin sheet), and lighting the scene as a glowing receiver of
     /// it would (`pipeline::mesh_lights`: a sharp glass mesh; an analytic shape lights nothing).
+    /// Before `emission_strength`.
     pub emission: Vec3,
+    /// Multiplies `emission` (KHR_materials_emissive_strength; Blender's Emission Strength),
+    /// kept apart so either can be keyed.
+    pub emission_strength: f32,
     /// An emissive texture (glTF, sRGB): its rgb multiplies `emission` — a sharp mesh with
     /// texture coordinates only.
     pub emission_texture: Option<Arc<Texture2d>>,
@@ -71,6 +75,11 @@ impl Glass {
         (self.ior - 1.0).abs() > crate::pipeline::photons::EPS_REFRACT
     }
 
+    /// The emitted radiance at full texture: `emission × emission_strength`.
+    pub fn emitted(&self) -> Vec3 {
+        self.emission * self.emission_strength
+    }
+
     /// Whether it colours the light that crosses it (a tint or a tint texture).
     pub fn tinted(&self) -> bool {
         self.tint != Vec3::ONE || self.tint_texture.is_some()
@@ -80,7 +89,8 @@ impl Glass {
 impl Default for Glass {
     fn default() -> Self {
         Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0, tint: Vec3::ONE, roughness: 0.0, thin: None, dispersion: 0.0,
-               roughness_texture: None, tint_texture: None, priority: 0, multiscatter: true, emission: Vec3::ZERO, emission_texture: None }
+               roughness_texture: None, tint_texture: None, priority: 0, multiscatter: true, emission: Vec3::ZERO, emission_strength: 1.0,
+               emission_texture: None }
     }
 }
 

@@ -161,20 +161,25 @@ def test_animated_light_power_and_colour_reach_the_gltf_in_its_units(addon, save
         assert lit["radiant"] == pytest.approx(want, rel=1e-4), doc["frame"]
 
 
-def test_a_keyed_glass_index_reaches_refrakt_frame_by_frame(addon, saved_blend, real_refrakt):
-    """A glass's IOR keyed in Blender (the Principled BSDF's, 1.45 at frame 1 to 1.33 at frame 5)
-    goes out as Blender's KHR_animation_pointer channel into KHR_materials_ior, and refrakt's
-    glass has Blender's index at every frame (`refrakt dump`)."""
+def test_a_keyed_glass_index_and_glow_reach_refrakt_frame_by_frame(addon, saved_blend, real_refrakt):
+    """A glass's IOR and Emission Strength keyed in Blender (the Principled BSDF's: 1.45 at
+    frame 1 to 1.33 at frame 5, a glow of 2 to 6) go out as Blender's KHR_animation_pointer
+    channels into KHR_materials_ior and KHR_materials_emissive_strength, and refrakt's glass has
+    Blender's index and glow at every frame (`refrakt dump`)."""
     scene = scenes.round_trip_scene()
     scene.frame_start, scene.frame_end = 1, 5
-    ior = bpy.data.materials["Glass"].node_tree.nodes["Principled BSDF"].inputs["IOR"]
-    for frame, value in ((1, scenes.GLASS_IOR), (5, 1.33)):
-        ior.default_value = value
+    bsdf = bpy.data.materials["Glass"].node_tree.nodes["Principled BSDF"]
+    ior, strength = bsdf.inputs["IOR"], bsdf.inputs["Emission Strength"]
+    bsdf.inputs["Emission Color"].default_value = (1.0, 0.5, 0.25, 1.0)
+    for frame, value, glow in ((1, scenes.GLASS_IOR, 2.0), (5, 1.33, 6.0)):
+        ior.default_value, strength.default_value = value, glow
         ior.keyframe_insert("default_value", frame=frame)
+        strength.keyframe_insert("default_value", frame=frame)
     paths, gltf = export(saved_blend)
     pointers = [c["target"].get("extensions", {}).get("KHR_animation_pointer", {}).get("pointer", "")
                 for a in gltf.json.get("animations", []) for c in a["channels"]]
-    assert any(p.endswith("/extensions/KHR_materials_ior/ior") for p in pointers), pointers
+    for leaf in ("/extensions/KHR_materials_ior/ior", "/extensions/KHR_materials_emissive_strength/emissiveStrength"):
+        assert any(p.endswith(leaf) for p in pointers), pointers
     fps = scene.render.fps / scene.render.fps_base
     done = subprocess.run([real_refrakt, "dump", paths.glb, "--frames", "1..5", "--fps", str(fps), "--size", "32x18"],
                           capture_output=True, text=True)
@@ -185,6 +190,8 @@ def test_a_keyed_glass_index_reaches_refrakt_frame_by_frame(addon, saved_blend, 
         ball = next(n for n in doc["nodes"] if n["name"] == "Ball")
         glass = doc["materials"][ball["material"]]
         assert glass["kind"] == "glass" and glass["ior"] == pytest.approx(ior.default_value, abs=1e-4), doc["frame"]
+        glow = [c * glass["emission_strength"] for c in glass["emission"]]
+        assert glow == pytest.approx([strength.default_value * c for c in (1.0, 0.5, 0.25)], rel=1e-4), doc["frame"]
         seen.append(glass["ior"])
     assert seen[0] == pytest.approx(scenes.GLASS_IOR, abs=1e-4) and seen[-1] == pytest.approx(1.33, abs=1e-4), seen
 

@@ -82,7 +82,7 @@ def gltf_options(scene):
     which glTF lacks, go out as node extras in the same units), Y up, and one animation baked
     from the scene's frame range, sampled every frame — with animated light power and colour,
     spot cones, camera field of view and material factors as KHR_animation_pointer channels
-    (their light intensities put right by `fix_light_intensity_channels`; a lens's focus,
+    (their light intensities and glass tints put right by `fix_animated_channels`; a lens's focus,
     aperture and shift and a light's radius added by `animated_extras`)."""
     return dict(
         export_format="GLB",
@@ -104,6 +104,7 @@ def gltf_options(scene):
 
 
 LIGHT_CHANNEL = re.compile(r"^/extensions/KHR_lights_punctual/lights/(\d+)/(intensity|color)$")
+BASE_COLOR_CHANNEL = re.compile(r"^/materials/(\d+)/pbrMetallicRoughness/baseColorFactor$")
 
 
 def _glb_chunks(data, path):
@@ -130,13 +131,15 @@ def _float_accessor(doc, bin_data, index):
     return bin_data + view.get("byteOffset", 0) + accessor.get("byteOffset", 0), accessor["count"] * width
 
 
-def _channel_factor(light, prop):
-    """What the exporter's still value of a light's `prop` has that its animated channel lacks
-    (a float for the intensity, an rgb triple for the colour)."""
+def _light_channel_fix(light, prop):
+    """What the exporter's still value of a light's `prop` has that its animated channel lacks,
+    as a function of (index among the channel's floats, value): a factor on the intensity, an
+    rgb triple on the colour."""
     blender_light = bpy.data.lights.get(light.get("name", ""))
     if prop == "color":
         use = blender_light is not None and blender_light.use_temperature
-        return list(blender_light.temperature_color) if use else [1.0, 1.0, 1.0]
+        tint = list(blender_light.temperature_color) if use else [1.0, 1.0, 1.0]
+        return lambda i, v: v * tint[i % 3]
     exposure = 2.0 ** blender_light.exposure if blender_light is not None else 1.0
     factor = (683.0 if light.get("type") == "directional" else 1.0 / (4 * math.pi)) * exposure
     if blender_light is not None and not blender_light.normalize:
@@ -144,40 +147,57 @@ def _channel_factor(light, prop):
         holder = next((o for o in bpy.context.scene.objects if o.data == blender_light), None)
         if holder is not None:
             factor *= blender_light.area(matrix_world=holder.matrix_world)
-    return factor
+    return lambda i, v: v * factor
 
 
-def fix_light_intensity_channels(path):
-    """Blender's exporter (4.5 and 5.0) writes an animated point or spot light's intensity as
-    watts × 683 — 4π times the candela of its static `intensity`, watts / 4π · 683 — and a
-    sun's as W/m², without the 683 lm/W of its static lux; both without the light's exposure,
-    and without the area its still value is multiplied by when *Normalize* is off; and an
-    animated colour without the *Temperature* colour its still value is tinted by. Each such
-    channel is put into the static value's units (`tests/blender/test_export.py` compares them
-    at every frame, and fails should an exporter fix this itself)."""
+def _is_principled_glass(material):
+    """Whether an exported material is glass made with the Principled BSDF (transmission), whose
+    base colour the still export takes the square root of (`gltf_hooks`, `_principled_tint`)."""
+    if "KHR_materials_transmission" not in (material.get("extensions") or {}):
+        return False
+    blender_material = bpy.data.materials.get(material.get("name", ""))
+    return blender_material is not None and extras.glass_surface(blender_material) is None
+
+
+def _channel_fix(pointer, doc):
+    """How a channel aimed at `pointer` must change to say what the still export says, or None."""
+    light = LIGHT_CHANNEL.match(pointer)
+    if light:
+        lights = doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
+        return _light_channel_fix(lights[int(light.group(1))], light.group(2))
+    base = BASE_COLOR_CHANNEL.match(pointer)
+    if base and _is_principled_glass(doc.get("materials", [])[int(base.group(1))]):
+        return lambda i, v: math.sqrt(max(v, 0.0)) if i % 4 < 3 else v
+    return None
+
+
+def fix_animated_channels(path):
+    """Puts Blender's KHR_animation_pointer channels into the units of the still values the
+    export writes. Its exporter (4.5 and 5.0) writes an animated point or spot light's
+    intensity as watts × 683 — 4π times the candela of its static `intensity`, watts / 4π ·
+    683 — and a sun's as W/m², without the 683 lm/W of its static lux; both without the light's
+    exposure, and without the area its still value is multiplied by when *Normalize* is off; an
+    animated colour without the *Temperature* colour its still value is tinted by; and a
+    Principled glass's animated Base Color as it is, where its still value is the square root
+    (the tint per surface, `gltf_hooks`). `tests/blender/test_export.py` compares them at
+    every frame, and fails should an exporter change this itself."""
     with open(path, "r+b") as f:
         data = bytearray(f.read())
         doc, bin_data = _glb_chunks(data, path)
         if bin_data is None:
             return
-        lights = doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
-        scaled = set()
+        fixed = set()
         for animation in doc.get("animations", []):
             for channel in animation.get("channels", []):
                 pointer = channel["target"].get("extensions", {}).get("KHR_animation_pointer", {}).get("pointer", "")
-                match = LIGHT_CHANNEL.match(pointer)
                 output = animation["samplers"][channel["sampler"]]["output"]
-                if not match or output in scaled:
+                fix = None if output in fixed else _channel_fix(pointer, doc)
+                if fix is None:
                     continue
-                scaled.add(output)
-                factor = _channel_factor(lights[int(match.group(1))], match.group(2))
+                fixed.add(output)
                 at, n = _float_accessor(doc, bin_data, output)
                 values = struct.unpack_from(f"<{n}f", data, at)
-                if isinstance(factor, list):
-                    values = [v * factor[i % 3] for i, v in enumerate(values)]
-                else:
-                    values = [v * factor for v in values]
-                struct.pack_into(f"<{n}f", data, at, *values)
+                struct.pack_into(f"<{n}f", data, at, *(fix(i, v) for i, v in enumerate(values)))
         f.seek(0)
         f.write(data)
 
@@ -205,7 +225,7 @@ def export(context, target=None):
         if gltf_hooks.failures:
             raise ExportError("refrakt's glTF export hook failed (a bug in the add-on, please report it): "
                               + "; ".join(gltf_hooks.failures))
-        fix_light_intensity_channels(tmp)
+        fix_animated_channels(tmp)
         animated_extras.add_channels(tmp, scene, 1.0 / fps(scene))
         data = read_glb_json(tmp)
         if not any("refrakt" in (s.get("extras") or {}) for s in data.get("scenes", [])):

@@ -162,19 +162,20 @@ def test_animated_light_power_and_colour_reach_the_gltf_in_its_units(addon, save
 
 
 def test_a_keyed_glass_index_and_glow_reach_refrakt_frame_by_frame(addon, saved_blend, real_refrakt):
-    """A glass's IOR and Emission Strength keyed in Blender (the Principled BSDF's: 1.45 at
-    frame 1 to 1.33 at frame 5, a glow of 2 to 6) go out as Blender's KHR_animation_pointer
-    channels into KHR_materials_ior and KHR_materials_emissive_strength, and refrakt's glass has
-    Blender's index and glow at every frame (`refrakt dump`)."""
+    """A glass's IOR, Emission Strength and Base Color keyed in Blender (the Principled BSDF's:
+    1.45 at frame 1 to 1.33 at frame 5, a glow of 2 to 6, white to blue) go out as Blender's
+    KHR_animation_pointer channels into KHR_materials_ior, KHR_materials_emissive_strength and
+    baseColorFactor, and refrakt's glass has Blender's index, glow and tint (√ of the Base
+    Color, as the still export writes it) at every frame (`refrakt dump`)."""
     scene = scenes.round_trip_scene()
     scene.frame_start, scene.frame_end = 1, 5
     bsdf = bpy.data.materials["Glass"].node_tree.nodes["Principled BSDF"]
-    ior, strength = bsdf.inputs["IOR"], bsdf.inputs["Emission Strength"]
+    ior, strength, base = bsdf.inputs["IOR"], bsdf.inputs["Emission Strength"], bsdf.inputs["Base Color"]
     bsdf.inputs["Emission Color"].default_value = (1.0, 0.5, 0.25, 1.0)
-    for frame, value, glow in ((1, scenes.GLASS_IOR, 2.0), (5, 1.33, 6.0)):
-        ior.default_value, strength.default_value = value, glow
-        ior.keyframe_insert("default_value", frame=frame)
-        strength.keyframe_insert("default_value", frame=frame)
+    for frame, value, glow, colour in ((1, scenes.GLASS_IOR, 2.0, (1.0, 1.0, 1.0, 1.0)), (5, 1.33, 6.0, (0.25, 0.5, 1.0, 1.0))):
+        ior.default_value, strength.default_value, base.default_value = value, glow, colour
+        for socket in (ior, strength, base):
+            socket.keyframe_insert("default_value", frame=frame)
     paths, gltf = export(saved_blend)
     pointers = [c["target"].get("extensions", {}).get("KHR_animation_pointer", {}).get("pointer", "")
                 for a in gltf.json.get("animations", []) for c in a["channels"]]
@@ -192,6 +193,8 @@ def test_a_keyed_glass_index_and_glow_reach_refrakt_frame_by_frame(addon, saved_
         assert glass["kind"] == "glass" and glass["ior"] == pytest.approx(ior.default_value, abs=1e-4), doc["frame"]
         glow = [c * glass["emission_strength"] for c in glass["emission"]]
         assert glow == pytest.approx([strength.default_value * c for c in (1.0, 0.5, 0.25)], rel=1e-4), doc["frame"]
+        # Principled glass tints by √(Base Color) at each surface, as the still export does.
+        assert glass["tint"] == pytest.approx([math.sqrt(c) for c in base.default_value[:3]], abs=1e-4), doc["frame"]
         seen.append(glass["ior"])
     assert seen[0] == pytest.approx(scenes.GLASS_IOR, abs=1e-4) and seen[-1] == pytest.approx(1.33, abs=1e-4), seen
 

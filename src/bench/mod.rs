@@ -162,7 +162,7 @@ fn run_scene(renderer: &mut Renderer, source: &mut SceneSource, eval: &EvalOptio
         photon_steps: Vec::new(),
         view_steps: Vec::new(),
         desc: source.frame_desc(0.0, eval)?,
-        light_work: (crate::pipeline::photons::Budget { caustic: 0, bounce: 0 }, 0),
+        light_work: Default::default(),
     };
     // Unmeasured frames first: the first two compile pipelines and grow buffers, and a GPU that
     // sat idle starts at low clocks (the H200 at 345 of its 1980 MHz) and runs at speed only
@@ -187,9 +187,9 @@ fn run_scene(renderer: &mut Renderer, source: &mut SceneSource, eval: &EvalOptio
             renderer.finish_without_image(previous)?;
             record_gpu(&mut run, renderer);
         }
-        run.light_work = renderer.light_work(&desc);
         run.desc = desc;
     }
+    run.light_work = renderer.light_work(&run.desc);
     if let Some(last) = in_flight.take() {
         renderer.finish_without_image(last)?;
         record_gpu(&mut run, renderer);
@@ -395,7 +395,8 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
             latency = latency::measure(opts, &eval, frames.min(10))?;
             continue;
         }
-        let (mut scene, _dir) = open_scene(name, opts)?;
+        // (`built_in`: the folder a built-in scene is written to; None for a scene file.)
+        let (mut scene, built_in) = open_scene(name, opts)?;
         let eval = if opts.quick { quick_eval() } else { EvalOptions::default() };
         if let Some(why) = beyond_adapter(&renderer, &mut scene, &eval)? {
             scenes.push(json!({ "name": name, "skipped": why }));
@@ -415,7 +416,7 @@ pub fn run(opts: &BenchOptions) -> Result<Value> {
             renderer.settings.never_deposit = false;
             report["march_ms_without_deposits"] = json!(bare.stages.get("march").map(|v| Spread::of(v)));
         }
-        if opts.quality && (is_seed(name) || name.ends_with(".lua")) {
+        if opts.quality && (is_seed(name) || built_in.is_none()) {
             // Each scene's caustic noise against its own 64× reference; `seed_quality` keeps seed's.
             let curve = quality_curve(&mut renderer, &mut scene, &eval, run.desc.photons)?;
             if name == "seed" {

@@ -727,7 +727,7 @@ impl Renderer {
     /// environment's table is built): the photons traced per population, and the shadow rays a
     /// receiver hit casts toward the environment per camera sample (0 for a dark one).
     pub fn light_work(&self, desc: &FrameDesc) -> (photons::Budget, u32) {
-        let budget = if self.traces_photons(desc) { self.photon_budget(desc) } else { photons::Budget { caustic: 0, bounce: 0 } };
+        let budget = if self.traces_photons(desc) { self.photon_budget(desc) } else { photons::Budget::default() };
         (budget, 2 * view::env_pairs(desc, &self.environment))
     }
 

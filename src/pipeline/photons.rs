@@ -40,7 +40,7 @@ pub struct Photons {
 }
 
 /// One population's photons: how many, and what they are for.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 pub struct Budget {
     /// Caustic photons (toward the volume's glass and media).
     pub caustic: u32,

@@ -78,7 +78,7 @@ fn quick_bench_emits_complete_json() {
 #[test]
 fn a_scene_file_can_be_benchmarked() {
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/default.lua");
-    let out = Command::new(env!("CARGO_BIN_EXE_refrakt")).args(["bench", "--quick", "--scenes", scene]).output().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_refrakt")).args(["bench", "--quick", "--quality", "--scenes", scene]).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let report: Value = serde_json::from_slice(&out.stdout).unwrap();
     let s = &report["scenes"][0];
@@ -87,6 +87,13 @@ fn a_scene_file_can_be_benchmarked() {
     // The default scene's sun traces photons: the photon stages ran and were timed.
     positive(&s["stages_ms"]["march"]["median"], "default.lua march");
     positive(&s["stages_ms"]["view"]["median"], "default.lua view");
+    // `--quality` measures a scene file's caustic noise too (1/8 to 8× its photons against 64×),
+    // and the noise falls from the fewest photons to the most.
+    let points = s["quality"]["points"].as_array().expect("a scene file's quality curve");
+    let rmse = |p: &Value| p["caustic_rmse"].as_f64().unwrap();
+    assert_eq!(points.len(), 7);
+    assert!(rmse(&points[0]) > rmse(&points[6]) && rmse(&points[6]) > 0.0, "{points:?}");
+    assert!(report["seed_quality"].is_null(), "seed's own curve stays seed's");
 }
 
 /// `--scenes frames`: `refrakt render --frames` end to end under each flow, with the split of

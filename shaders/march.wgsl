@@ -390,7 +390,7 @@ fn march_path(photon: Photon, start_flux: vec3<f32>, key: u32, deposit_radiance:
             flux = after;
             events++;
             let facet = vec2<f32>(random01(params.seed, index, 96u + 2u * events), random01(params.seed, index, 97u + 2u * events));
-            let surface = glass_surface_at(hit);
+            let surface = glass_surface_at(hit, SURFACE_NORMAL);
             let c = cross_interface(p, d, hit, surface, media, facet);
             // Light straight through a polished thin sheet is the shadow rays' (view.wgsl,
             // sheet_transmittance): such a photon stays direct light unless it was bent before.

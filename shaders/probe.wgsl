@@ -14,6 +14,7 @@
 #import shared/bvh.wgsl
 #import shared/interface.wgsl
 #import shared/dda.wgsl
+#import shared/glass_surface.wgsl
 
 @group(0) @binding(0) var<uniform> params: ProbeParams;
 @group(0) @binding(1) var ior_grid: texture_3d<f32>;
@@ -30,6 +31,9 @@
 @group(0) @binding(12) var<storage, read> octree_leaves: array<vec4<f32>>;
 // The rough glass albedo table (shared/rough_albedo.wgsl).
 @group(0) @binding(13) var<storage, read> rough_albedo_table: array<f32>;
+// Glass meshes' textures (shared/glass_surface.wgsl): a normal map bends the crossings.
+@group(0) @binding(14) var<storage, read> triangle_uvs: array<vec4<f32>>;
+@group(0) @binding(15) var<storage, read> albedo_texels: array<u32>;
 
 fn record(slot: u32, s: RayState, steps: u32) {
     records[slot] = ProbeRecord(s.x, s.g.w, s.v, steps);
@@ -49,7 +53,7 @@ fn cross_surface(s: ptr<function, RayState>, media: ptr<function, Media>, hit: S
     let d = normalize((*s).v);
     let p = (*s).x + d * hit.t;
     // (On a rough surface the probe follows the microfacet its first pair of numbers picks.)
-    let c = cross_interface(p, d, hit, plain_surface(hit.interface_id), *media, vec2<f32>(0.0));
+    let c = cross_interface(p, d, hit, glass_surface_at(hit, SURFACE_NORMAL), *media, vec2<f32>(0.0));
     var w = c.reflected;
     if c.reflectance < 1.0 {
         w = c.transmitted;

@@ -279,26 +279,44 @@ fn pbr_surface(r: ReceiverGpu, hit: SurfaceHit, uv: vec2<f32>, base: vec3<f32>, 
 // sum, the caustic and bounced light on the diffuse lobe only; a Lambertian one (metallic 0,
 // specular 0) reflects albedo / π of each; its emission times `glow` (`glow_share`). (One
 // call of `direct_light` for both: lavapipe inlines every call site anew.)
-fn shade_receiver(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, k: u32, path: u32, glow: f32) -> Shading {
-    let n = hit.normal;
-    let back = dot(n, d) > 0.0;
-    let facing = select(n, -n, back);
-    let receiver = bvh_triangles[hit.triangle].receiver;
-    let r = receivers[receiver];
-    let uv = hit_uv(hit.triangle, hit.u, hit.v);
-    let base = base_color_at(r, uv).rgb;
-    let emission = emission_at(r, uv) * glow;
+// A Lambertian surface of albedo `base` facing `facing`, seen along d, as direct_light takes it.
+fn lambert_surface(base: vec3<f32>, facing: vec3<f32>, d: vec3<f32>) -> PbrSurface {
+    return PbrSurface(base, 0.0, 1.0, 0.0, 1.0, facing, -d, 1.0, 0.0, 1.0, facing, 1.0, vec3<f32>(0.0), 0.0);
+}
+
+// The light a surface met at p along d sends back toward the camera: a receiver's at `hit`, or
+// with `glass_base` the diffuse base beneath a partly transmissive glass surface whose facing
+// normal is hit.normal (a Lambertian of albedo 1: its colour is in the branch's weight,
+// `base_branch`) — lit by the lights and the environment only, as glass has no irradiance
+// maps. (One call of direct_light for both: lavapipe inlines every call site anew.)
+fn shade_receiver(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, k: u32, path: u32, glow: f32, glass_base: bool) -> Shading {
+    var facing = hit.normal;
+    var base = vec3<f32>(1.0);
+    var emission = vec3<f32>(0.0);
+    var e_caustic = vec3<f32>(0.0);
+    var e_indirect = vec3<f32>(0.0);
+    var pbr = false;
+    var s = lambert_surface(base, facing, d);
+    var env = LightResponse(vec3<f32>(1.0), vec3<f32>(0.0));
+    if !glass_base {
+        let back = dot(hit.normal, d) > 0.0;
+        facing = select(hit.normal, -hit.normal, back);
+        let receiver = bvh_triangles[hit.triangle].receiver;
+        let r = receivers[receiver];
+        let uv = hit_uv(hit.triangle, hit.u, hit.v);
+        base = base_color_at(r, uv).rgb;
+        emission = emission_at(r, uv) * glow;
+        e_caustic = map_irradiance_at(receiver, p, facing, back, false);
+        e_indirect = map_irradiance_at(receiver, p, facing, back, true);
+        pbr = has(VIEW_FLAG_SPECULAR) && (r.flags & RECEIVER_PBR) != 0u;
+        s = lambert_surface(base, facing, d);
+        if pbr {
+            s = pbr_surface(r, hit, uv, base, facing, d);
+            env = pbr_environment(s, params.env);
+        }
+    }
     // Lift the shading point off the surface so its own triangle does not shadow it.
     let q = p + facing * (1e-4 + 1e-3 * params.grid.voxel_size);
-    let e_caustic = map_irradiance_at(receiver, p, facing, back, false);
-    let e_indirect = map_irradiance_at(receiver, p, facing, back, true);
-    let pbr = has(VIEW_FLAG_SPECULAR) && (r.flags & RECEIVER_PBR) != 0u;
-    var s = PbrSurface(base, 0.0, 1.0, 0.0, 1.0, facing, -d, 1.0, 0.0, 1.0, facing, 1.0, vec3<f32>(0.0), 0.0);
-    var env = LightResponse(vec3<f32>(1.0), vec3<f32>(0.0));
-    if pbr {
-        s = pbr_surface(r, hit, uv, base, facing, d);
-        env = pbr_environment(s, params.env);
-    }
     // The occlusion texture darkens the environment's light, not the lights'.
     let lit = direct_light(q, facing, s, pbr, env.diffuse * s.occlusion, k, path);
     if pbr {
@@ -349,6 +367,22 @@ struct Branch {
     // The density of its direction where a rough crossing sent it into the open and the lights
     // were sampled there too (`lights_through_rough`); 0 otherwise.
     lobe_pdf: f32,
+}
+
+// A branch that is the diffuse base beneath a partly transmissive glass surface (glTF's
+// KHR_materials_transmission: of the light the surface does not reflect, the fraction
+// `transmission` passes and the rest meets the material's base, Lambertian of its base colour),
+// met at x: d is the surface's normal facing the camera's side, weight the branch's times
+// (1 − R)(1 − transmission) × the base colour. It is shaded where receivers are
+// (`meet_receiver`), marked by a negative lobe_pdf, and its random numbers hash a path number
+// of its own (the high bit: paths double per event, at most MAX_EVENTS times).
+fn base_branch(b: Branch, p: vec3<f32>, c: Crossing, surface: GlassSurface) -> Branch {
+    let w = b.weight * (1.0 - c.reflectance) * (1.0 - surface.transmission) * surface.tint;
+    return Branch(p, c.normal, w, b.media, b.events, b.path | 0x80000000u, -1.0);
+}
+
+fn is_base_branch(b: Branch) -> bool {
+    return b.lobe_pdf < 0.0;
 }
 
 // The two uniform numbers that pick a rough surface's microfacet for camera sample k on branch
@@ -409,14 +443,20 @@ fn meet_receiver(out: ptr<function, ViewSample>, hit: SurfaceHit, p: vec3<f32>, 
     if companion_ends_here() {
         return 1.0;
     }
-    pass_lights(out, b, piece, distance(piece, p), lobe_from);
-    let r = receivers[bvh_triangles[hit.triangle].receiver];
-    let cover = coverage_of(r, hit.triangle, hit.u, hit.v);
-    if cover <= 0.0 {
-        return cover;
+    let glass_base = is_base_branch(b);
+    var cover = 1.0;
+    var glow = 0.0;
+    if !glass_base {
+        pass_lights(out, b, piece, distance(piece, p), lobe_from);
+        let r = receivers[bvh_triangles[hit.triangle].receiver];
+        cover = coverage_of(r, hit.triangle, hit.u, hit.v);
+        if cover <= 0.0 {
+            return cover;
+        }
+        glow = glow_share(b, lobe_from, p, hit.triangle, r.glow_area, r.glow_side);
     }
     first_depth(out, p);
-    let sh = shade_receiver(hit, p, b.d, k, b.path, glow_share(b, lobe_from, p, hit.triangle, r.glow_area, r.glow_side));
+    let sh = shade_receiver(hit, p, b.d, k, b.path, glow, glass_base);
     let w = b.weight * cover;
     (*out).caustic += w * sh.caustic;
     (*out).direct += w * sh.direct;
@@ -449,13 +489,18 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
     // receiver, shaded at the one call of `meet_receiver` below (lavapipe inlines every call
     // site anew, and the receiver's shading is most of the pass), or in the environment. Past a
     // cut-out or a see-through receiver, the next round goes on from its far side.
+    // A glass's diffuse base goes straight to its shading (`base_branch`).
+    let glass_base = is_base_branch(b);
     for (var passed = 0u; passed <= MAX_RECEIVERS_PASSED; passed++) {
-        var ahead_of = look_from(b.x, b.d);
-        var met = false;
-        var hit: SurfaceHit;
-        var p: vec3<f32>;
+        var ahead_of = Lookahead(b.x, SurfaceHit(0.0, 0xffffffffu, NO_INTERFACE, b.d, 0.0, 0.0), true);
+        if !glass_base {
+            ahead_of = look_from(b.x, b.d);
+        }
+        var met = glass_base;
+        var hit = ahead_of.hit;
+        var p = b.x;
         let span = ray_box(b.x, b.d, grid.origin, box_max);
-        if span.x <= span.y && span.y > 0.0 && ahead_of.hit.t > max(span.x, 0.0) {
+        if !glass_base && span.x <= span.y && span.y > 0.0 && ahead_of.hit.t > max(span.x, 0.0) {
             var s = ray_start(ior_grid, grid_sampler, grid, b.x + b.d * max(span.x, 0.0), b.d);
             var path = 0.0;
             for (var i = 0u; i < params.max_steps; i++) {
@@ -505,7 +550,7 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                     // The lights on the straight piece that ends here (a bulb in a glass shade, a
                     // softbox before the glass).
                     pass_lights(out, b, piece, distance(piece, s.x), lobe_from);
-                    let surface = glass_surface_at(hit);
+                    let surface = glass_surface_at(hit, SURFACE_NORMAL | SURFACE_EMISSION);
                     // A glowing surface seen from its front (either side of a thin sheet).
                     let glass = interfaces[hit.interface_id];
                     if dot(hit.normal, b.d) < 0.0 || (glass.kind & INTERFACE_THIN) != 0u {
@@ -513,6 +558,13 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                     }
                     let c = cross_interface(s.x, b.d, hit, surface, b.media, facet_numbers(k, b.path));
                     b.events += u32(c.seen);
+                    if c.seen && surface.transmission < 1.0 && c.reflectance < 1.0 && *top < BRANCH_STACK {
+                        let base = base_branch(b, s.x, c, surface);
+                        if max(base.weight.r, max(base.weight.g, base.weight.b)) > MIN_WEIGHT {
+                            (*stack)[*top] = base;
+                            *top += 1u;
+                        }
+                    }
                     // A rough solid's surface: the lights sampled through it (lights_through_rough).
                     let alpha = surface.roughness * surface.roughness;
                     let rough = c.seen && alpha > 0.0 && (interfaces[hit.interface_id].kind & INTERFACE_THIN) == 0u;

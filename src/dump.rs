@@ -121,7 +121,9 @@ fn material_json(m: &Material) -> Value {
         Material::Glass(g) => json!({ "kind": "glass", "ior": g.ior, "absorption": vec3(g.absorption),
                                       "scattering": vec3(g.scattering), "g": g.g, "tint": vec3(g.tint), "roughness": g.roughness,
                                       "roughness_texture": size(&g.roughness_texture), "tint_texture": size(&g.tint_texture),
-                                      "multiscatter": g.multiscatter, "emission": vec3(g.emission), "emission_strength": g.emission_strength, "emission_texture": size(&g.emission_texture) }),
+                                      "multiscatter": g.multiscatter, "emission": vec3(g.emission), "emission_strength": g.emission_strength, "emission_texture": size(&g.emission_texture),
+                                      "normal_texture": size(&g.normal_texture), "normal_scale": g.normal_scale,
+                                      "transmission": g.transmission, "transmission_texture": size(&g.transmission_texture) }),
         Material::Diffuse(d) => {
             json!({ "kind": "diffuse", "color": vec3(d.color), "texture": size(&d.texture),
                     "metallic": d.metallic, "roughness": d.roughness, "specular": d.specular,

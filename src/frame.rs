@@ -313,6 +313,11 @@ pub struct FieldDesc {
     pub dispersion: f32,
     /// Which medium holds where sharp solids overlap (`Glass::priority`).
     pub priority: i32,
+    /// Its glass was given textures, which an analytic shape cannot show: it has no texture
+    /// coordinates (`FrameDesc::warnings` says so).
+    pub textured: bool,
+    /// The fraction of the light entering its sharp surface that passes (`Glass::transmission`).
+    pub transmission: f32,
 }
 
 impl FieldDesc {
@@ -509,6 +514,17 @@ impl FrameDesc {
                  mesh's glow lights the scene: r.icosphere, r.mesh)",
                 f.name
             ));
+        }
+        for f in self.fields.iter().filter(|f| f.textured) {
+            out.push(format!(
+                "glass \"{}\" has textures, but a sphere or box has no texture coordinates: it keeps its factors (give it a \
+                 mesh with texture coordinates: r.cube, r.plane, an OBJ with vt, a glTF with TEXCOORD_0)",
+                f.name
+            ));
+        }
+        for m in self.meshes.iter().filter(|m| m.glass.textured() && !(m.sharp && m.mesh.uvs.is_some())) {
+            let why = if m.sharp { "has no texture coordinates" } else { "is voxelized into a smooth medium, which has no surface to texture" };
+            out.push(format!("{}: glass mesh \"{}\" has textures, but it {why}: it keeps its factors", m.origin, m.name));
         }
         for f in self.fields.iter().filter(|f| !f.sharp && f.tint != Vec3::ONE) {
             let why = if matches!(f.kind, FieldKind::Sphere | FieldKind::Box) && (f.ior - 1.0).abs() <= crate::pipeline::photons::EPS_REFRACT {

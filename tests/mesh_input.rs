@@ -196,8 +196,8 @@ fn mesh_examples_load() {
     assert!(e.contains("cannot open \"missing/bunny.obj\"") && e.contains("REFRAKT_BUNNY=/path/to/bunny.obj") && e.contains("--allow-read"), "{e}");
 }
 
-/// `smooth` on every mesh constructor and `normals` on a mesh given by its vertices: what each
-/// shades with, and one clear message for each mistake.
+/// `smooth` on every mesh constructor and `normals` (and `uvs`) on a mesh given by its vertices:
+/// what each shades with, and one clear message for each mistake.
 #[test]
 fn smooth_and_normals_choose_how_a_mesh_is_shaded() {
     use refrakt::scene::{Normals, Shape};
@@ -205,7 +205,8 @@ fn smooth_and_normals_choose_how_a_mesh_is_shaded() {
         local tri = { vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, triangles = {{1, 3, 2}, {1, 2, 4}, {1, 4, 3}, {2, 3, 4}} }\n\
         for name, shape in pairs{ ball = r.icosphere{ radius = 1 }, faceted = r.icosphere{ radius = 1, smooth = false },\n\
           rounded = r.cube{ size = {1, 1, 1}, smooth = true }, wide = r.cylinder{ radius = 1, height = 1, smooth = 89.5 },\n\
-          given = r.mesh{ vertices = tri.vertices, triangles = tri.triangles, normals = {{-1, -1, -1}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}} },\n\
+          given = r.mesh{ vertices = tri.vertices, triangles = tri.triangles, normals = {{-1, -1, -1}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}},\n\
+                          uvs = {{0, 0}, {2, 0}, {0, 2}, {0.5, 0.5}} },\n\
           bare = r.mesh(tri) } do\n\
           s:add(r.node{ name = name, shape = shape, material = r.glass{} })\n\
         end\nreturn s\n";
@@ -222,13 +223,21 @@ fn smooth_and_normals_choose_how_a_mesh_is_shaded() {
     assert_eq!(normals("bare"), Normals::Flat, "a mesh without normals is flat, as glTF and Blender's OBJ import");
     let Normals::Authored(given) = normals("given") else { panic!() };
     assert_eq!(given[1], glam::Vec3::X);
+    let uvs = |name: &str| match &*host.scene().borrow().find(name).unwrap().borrow().shape.as_ref().unwrap().borrow() {
+        Shape::Mesh { mesh, .. } => mesh.uvs.clone(),
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(uvs("given").unwrap()[1], glam::Vec2::new(2.0, 0.0));
+    assert_eq!(uvs("bare"), None);
 
     for (shape, expected) in [
         ("r.icosphere{ radius = 1, smooth = 200 }", "icosphere.smooth must be a crease angle in degrees from 0 to 180, or true (30°) or false (flat)"),
         ("r.icosphere{ radius = 1, smooth = \"yes\" }", "icosphere.smooth must be a crease angle"),
         ("r.mesh{ vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, triangles = {{1, 2, 3}}, normals = {{0, 0, 1}} }", "mesh.normals lists 1 normals for 3 vertices"),
         ("r.mesh{ vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, triangles = {{1, 2, 3}}, normals = {{0, 0, 1}, {0, 0, 1}, {0, 0}} }", "normals[3]"),
-        ("r.mesh{ file = \"a.obj\", normals = {} }", "either a file or vertices and triangles (and normals)"),
+        ("r.mesh{ file = \"a.obj\", normals = {} }", "either a file or vertices and triangles (and normals, uvs)"),
+        ("r.mesh{ vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, triangles = {{1, 2, 3}}, uvs = {{0, 0}, {1, 0}} }", "mesh.uvs lists 2 texture coordinates for 3 vertices"),
+        ("r.mesh{ vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, triangles = {{1, 2, 3}}, uvs = {{0, 0}, {1, 0}, {0, 0/0}} }", "uvs[3]"),
         ("r.icosphere{ radius = 1, smoth = 30 }", "smooth"),
     ] {
         let e = script_error(&with_node(shape));

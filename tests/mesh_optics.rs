@@ -114,3 +114,77 @@ fn mesh_sphere_renders_like_the_analytic_sphere() {
     // on lavapipe: 0.0027 (the bound leaves about 2× room).
     assert!(mae < 0.006, "mean absolute difference {mae}");
 }
+
+/// A normal map bends the normal a crossing refracts about, in glTF's tangent space (x along
+/// +u, y toward −v, z the mesh's normal; x and y times `normal_scale`): rays straight down into
+/// the top of a glass r.cube (whose top has +u along world +X and −v along −Z) go on as Snell's
+/// law gives about the bent normal — leaning 20° toward +u, then toward −v — and straight on
+/// with `normal_scale = 0`. The texel is 8-bit, so the expected normal is the stored one.
+#[test]
+fn a_normal_map_bends_the_normal_glass_refracts_about() {
+    let lean = 20f32.to_radians();
+    for (m, scale) in [([lean.sin(), 0.0, lean.cos()], 1.0), ([0.0, lean.sin(), lean.cos()], 1.0), ([lean.sin(), 0.0, lean.cos()], 0.0)] {
+        let texel = m.map(|c: f32| ((c + 1.0) * 0.5 * 255.0).round() as u8);
+        let stored = texel.map(|c| c as f32 / 255.0 * 2.0 - 1.0);
+        let normal = (Vec3::X * stored[0] * scale - Vec3::Z * stored[1] * scale + Vec3::Y * stored[2]).normalize();
+        let script = format!(
+            r#"local r = require("refrakt")
+            local scene = r.scene{{ volume = {{ resolution = 48 }} }}
+            scene:add(r.node{{ shape = r.cube{{ size = {{1, 0.5, 1}} }},
+                              material = r.glass{{ ior = {IOR}, normal_texture = "lean.png", normal_scale = {scale} }} }})
+            return scene"#
+        );
+        let (dir, path) = write_script("scene.lua", &script);
+        image::RgbImage::from_pixel(2, 2, image::Rgb(texel)).save(dir.path().join("lean.png")).unwrap();
+        let host = load(&path);
+        host.update(0.0).unwrap();
+        let desc = refrakt::scene::eval::evaluate(&host.scene().borrow(), 0.0, &Default::default()).unwrap();
+        let mut r = renderer();
+        r.build_volume(&desc).unwrap();
+        let h = desc.volume.voxel_size;
+        let starts = [(-0.3, -0.2), (0.0, 0.0), (0.25, 0.3), (0.3, -0.3)];
+        let rays: Vec<ProbeRay> = starts.iter().map(|&(x, z)| ProbeRay { origin: [x, 0.6, z], dir: [0.0, -1.0, 0.0], ..Default::default() }).collect();
+        let steps = (1.5 / desc.volume.step) as u32;
+        let opts = ProbeOptions { record_every: 1, records_per_ray: steps + 2, ..ProbeOptions::endpoints(desc.volume.step, steps) };
+        let records = r.probe(&rays, &opts).unwrap();
+        // Snell's law in vector form about the bent normal, for d = −Y.
+        let (d, eta) = (Vec3::NEG_Y, 1.0 / IOR);
+        let cos_i = -d.dot(normal);
+        let cos_t = (1.0 - eta * eta * (1.0 - cos_i * cos_i)).sqrt();
+        let expected = eta * d + (eta * cos_i - cos_t) * normal;
+        for (i, start) in starts.iter().enumerate() {
+            let inside = records[i * opts.records_per_ray as usize..][..opts.records_per_ray as usize]
+                .iter()
+                .find(|rec| rec.steps > 0 && rec.x[1] < 0.25 - 3.0 * h)
+                .expect("the ray enters the cube");
+            let error = Vec3::from(inside.v).normalize().angle_between(expected).to_degrees();
+            let bent = expected.angle_between(d).to_degrees();
+            eprintln!("normal map {texel:?} × {scale}, ray at {start:?}: bent {bent:.3}° from straight down, off Snell's by {error:.4}°");
+            assert!(error < 0.02, "{texel:?} × {scale} at {start:?}: {error}° off the refraction about {normal}");
+        }
+    }
+}
+
+/// Glass textures are read where a glass mesh has texture coordinates; elsewhere the frame says
+/// they are not used, naming the object. Lua reads them back as their sizes.
+#[test]
+fn glass_textures_need_texture_coordinates_and_say_so() {
+    let script = r#"local r = require("refrakt")
+        local scene = r.scene{}
+        local g = r.glass{ normal_texture = "bumps.png", normal_scale = 0.5, tint_texture = "bumps.png" }
+        assert(g.normal_scale == 0.5 and g.normal_texture.width == 2 and g.roughness_texture == nil)
+        scene:add(r.node{ name = "ball", shape = r.sphere{ radius = 0.2 }, material = g })
+        scene:add(r.node{ name = "pebble", translation = {0.6, 0, 0}, shape = r.icosphere{ radius = 0.2 }, material = g })
+        scene:add(r.node{ name = "block", translation = {-0.6, 0, 0}, shape = r.cube{ size = {0.3, 0.3, 0.3} }, material = g })
+        return scene"#;
+    let (dir, path) = write_script("scene.lua", script);
+    image::RgbImage::from_pixel(2, 3, image::Rgb([128, 128, 255])).save(dir.path().join("bumps.png")).unwrap();
+    let host = load(&path);
+    host.update(0.0).unwrap();
+    let desc = refrakt::scene::eval::evaluate(&host.scene().borrow(), 0.0, &Default::default()).unwrap();
+    let warnings = desc.warnings();
+    let about = |name: &str| warnings.iter().filter(|w| w.contains(&format!("\"{name}\""))).cloned().collect::<Vec<_>>();
+    assert!(about("ball").len() == 1 && about("ball")[0].contains("has textures, but a sphere or box has no texture coordinates"), "{warnings:#?}");
+    assert!(about("pebble").len() == 1 && about("pebble")[0].contains("has textures, but it has no texture coordinates"), "{warnings:#?}");
+    assert!(about("block").is_empty(), "{warnings:#?}");
+}

@@ -103,6 +103,53 @@ fn a_thin_pane_casts_the_thin_slab_fraction_of_sunlight_tinted_once() {
     }
 }
 
+/// A partly transmissive pane (glTF's transmissionFactor t, or its transmission texture) 1 m
+/// over a white floor, in a sun straight overhead (E = 1 W/m²), seen straight down: of the light
+/// its surface does not reflect, t passes and 1 − t meets its diffuse base of the base colour
+/// (the tint), so each pixel is (1 − R)(1 − t)·tint·E/π from the base plus what is seen through
+/// it, (1 − R)·t·tint × the floor beneath, lit through the pane by E (1 − R)·t·tint — in all,
+/// π L = (1 − R)(1 − t)·tint + (1 − R)² t²·tint², R = R_thin(0°), per channel within 1 %. The
+/// factor and a texture of the same value (64/255, its red channel) give the same.
+#[test]
+fn a_partly_transmissive_pane_shows_its_diffuse_base_and_passes_the_rest() {
+    let tint = Vec3::new(1.0, 0.5, 0.25);
+    for (factor, texel) in [(0.25f32, None), (1.0, Some(64u8))] {
+        let texture = texel.map_or(String::new(), |_| r#", transmission_texture = "t.png""#.to_string());
+        let script = format!(
+            r#"local r = require("refrakt")
+            local scene = r.scene{{ volume = {{ resolution = 24 }}, photons = 20000, samples = 1, bounces = 0,
+                                    environment = r.environment{{ color = {{0, 0, 0}} }},
+                                    camera = r.camera{{ position = {{0, 0.5, 0}}, target = {{0, -1, 0}}, up = {{0, 0, -1}}, orthographic = 0.3, size = {{8, 8}} }} }}
+            scene:add(r.node{{ name = "floor", translation = {{0, -1, 0}}, shape = r.plane{{ size = {{4, 4}} }},
+                              material = r.diffuse{{ color = {{1, 1, 1}} }} }})
+            scene:add(r.node{{ name = "pane", shape = r.plane{{ size = {{1, 1}} }},
+                              material = r.glass{{ ior = 1.5, thin = true, tint = {{{}, {}, {}}}, transmission = {factor}{texture} }} }})
+            scene:add(r.node{{ name = "sun", light = r.sun{{ direction = {{0, -1, 0}}, intensity = 683, angular_diameter = 0 }} }})
+            return scene"#,
+            tint.x, tint.y, tint.z
+        );
+        let (dir, path) = write_script("scene.lua", &script);
+        if let Some(v) = texel {
+            image::RgbImage::from_pixel(2, 2, image::Rgb([v, 0, 0])).save(dir.path().join("t.png")).unwrap();
+        }
+        let host = load(&path);
+        host.update(0.0).unwrap();
+        let desc = refrakt::scene::eval::evaluate(&host.scene().borrow(), 0.0, &Default::default()).unwrap();
+        assert!(desc.meshes[0].thin && desc.meshes[0].sharp && desc.warnings().is_empty(), "{:?}", desc.warnings());
+        let image = renderer().frame(&desc).unwrap();
+        let l = beauty(&image);
+        let n = l.data.len() / l.channels.len();
+        let seen = (0..n).map(|i| rgb(l, i)).sum::<Vec3>() / n as f32 * std::f32::consts::PI;
+        let t = texel.map_or(factor, |v| factor * v as f32 / 255.0);
+        let passed = 1.0 - thin_slab_reflectance(0.0);
+        for k in 0..3 {
+            let expected = passed * (1.0 - t) * tint[k] + passed * passed * t * t * tint[k] * tint[k];
+            eprintln!("pane of transmission {t:.4}, channel {k}: π L = {:.4}, expected {expected:.4} (its base {:.4})", seen[k], passed * (1.0 - t) * tint[k]);
+            assert!((seen[k] / expected - 1.0).abs() < 0.01, "transmission {t}, channel {k}: {} vs {expected}", seen[k]);
+        }
+    }
+}
+
 /// A tilted pane in front of a dim striped wall (the issue's bright sky over a dim ground), seen
 /// by the camera: every pixel through it is what the same pixel shows without the pane, times
 /// tint · (1 − R_thin(θ)), plus R_thin(θ) of the sky in the mirror direction — tinted at 35°,

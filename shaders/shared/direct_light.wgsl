@@ -38,7 +38,8 @@ fn shadow_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
 const MAX_SEE_THROUGH: u32 = 8u;
 
 // What a polished thin sheet passes of a shadow ray at a hit on it: its thin-slab transmittance
-// (1 − R_thin, the inner reflections summed per polarization, cross_interface's R) × its tint,
+// (1 − R_thin, the inner reflections summed per polarization, cross_interface's R) × its tint
+// × its transmission,
 // straight through — exactly what its photons would carry, so they leave that light to shadow
 // rays (march.wgsl). A solid's surface or a rough sheet passes nothing: its light is photons'.
 fn sheet_transmittance(hit: SurfaceHit, w: vec3<f32>) -> vec3<f32> {
@@ -46,11 +47,11 @@ fn sheet_transmittance(hit: SurfaceHit, w: vec3<f32>) -> vec3<f32> {
     if (f.kind & INTERFACE_THIN) == 0u {
         return vec3<f32>(0.0);
     }
-    let surface = glass_surface_at(hit);
+    let surface = glass_surface_at(hit, 0u);
     if surface.roughness > 0.0 {
         return vec3<f32>(0.0);
     }
-    return surface.tint * (1.0 - thin_sheet_reflectance(abs(dot(w, hit.normal)), interface_ior(f)));
+    return surface.tint * surface.transmission * (1.0 - thin_sheet_reflectance(abs(dot(w, hit.normal)), interface_ior(f)));
 }
 
 // The light that passes the analytic interfaces along p + t·w, t < dist: each crossing of a

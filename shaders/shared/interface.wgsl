@@ -336,12 +336,18 @@ struct GlassSurface {
     roughness: f32,
     // Radiance it gives off from its front (`Glass::emission`): seen by view rays only.
     emission: vec3<f32>,
+    // The outward normal crossings refract and reflect about: the hit's, bent by a normal map.
+    normal: vec3<f32>,
+    // The fraction of the light entering the surface that passes it (KHR_materials_transmission);
+    // the rest meets a diffuse base of the tint's colour (the view's `glass_base`).
+    transmission: f32,
 }
 
-// The surface of interface `id` by its factors alone (analytic shapes, untextured meshes).
-fn plain_surface(id: u32) -> GlassSurface {
-    let f = interfaces[id];
-    return GlassSurface(f.tint, f.roughness, f.emission);
+// The surface of the interface met at `hit` by its factors alone (analytic shapes, untextured
+// meshes).
+fn plain_surface(hit: SurfaceHit) -> GlassSurface {
+    let f = interfaces[hit.interface_id];
+    return GlassSurface(f.tint, f.roughness, f.emission, hit.normal, f.transmission);
 }
 
 // Smith's masking for GGX of a direction at cos θ = c from the normal (c > 0):
@@ -408,7 +414,7 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
         geometric = bvh_triangle_normal(hit.triangle);
     }
     geometric = select(geometric, -geometric, dot(geometric, d) > 0.0);
-    let n = select(hit.normal, -hit.normal, dot(hit.normal, d) > 0.0);
+    let n = select(surface.normal, -surface.normal, dot(surface.normal, d) > 0.0);
     if !thin && (beyond.holder == media.holder || beyond.ior == media.ior) {
         return Crossing(d, d, 0.0, vec3<f32>(1.0), beyond, geometric, n, eta, 1.0, 1.0, 1.0, through, false);
     }
@@ -443,7 +449,7 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
         reflected_share = smith_g1(max(cr, 0.0), alpha) * step(0.0, cr) * energy;
         transmitted_share = smith_g1(max(ct, 0.0), alpha) * step(0.0, ct) * energy;
     }
-    return Crossing(reflected, transmitted, reflectance, surface.tint, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true);
+    return Crossing(reflected, transmitted, reflectance, surface.tint * surface.transmission, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true);
 }
 
 // The media of a branch that leaves crossing c along w: the media beyond only if w passes

@@ -56,20 +56,9 @@ fn pbr_normal(r: ReceiverGpu, triangle: u32, u: f32, v: f32, uv: vec2<f32>, faci
 // The smooth normal at a hit on the side `facing`, bent by the tangent-space normal map
 // `texture` (none: as it is), its x and y scaled by `scale`.
 fn mapped_normal(texture: vec4<u32>, scale: f32, triangle: u32, u: f32, v: f32, uv: vec2<f32>, facing: vec3<f32>) -> vec3<f32> {
-    var n = shading_normal(triangle, u, v);
-    let flip = dot(n, facing) < 0.0;
-    if has_texture(texture) {
-        let tangent = triangle_uvs[3u * triangle + 2u];
-        let t = tangent.xyz - n * dot(n, tangent.xyz);
-        if dot(t, t) > 1e-12 {
-            let tu = normalize(t);
-            let b = tangent.w * cross(n, tu);
-            var m = texture_at(texture, uv).xyz * 2.0 - 1.0;
-            m = vec3<f32>(m.xy * scale, m.z);
-            n = normalize(tu * m.x + b * m.y + n * m.z);
-        }
-    }
-    return select(n, -n, flip);
+    let n = shading_normal(triangle, u, v);
+    let bent = bent_normal(n, texture, scale, triangle, uv);
+    return select(bent, -bent, dot(n, facing) < 0.0);
 }
 
 // Schlick's Fresnel from f0 to f90 at v·h.

@@ -75,3 +75,23 @@ fn hit_uv(triangle: u32, u: f32, v: f32) -> vec2<f32> {
     let b = triangle_uvs[3u * triangle + 1u];
     return a.xy * (1.0 - u - v) + a.zw * u + b.xy * v;
 }
+
+// The outward normal n of BVH triangle `triangle` at texture coordinates uv, bent by the
+// tangent-space normal map `texture` (none: n as it is; glTF §3.9.3: +Y toward decreasing v),
+// its x and y scaled by `scale`. The tangent frame is the triangle's (`triangle_uvs`), made
+// orthogonal to n.
+fn bent_normal(n: vec3<f32>, texture: vec4<u32>, scale: f32, triangle: u32, uv: vec2<f32>) -> vec3<f32> {
+    if !has_texture(texture) {
+        return n;
+    }
+    let tangent = triangle_uvs[3u * triangle + 2u];
+    let t = tangent.xyz - n * dot(n, tangent.xyz);
+    if dot(t, t) <= 1e-12 {
+        return n;
+    }
+    let tu = normalize(t);
+    let b = tangent.w * cross(n, tu);
+    var m = texture_at(texture, uv).xyz * 2.0 - 1.0;
+    m = vec3<f32>(m.xy * scale, m.z);
+    return normalize(tu * m.x + b * m.y + n * m.z);
+}

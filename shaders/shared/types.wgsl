@@ -190,6 +190,15 @@ struct Interface {
     emission_texture: vec4<u32>,
     emission: vec3<f32>,
     glow_area: f32,
+    // A glass mesh's tangent-space normal map and its x, y scale.
+    normal_texture: vec4<u32>,
+    normal_scale: f32,
+    // The fraction of the light entering the surface that passes it; the rest meets a diffuse
+    // base of the tint's colour. Times the transmission texture's red channel.
+    transmission: f32,
+    _pad0: f32,
+    _pad1: f32,
+    transmission_texture: vec4<u32>,
 }
 
 struct ReceiverGpu {

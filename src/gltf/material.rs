@@ -165,12 +165,6 @@ impl<'a> Materials<'a> {
         warnings: &mut Collector,
     ) -> Result<(Glass, Option<UvMap>)> {
         let file = self.at.file;
-        if transmission > 0.0 && transmission < 1.0 {
-            warnings.about(
-                format!("{what} (transmissionFactor {transmission})"),
-                "transmits part of the light; refrakt renders it as clear glass (transmission 1)",
-            );
-        }
         // KHR_materials_ior: the default 1.5 when absent; a medium without transmission (a
         // volume in Blender with no glass surface) is index-matched to the air around it.
         let ior = m.ior().unwrap_or(if transmission > 0.0 { 1.5 } else { 1.0 });
@@ -180,7 +174,10 @@ impl<'a> Materials<'a> {
         // KHR_materials_transmission: the base colour tints what passes each surface.
         let [r, g, b, _] = m.pbr_metallic_roughness().base_color_factor();
         let tint = Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE);
-        let mut glass = Glass { ior, absorption: attenuation(m, file, what)?, tint, ..Glass::default() };
+        // KHR_materials_transmission's factor: the rest of the light meets the base colour's
+        // diffuse base (a medium without transmission has no surface of its own: all passes).
+        let passed = if transmission > 0.0 { transmission.min(1.0) } else { 1.0 };
+        let mut glass = Glass { ior, absorption: attenuation(m, file, what)?, tint, transmission: passed, ..Glass::default() };
         if let Some(a) = medium.absorption {
             glass.absorption = Vec3::from(a);
         }
@@ -203,10 +200,10 @@ impl<'a> Materials<'a> {
     }
 
     /// The textures of a transmissive material that vary its surface: the base colour texture
-    /// tints (KHR_materials_transmission: the base colour is the transmitted colour) and the
-    /// metallic-roughness texture's green channel scales the roughness, where each ray or
-    /// photon meets the surface; the emissive texture where the camera sees it glow. The medium
-    /// inside (index, absorption) stays one per material.
+    /// tints (KHR_materials_transmission: the base colour is the transmitted colour), the
+    /// metallic-roughness texture's green channel scales the roughness and the normal map bends
+    /// the normal, where each ray or photon meets the surface; the emissive texture where the
+    /// camera sees it glow. The medium inside (index, absorption) stays one per material.
     fn glass_textures(&mut self, m: &gltf::Material, what: &str, glass: &mut Glass, warnings: &mut Collector) -> Result<Option<UvMap>> {
         let pbr = m.pbr_metallic_roughness();
         let file = self.at.file;
@@ -227,13 +224,18 @@ impl<'a> Materials<'a> {
                 glass.emission_texture = Some(self.texture(&info, what, "emissive", true)?);
             }
         }
+        if let Some(n) = m.normal_texture() {
+            // (Its KHR_texture_transform is taken to be the other textures', as on receivers.)
+            let transform = maps.first().map_or(Affine2::IDENTITY, |m| m.1.transform);
+            maps.push(("normal", UvMap { set: n.tex_coord(), transform }));
+            glass.normal_texture = Some(self.image_texture(n.texture(), what, "normal", false)?);
+            glass.normal_scale = n.scale();
+        }
+        if let Some(info) = m.transmission().and_then(|t| t.transmission_texture()) {
+            maps.push(("transmission", UvMap::of(&info, file, what)?));
+            glass.transmission_texture = Some(self.texture(&info, what, "transmission", false)?);
+        }
         warn_uv_maps_differ(&maps, what, warnings);
-        if m.transmission().and_then(|t| t.transmission_texture()).is_some() {
-            warnings.about(what, "refrakt does not read a transmissionTexture: all of the glass transmits");
-        }
-        if m.normal_texture().is_some() {
-            warnings.about(what, "refrakt does not read a normal map on glass yet: the glass takes its mesh's interpolated normals");
-        }
         if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
             warnings.about(what, "refrakt does not cut glass by alpha (MASK or BLEND) yet: all of the glass is there");
         }

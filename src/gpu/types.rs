@@ -331,6 +331,18 @@ gpu_struct! {
         /// A glowing glass mesh's world area (`ReceiverGpu::glow_area`); 0 on analytic shapes,
         /// whose glow lights nothing.
         pub glow_area: f32,
+        /// Its tangent-space normal map (glTF's `normalTexture`), as the textures above: it
+        /// bends the normal each crossing refracts and reflects about.
+        pub normal_texture: [u32; 4],
+        /// The normal map's x and y scale (glTF's `normalTexture.scale`).
+        pub normal_scale: f32,
+        /// The fraction of the light entering the surface that passes it (`Glass::transmission`);
+        /// the rest meets a diffuse base of the tint's colour.
+        pub transmission: f32,
+        pub _pad0: f32,
+        pub _pad1: f32,
+        /// Its transmission texture (red × `transmission`), as the textures above.
+        pub transmission_texture: [u32; 4],
     }
 }
 

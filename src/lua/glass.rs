@@ -1,14 +1,33 @@
 //! Glass in Lua: `refrakt.glass{…}` (`scene::Glass`) — a refractive, absorbing, scattering
 //! medium, or with `thin = true` a sheet — and its fields read and written by name.
 
+use std::sync::Arc;
+
 use glam::Vec3;
 use mlua::{Lua, Table, Value};
 
 use super::convert::{self as cv, FieldName, error_at};
 use super::objects::{Obj, construct, number_value, vec_value};
-use crate::scene::{Glass, Material};
+use super::pbr::{texture, texture_value};
+use crate::scene::{Glass, Material, Texture2d};
 
-pub const FIELDS: &[&str] = &["ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin", "dispersion", "abbe", "priority", "multiscatter", "emission", "emission_strength"];
+pub const FIELDS: &[&str] = &[
+    "ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin", "dispersion", "abbe", "priority", "multiscatter", "emission",
+    "emission_strength", "tint_texture", "roughness_texture", "emission_texture", "normal_texture", "normal_scale", "transmission",
+    "transmission_texture",
+];
+
+/// The texture field `key` of `g`, and whether its file is sRGB-encoded (colour) or linear.
+fn texture_slot<'a>(g: &'a mut Glass, key: &str) -> Option<(&'a mut Option<Arc<Texture2d>>, bool)> {
+    Some(match key {
+        "tint_texture" => (&mut g.tint_texture, true),
+        "roughness_texture" => (&mut g.roughness_texture, false),
+        "emission_texture" => (&mut g.emission_texture, true),
+        "normal_texture" => (&mut g.normal_texture, false),
+        "transmission_texture" => (&mut g.transmission_texture, false),
+        _ => return None,
+    })
+}
 
 /// Glass field `key` of `g`; None when glass has no such field.
 pub fn get(lua: &Lua, g: &Glass, key: &str) -> Option<mlua::Result<Value>> {
@@ -25,6 +44,13 @@ pub fn get(lua: &Lua, g: &Glass, key: &str) -> Option<mlua::Result<Value>> {
         "multiscatter" => Ok(Value::Boolean(g.multiscatter)),
         "emission" => vec_value(lua, g.emission),
         "emission_strength" => Ok(number_value(g.emission_strength)),
+        "normal_scale" => Ok(number_value(g.normal_scale)),
+        "tint_texture" => texture_value(lua, &g.tint_texture),
+        "roughness_texture" => texture_value(lua, &g.roughness_texture),
+        "emission_texture" => texture_value(lua, &g.emission_texture),
+        "normal_texture" => texture_value(lua, &g.normal_texture),
+        "transmission_texture" => texture_value(lua, &g.transmission_texture),
+        "transmission" => Ok(number_value(g.transmission)),
         // The Abbe number V_d = 20/dispersion; nil without dispersion.
         "abbe" => Ok(if g.dispersion > 0.0 { number_value(20.0 / g.dispersion) } else { Value::Nil }),
         // Transmittance over one metre (the color a 1 m thick piece has).
@@ -95,6 +121,14 @@ fn set_field(lua: &Lua, g: &mut Glass, key: &str, value: Value) -> mlua::Result<
         }
         "g" => {
             g.g = cv::number_in(lua, name, &value, Some(-0.99), Some(0.99), "a number from −0.99 to 0.99")? as f32
+        }
+        "normal_scale" => g.normal_scale = cv::number_in(lua, name, &value, Some(-16.0), Some(16.0), "a number from −16 to 16")? as f32,
+        "transmission" => {
+            g.transmission = cv::number_in(lua, name, &value, Some(0.0), Some(1.0), "a number from 0 (an opaque, diffuse base) to 1 (all glass)")? as f32
+        }
+        "tint_texture" | "roughness_texture" | "emission_texture" | "normal_texture" | "transmission_texture" => {
+            let (slot, srgb) = texture_slot(g, key).expect("a texture field");
+            *slot = texture(lua, name, &value, srgb)?;
         }
         "color" | "distance" => {
             return Err(error_at(

@@ -114,13 +114,14 @@ impl<'a> Args<'a> {
 }
 
 /// `refrakt.mesh{file = "…obj"}` or `refrakt.mesh{vertices = {{x, y, z}, …}, triangles = {{1, 2, 3}, …}}`
-/// (with `normals`, one per vertex, to shade it smooth; flat without).
+/// (with `normals`, one per vertex, to shade it smooth, flat without; and `uvs`, one `{u, v}` per
+/// vertex, for textures).
 fn mesh_from(lua: &Lua, t: Option<Table>) -> mlua::Result<Obj<Shape>> {
-    let args = Args::new(lua, "mesh", t, &["file", "vertices", "triangles", "normals"])?;
+    let args = Args::new(lua, "mesh", t, &["file", "vertices", "triangles", "normals", "uvs"])?;
     let file = args.get("file")?;
     if !file.is_nil() {
-        if !args.get("vertices")?.is_nil() || !args.get("triangles")?.is_nil() || !args.get("normals")?.is_nil() {
-            return Err(error_at(lua, "give a mesh either a file or vertices and triangles (and normals), not both"));
+        if ["vertices", "triangles", "normals", "uvs"].iter().any(|k| args.get(k).is_ok_and(|v| !v.is_nil())) {
+            return Err(error_at(lua, "give a mesh either a file or vertices and triangles (and normals, uvs), not both"));
         }
         let given = cv::string(lua, args.name("file"), &file)?;
         let path = FileAccess::resolve(lua, &given)?;
@@ -154,21 +155,30 @@ fn mesh_from(lua: &Lua, t: Option<Table>) -> mlua::Result<Obj<Shape>> {
         }
         mesh.triangles.push(tri);
     }
-    let normals = args.get("normals")?;
-    if !normals.is_nil() {
-        let normals = list(lua, "mesh.normals", &normals)?;
-        if normals.len() != mesh.positions.len() {
-            return Err(error_at(
-                lua,
-                format!("mesh.normals lists {} normals for {} vertices; give one per vertex, in the same order", normals.len(), mesh.positions.len()),
-            ));
-        }
-        let field = |i: usize| format!("normals[{}]", i + 1);
-        let normals = normals.iter().enumerate().map(|(i, n)| cv::vec3(lua, args.name(&field(i)), n)).collect::<mlua::Result<_>>()?;
+    let vertex_count = mesh.positions.len();
+    if let Some(normals) = per_vertex(&args, "normals", "normals", vertex_count, |name, v| cv::vec3(lua, name, v))? {
         mesh.normals = Normals::Authored(normals);
     }
+    // Texture coordinates (glass textures, a receiver's textures): a 1 × 1 tile is (0, 0) to
+    // (1, 1), larger numbers repeat it; ±1e6 bounds typos, not tiling.
+    mesh.uvs = per_vertex(&args, "uvs", "texture coordinates", vertex_count, |name, v| cv::vec2_within(lua, name, v, 1e6))?;
     mesh.check().map_err(|e| error_at(lua, format!("mesh: {e}")))?;
     args.shape(mesh, "vertices".into())
+}
+
+/// Field `key` of a mesh made in Lua: one item per vertex, in the vertices' order, each read by
+/// `item`; None when absent.
+fn per_vertex<T>(args: &Args, key: &str, what: &str, vertices: usize, item: impl Fn(FieldName, &Value) -> mlua::Result<T>) -> mlua::Result<Option<Vec<T>>> {
+    let value = args.get(key)?;
+    if value.is_nil() {
+        return Ok(None);
+    }
+    let items = list(args.lua, &format!("mesh.{key}"), &value)?;
+    if items.len() != vertices {
+        return Err(error_at(args.lua, format!("mesh.{key} lists {} {what} for {vertices} vertices; give one per vertex, in the same order", items.len())));
+    }
+    let field = |i: usize| format!("{key}[{}]", i + 1);
+    items.iter().enumerate().map(|(i, v)| item(args.name(&field(i)), v)).collect::<mlua::Result<_>>().map(Some)
 }
 
 /// The items of a Lua sequence.

@@ -58,7 +58,7 @@ fn texture_slot<'a>(d: &'a mut Diffuse, key: &str) -> Option<(&'a mut Option<Arc
 }
 
 /// A texture reads back as `{width, height}` (its file is not kept).
-fn texture_value(lua: &Lua, t: &Option<Arc<Texture2d>>) -> mlua::Result<Value> {
+pub(super) fn texture_value(lua: &Lua, t: &Option<Arc<Texture2d>>) -> mlua::Result<Value> {
     let Some(t) = t else { return Ok(Value::Nil) };
     let table = lua.create_table()?;
     table.raw_set("width", t.width)?;
@@ -150,7 +150,7 @@ fn reflectance(lua: &Lua, name: FieldName, value: &Value, what: &str) -> mlua::R
 }
 
 /// A PNG or JPEG texture named relative to the scene's folder (nil: none).
-fn texture(lua: &Lua, name: FieldName, value: &Value, srgb: bool) -> mlua::Result<Option<Arc<Texture2d>>> {
+pub(super) fn texture(lua: &Lua, name: FieldName, value: &Value, srgb: bool) -> mlua::Result<Option<Arc<Texture2d>>> {
     if value.is_nil() {
         return Ok(None);
     }

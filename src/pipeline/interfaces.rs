@@ -25,14 +25,19 @@ use crate::gpu::types::{Interface, interface_kind};
 /// cube the solid reaches (half a voxel's diagonal is 0.866).
 pub const MARK_WIDTH_VOXELS: f32 = 1.75;
 
+/// The textures a glass mesh's surface may carry, in the interface record's order: roughness,
+/// tint, emission, normal map, transmission (`scene::Glass::textures`).
+pub const GLASS_TEXTURES: usize = 5;
+pub type GlassTextures = [Option<Arc<Texture2d>>; GLASS_TEXTURES];
+
 
 /// The sharp objects of a frame as interface records: the analytic ones first, then the
 /// meshes, then one `NONE` record that ends the analytic list even when there is no mesh.
-/// `textures`: each sharp mesh's (roughness, tint) texture in the texel atlas
+/// `textures`: each sharp mesh's textures (`GlassTextures`) in the texel atlas
 /// (`receivers::layout`; zeros for none). Each solid gets its rank among the overlapping
 /// (`ranks`) and the contact distance where another solid's box comes that close to its own
 /// (elsewhere 0: no crossing searches for a partner that cannot be there).
-pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; 3]]) -> Vec<Interface> {
+pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; GLASS_TEXTURES]]) -> Vec<Interface> {
     let analytic = desc.fields.iter().filter(|f| f.sharp).map(analytic_record);
     let meshes = sharp_meshes(desc).enumerate().map(|(j, m)| {
         // (Every frame: a sharp mesh is a sheet or a closed solid, so `thin` says which.)
@@ -48,6 +53,10 @@ pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; 3]]) -> Vec<Interface> {
             roughness_texture: textures.get(j).map_or([0; 4], |t| t[0]),
             tint_texture: textures.get(j).map_or([0; 4], |t| t[1]),
             emission_texture: textures.get(j).map_or([0; 4], |t| t[2]),
+            normal_texture: textures.get(j).map_or([0; 4], |t| t[3]),
+            normal_scale: m.glass.normal_scale,
+            transmission_texture: textures.get(j).map_or([0; 4], |t| t[4]),
+            transmission: m.glass.transmission,
             emission: m.glass.emitted().into(),
             glow_area,
             glow_side,
@@ -128,6 +137,7 @@ fn analytic_record(f: &FieldDesc) -> Interface {
         roughness: f.roughness,
         dispersion: f.dispersion,
         emission: f.emission.into(),
+        transmission: f.transmission,
         ..Default::default()
     }
 }
@@ -154,8 +164,8 @@ pub struct SharpTriangles {
     pub normals: Vec<[Vec3; 3]>,
     /// Corner texture coordinates (zeros on a mesh without them).
     pub uvs: Vec<[Vec2; 3]>,
-    /// Each sharp mesh's (roughness, tint) textures, where it has texture coordinates.
-    pub textures: Vec<[Option<Arc<Texture2d>>; 3]>,
+    /// Each sharp mesh's textures, where it has texture coordinates.
+    pub textures: Vec<GlassTextures>,
 }
 
 pub fn triangles(desc: &FrameDesc) -> SharpTriangles {
@@ -177,7 +187,7 @@ pub fn triangles(desc: &FrameDesc) -> SharpTriangles {
         }
         let textured = m.mesh.uvs.is_some();
         let texture = |t: &Option<Arc<Texture2d>>| t.clone().filter(|_| textured);
-        out.textures.push([texture(&m.glass.roughness_texture), texture(&m.glass.tint_texture), texture(&m.glass.emission_texture)]);
+        out.textures.push(m.glass.textures().map(texture));
         out.meshes.push(Placed { mesh: Arc::as_ptr(&m.mesh) as usize, triangles });
     }
     out
@@ -215,15 +225,13 @@ fn field_contains(f: &FieldDesc, p: Vec3) -> bool {
 
 
 /// A sharp mesh by pointer, its placement, and its textures by pointer.
-pub type MeshKey = (usize, glam::Mat4, [usize; 3]);
+pub type MeshKey = (usize, glam::Mat4, [usize; GLASS_TEXTURES]);
 
 /// What identifies the sharp meshes' triangles and textures (so the BVH and the texel atlas
 /// are rebuilt when one moves or another texture takes its place).
 pub fn mesh_key(desc: &FrameDesc) -> Vec<MeshKey> {
     let ptr = |t: &Option<Arc<Texture2d>>| t.as_ref().map_or(0, |t| Arc::as_ptr(t) as usize);
-    sharp_meshes(desc)
-        .map(|m| (Arc::as_ptr(&m.mesh) as usize, m.world, [ptr(&m.glass.roughness_texture), ptr(&m.glass.tint_texture), ptr(&m.glass.emission_texture)]))
-        .collect()
+    sharp_meshes(desc).map(|m| (Arc::as_ptr(&m.mesh) as usize, m.world, m.glass.textures().map(ptr))).collect()
 }
 
 #[cfg(test)]

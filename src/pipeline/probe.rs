@@ -63,6 +63,8 @@ impl Probe {
             layout::storage(11, true),
             layout::storage(12, true),
             layout::storage(13, true),
+            layout::storage(14, true),
+            layout::storage(15, true),
         ];
         let (trace, bgl) = layout::pipeline_entry(device, shaders, "probe", "main", &entries)?;
         let (query, _) = layout::pipeline_entry(device, shaders, "probe", "octree_query", &entries)?;
@@ -107,6 +109,8 @@ impl Probe {
                 layout::bind(11, &surfaces.triangle_normals.buffer),
                 layout::bind(12, &grids.octree_leaves),
                 layout::bind(13, &surfaces.rough_albedo),
+                layout::bind(14, &surfaces.triangle_uvs.buffer),
+                layout::bind(15, &surfaces.albedo_texels.buffer),
             ],
         });
         let out = if query { &steps } else { &records };

@@ -21,7 +21,7 @@ use crate::scene::{AlphaMode, Diffuse, Texture2d, Wrap};
 use super::resources::GrowableBuffer;
 use crate::frame::{FrameDesc, Receiver};
 use crate::gpu::GpuContext;
-use super::interfaces::{self, SharpTriangles};
+use super::interfaces::{self, GLASS_TEXTURES, GlassTextures, SharpTriangles};
 use crate::gpu::types::{BvhNode, BvhTriangle, Chart, ReceiverGpu, interface_kind, receiver_flags, texel_encoding};
 
 /// Texels along the longest side of one chart, at most.
@@ -291,14 +291,14 @@ fn receiver_gpu(r: &Receiver, atlas: &mut TexelAtlas) -> ReceiverGpu {
 /// A sharp glass mesh's (roughness, tint, emission) textures with the encoding each is stored
 /// in: the roughness is the metallic-roughness texture's green channel, stored linear; the tint
 /// (base colour) and the glow (emissive) are stored sRGB-encoded, as a receiver's colours are.
-fn glass_texture_encodings(t: &[Option<Arc<Texture2d>>; 3]) -> [(Option<&Arc<Texture2d>>, u32); 3] {
+fn glass_texture_encodings(t: &GlassTextures) -> [(Option<&Arc<Texture2d>>, u32); GLASS_TEXTURES] {
     use texel_encoding::{LINEAR, SRGB};
-    [(t[0].as_ref(), LINEAR), (t[1].as_ref(), SRGB), (t[2].as_ref(), SRGB)]
+    [(t[0].as_ref(), LINEAR), (t[1].as_ref(), SRGB), (t[2].as_ref(), SRGB), (t[3].as_ref(), LINEAR), (t[4].as_ref(), LINEAR)]
 }
 
 /// Every texture the atlas will hold, fitted to `max_texels` (`fit_textures`), warning when
 /// any had to be reduced.
-fn fitted_atlas(receivers: &[Receiver], glass_textures: &[[Option<Arc<Texture2d>>; 3]], max_texels: u64) -> HashMap<*const Texture2d, Arc<Texture2d>> {
+fn fitted_atlas(receivers: &[Receiver], glass_textures: &[GlassTextures], max_texels: u64) -> HashMap<*const Texture2d, Arc<Texture2d>> {
     let mut stored: Vec<(&Arc<Texture2d>, u32)> = Vec::new();
     let used = receivers.iter().filter(|r| textured(r).is_some()).flat_map(|r| textures(&r.diffuse));
     let glass = glass_textures.iter().flat_map(glass_texture_encodings);
@@ -346,7 +346,7 @@ pub struct ReceiverLayout {
     pub albedo_texels: Vec<u32>,
     /// Each sharp glass mesh's (roughness, tint, emission) textures in `albedo_texels` (for
     /// `interfaces::table`).
-    pub interface_textures: Vec<[[u32; 4]; 3]>,
+    pub interface_textures: Vec<[[u32; 4]; GLASS_TEXTURES]>,
 }
 
 /// Texels along the longest side of an indirect chart, at most: bounced light is smooth, and the

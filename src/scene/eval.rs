@@ -185,8 +185,13 @@ fn place_shape(p: &Placed, c: &mut Contents) -> Result<()> {
         (Some(Material::Glass(glass)), Shape::Mesh { mesh, boundary, .. }) => {
             c.meshes.push(mesh_instance(&node, mesh, p.world, glass, *boundary)?);
         }
-        (Some(Material::Glass(_)), Shape::Plane { .. }) => {
-            bail!("{}: node {name}: a plane has no inside, so it cannot be glass; use a box or a mesh", node.origin)
+        // A plane of glass is a sheet (a window pane, a film): it has no inside to be a solid.
+        (Some(Material::Glass(glass)), Shape::Plane { size }) => {
+            if glass.thin == Some(false) {
+                bail!("{}: node {name}: a plane has no inside, so its glass cannot be a solid (thin = false); use a box or a mesh", node.origin)
+            }
+            let sheet = Glass { thin: Some(true), ..glass };
+            c.meshes.push(mesh_instance(&node, &Arc::new(mesh::plane(*size)), p.world, sheet, None)?);
         }
         (Some(Material::Glass(glass)), _) => push_field(c, &node, &shape, p.world, scale, glass),
         (None, s) if s.is_index_field() => {
@@ -295,6 +300,8 @@ fn field_of(node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) 
         emission: glass.emitted(),
         dispersion: glass.dispersion,
         priority: glass.priority,
+        textured: glass.textured(),
+        transmission: glass.transmission,
         bounds: world_bounds(&world, half_size),
     }
 }

@@ -59,6 +59,21 @@ pub struct Glass {
     /// An emissive texture (glTF, sRGB): its rgb multiplies `emission` — a sharp mesh with
     /// texture coordinates only.
     pub emission_texture: Option<Arc<Texture2d>>,
+    /// A tangent-space normal map (glTF's convention: linear, +Y toward decreasing v): it bends
+    /// the normal each ray and photon refracts and reflects about where it crosses the surface —
+    /// ripples on a water surface, hammered or fluted glass — while the medium inside keeps the
+    /// mesh's shape. A sharp mesh with texture coordinates only.
+    pub normal_texture: Option<Arc<Texture2d>>,
+    /// Scales the normal map's x and y (glTF's `normalTexture.scale`): 0 flattens it.
+    pub normal_scale: f32,
+    /// The fraction of the light entering the surface that is transmitted, 0 to 1
+    /// (KHR_materials_transmission's transmissionFactor); the rest meets the material's base
+    /// beneath its reflection, a diffuse surface of the tint's colour (glTF's base colour), lit
+    /// where the camera sees it. 1: all glass.
+    pub transmission: f32,
+    /// A transmission texture (glTF, linear): its red channel multiplies `transmission` — glass
+    /// with an opaque pattern in it. A sharp mesh with texture coordinates only.
+    pub transmission_texture: Option<Arc<Texture2d>>,
 }
 
 impl Glass {
@@ -80,6 +95,17 @@ impl Glass {
         self.emission * self.emission_strength
     }
 
+    /// Its textures in the order the interface record holds them: roughness, tint, emission,
+    /// normal map, transmission (`pipeline::interfaces::GlassTextures`).
+    pub fn textures(&self) -> [&Option<Arc<Texture2d>>; 5] {
+        [&self.roughness_texture, &self.tint_texture, &self.emission_texture, &self.normal_texture, &self.transmission_texture]
+    }
+
+    /// Whether it carries any texture.
+    pub fn textured(&self) -> bool {
+        self.textures().iter().any(|t| t.is_some())
+    }
+
     /// Whether it colours the light that crosses it (a tint or a tint texture).
     pub fn tinted(&self) -> bool {
         self.tint != Vec3::ONE || self.tint_texture.is_some()
@@ -90,7 +116,7 @@ impl Default for Glass {
     fn default() -> Self {
         Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0, tint: Vec3::ONE, roughness: 0.0, thin: None, dispersion: 0.0,
                roughness_texture: None, tint_texture: None, priority: 0, multiscatter: true, emission: Vec3::ZERO, emission_strength: 1.0,
-               emission_texture: None }
+               emission_texture: None, normal_texture: None, normal_scale: 1.0, transmission: 1.0, transmission_texture: None }
     }
 }
 

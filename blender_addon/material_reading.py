@@ -86,7 +86,7 @@ def _principled(node, medium):
     glass = transmission > 0.0 or not medium.is_empty()
     rows, ignored = [], []
     if glass:
-        clear = "clear glass" if transmission >= 1.0 else "taken as 1: refrakt's glass is clear"
+        clear = "clear glass" if transmission >= 1.0 else "passes; the rest a diffuse base of Base Color"
         rows.append(("Transmission", f"{transmission:.3g}", clear if transmission > 0 else "0: a medium without surface"))
         rows.append(("IOR", f"{value('IOR'):.4g}", "index of refraction"))
         tint = "a texture: not used, the plain value is" if _linked(node, "Base Color") else "tint, once through a solid (as Cycles)"

@@ -376,9 +376,8 @@ struct Branch {
 // (1 − R)(1 − transmission) × the base colour. It is shaded where receivers are
 // (`meet_receiver`), marked by a negative lobe_pdf, and its random numbers hash a path number
 // of its own (the high bit: paths double per event, at most MAX_EVENTS times).
-fn base_branch(b: Branch, p: vec3<f32>, c: Crossing, surface: GlassSurface) -> Branch {
-    let w = b.weight * (1.0 - c.reflectance) * (1.0 - surface.transmission) * surface.tint;
-    return Branch(p, c.normal, w, b.media, b.events, b.path | 0x80000000u, -1.0);
+fn base_branch(b: Branch, p: vec3<f32>, c: Crossing) -> Branch {
+    return Branch(p, c.normal, b.weight * c.base, b.media, b.events, b.path | 0x80000000u, -1.0);
 }
 
 fn is_base_branch(b: Branch) -> bool {
@@ -546,11 +545,14 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                         met = true;
                         break;
                     }
-                    first_depth(out, s.x);
                     // The lights on the straight piece that ends here (a bulb in a glass shade, a
                     // softbox before the glass).
                     pass_lights(out, b, piece, distance(piece, s.x), lobe_from);
                     let surface = glass_surface_at(hit, SURFACE_NORMAL | SURFACE_EMISSION);
+                    // (Where alpha cuts a sheet away, the pixel is not covered by it.)
+                    if surface.coverage > 0.0 {
+                        first_depth(out, s.x);
+                    }
                     // A glowing surface seen from its front (either side of a thin sheet).
                     let glass = interfaces[hit.interface_id];
                     if dot(hit.normal, b.d) < 0.0 || (glass.kind & INTERFACE_THIN) != 0u {
@@ -558,8 +560,8 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                     }
                     let c = cross_interface(s.x, b.d, hit, surface, b.media, facet_numbers(k, b.path));
                     b.events += u32(c.seen);
-                    if c.seen && surface.transmission < 1.0 && c.reflectance < 1.0 && *top < BRANCH_STACK {
-                        let base = base_branch(b, s.x, c, surface);
+                    if any(c.base > vec3<f32>(0.0)) && *top < BRANCH_STACK {
+                        let base = base_branch(b, s.x, c);
                         if max(base.weight.r, max(base.weight.g, base.weight.b)) > MIN_WEIGHT {
                             (*stack)[*top] = base;
                             *top += 1u;

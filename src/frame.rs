@@ -318,6 +318,10 @@ pub struct FieldDesc {
     pub textured: bool,
     /// The fraction of the light entering its sharp surface that passes (`Glass::transmission`).
     pub transmission: f32,
+    /// A thin shell's alpha (`Glass::alpha`, `alpha_mode`, `alpha_cutoff`).
+    pub alpha: f32,
+    pub alpha_mode: crate::scene::AlphaMode,
+    pub alpha_cutoff: f32,
 }
 
 impl FieldDesc {
@@ -520,6 +524,14 @@ impl FrameDesc {
                 "glass \"{}\" has textures, but a sphere or box has no texture coordinates: it keeps its factors (give it a \
                  mesh with texture coordinates: r.cube, r.plane, an OBJ with vt, a glTF with TEXCOORD_0)",
                 f.name
+            ));
+        }
+        let solid_with_alpha = self.meshes.iter().filter(|m| !m.thin && m.glass.alpha_mode != crate::scene::AlphaMode::Opaque).map(|m| (&m.name, m.glass.alpha_mode));
+        for (name, mode) in solid_with_alpha.chain(self.fields.iter().filter(|f| !f.thin && f.alpha_mode != crate::scene::AlphaMode::Opaque).map(|f| (&f.name, f.alpha_mode))) {
+            out.push(format!(
+                "glass \"{name}\" has alpha mode {}, but alpha cuts thin glass only (a sheet, a shell): as a solid it is all there \
+                 (make it a sheet: thin = true, or glTF without KHR_materials_volume)",
+                mode.name()
             ));
         }
         for m in self.meshes.iter().filter(|m| m.glass.textured() && !(m.sharp && m.mesh.uvs.is_some())) {

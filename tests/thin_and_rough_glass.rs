@@ -103,49 +103,78 @@ fn a_thin_pane_casts_the_thin_slab_fraction_of_sunlight_tinted_once() {
     }
 }
 
-/// A partly transmissive pane (glTF's transmissionFactor t, or its transmission texture) 1 m
-/// over a white floor, in a sun straight overhead (E = 1 W/m²), seen straight down: of the light
-/// its surface does not reflect, t passes and 1 − t meets its diffuse base of the base colour
-/// (the tint), so each pixel is (1 − R)(1 − t)·tint·E/π from the base plus what is seen through
-/// it, (1 − R)·t·tint × the floor beneath, lit through the pane by E (1 − R)·t·tint — in all,
-/// π L = (1 − R)(1 − t)·tint + (1 − R)² t²·tint², R = R_thin(0°), per channel within 1 %. The
-/// factor and a texture of the same value (64/255, its red channel) give the same.
+/// π × the mean radiance a camera looking straight down sees of a thin pane (index 1.5, `glass`:
+/// the rest of its fields) 1 m over a white floor, in a sun straight overhead (E = 1 W/m²) and a
+/// black sky. `texture`: an RGBA texel for a 2 × 2 texture the fields may name as "t.png".
+fn pane_over_a_floor(glass: &str, texture: Option<[u8; 4]>) -> Vec3 {
+    let script = format!(
+        r#"local r = require("refrakt")
+        local scene = r.scene{{ volume = {{ resolution = 24 }}, photons = 20000, samples = 1, bounces = 0,
+                                environment = r.environment{{ color = {{0, 0, 0}} }},
+                                camera = r.camera{{ position = {{0, 0.5, 0}}, target = {{0, -1, 0}}, up = {{0, 0, -1}}, orthographic = 0.3, size = {{8, 8}} }} }}
+        scene:add(r.node{{ name = "floor", translation = {{0, -1, 0}}, shape = r.plane{{ size = {{4, 4}} }},
+                          material = r.diffuse{{ color = {{1, 1, 1}} }} }})
+        scene:add(r.node{{ name = "pane", shape = r.plane{{ size = {{1, 1}} }}, material = r.glass{{ ior = 1.5, {glass} }} }})
+        scene:add(r.node{{ name = "sun", light = r.sun{{ direction = {{0, -1, 0}}, intensity = 683, angular_diameter = 0 }} }})
+        return scene"#
+    );
+    let (dir, path) = write_script("scene.lua", &script);
+    if let Some(texel) = texture {
+        image::RgbaImage::from_pixel(2, 2, image::Rgba(texel)).save(dir.path().join("t.png")).unwrap();
+    }
+    let host = load(&path);
+    host.update(0.0).unwrap();
+    let desc = refrakt::scene::eval::evaluate(&host.scene().borrow(), 0.0, &Default::default()).unwrap();
+    assert!(desc.meshes[0].thin && desc.meshes[0].sharp && desc.warnings().is_empty(), "{:?}", desc.warnings());
+    let image = renderer().frame(&desc).unwrap();
+    let l = beauty(&image);
+    let n = l.data.len() / l.channels.len();
+    (0..n).map(|i| rgb(l, i)).sum::<Vec3>() / n as f32 * std::f32::consts::PI
+}
+
+/// A partly transmissive pane (glTF's transmissionFactor t, or its transmission texture) over a
+/// white floor in the sun (`pane_over_a_floor`): of the light its surface does not reflect, t
+/// passes and 1 − t meets its diffuse base of the base colour (the tint), so each pixel is
+/// (1 − R)(1 − t)·tint·E/π from the base plus what is seen through it, (1 − R)·t·tint × the floor
+/// beneath, lit through the pane by E (1 − R)·t·tint — in all, π L = (1 − R)(1 − t)·tint +
+/// (1 − R)² t²·tint², R = R_thin(0°), per channel within 1 %. The factor and a texture of the
+/// same value (64/255, its red channel) give the same.
 #[test]
 fn a_partly_transmissive_pane_shows_its_diffuse_base_and_passes_the_rest() {
     let tint = Vec3::new(1.0, 0.5, 0.25);
-    for (factor, texel) in [(0.25f32, None), (1.0, Some(64u8))] {
-        let texture = texel.map_or(String::new(), |_| r#", transmission_texture = "t.png""#.to_string());
-        let script = format!(
-            r#"local r = require("refrakt")
-            local scene = r.scene{{ volume = {{ resolution = 24 }}, photons = 20000, samples = 1, bounces = 0,
-                                    environment = r.environment{{ color = {{0, 0, 0}} }},
-                                    camera = r.camera{{ position = {{0, 0.5, 0}}, target = {{0, -1, 0}}, up = {{0, 0, -1}}, orthographic = 0.3, size = {{8, 8}} }} }}
-            scene:add(r.node{{ name = "floor", translation = {{0, -1, 0}}, shape = r.plane{{ size = {{4, 4}} }},
-                              material = r.diffuse{{ color = {{1, 1, 1}} }} }})
-            scene:add(r.node{{ name = "pane", shape = r.plane{{ size = {{1, 1}} }},
-                              material = r.glass{{ ior = 1.5, thin = true, tint = {{{}, {}, {}}}, transmission = {factor}{texture} }} }})
-            scene:add(r.node{{ name = "sun", light = r.sun{{ direction = {{0, -1, 0}}, intensity = 683, angular_diameter = 0 }} }})
-            return scene"#,
-            tint.x, tint.y, tint.z
-        );
-        let (dir, path) = write_script("scene.lua", &script);
-        if let Some(v) = texel {
-            image::RgbImage::from_pixel(2, 2, image::Rgb([v, 0, 0])).save(dir.path().join("t.png")).unwrap();
-        }
-        let host = load(&path);
-        host.update(0.0).unwrap();
-        let desc = refrakt::scene::eval::evaluate(&host.scene().borrow(), 0.0, &Default::default()).unwrap();
-        assert!(desc.meshes[0].thin && desc.meshes[0].sharp && desc.warnings().is_empty(), "{:?}", desc.warnings());
-        let image = renderer().frame(&desc).unwrap();
-        let l = beauty(&image);
-        let n = l.data.len() / l.channels.len();
-        let seen = (0..n).map(|i| rgb(l, i)).sum::<Vec3>() / n as f32 * std::f32::consts::PI;
-        let t = texel.map_or(factor, |v| factor * v as f32 / 255.0);
-        let passed = 1.0 - thin_slab_reflectance(0.0);
+    let passed = 1.0 - thin_slab_reflectance(0.0);
+    for (factor, texel) in [(0.25f32, None), (1.0, Some([64u8, 0, 0, 255]))] {
+        let texture = texel.map_or("", |_| r#", transmission_texture = "t.png""#);
+        let seen = pane_over_a_floor(&format!("thin = true, tint = {{{}, {}, {}}}, transmission = {factor}{texture}", tint.x, tint.y, tint.z), texel);
+        let t = texel.map_or(factor, |v| factor * v[0] as f32 / 255.0);
         for k in 0..3 {
             let expected = passed * (1.0 - t) * tint[k] + passed * passed * t * t * tint[k] * tint[k];
             eprintln!("pane of transmission {t:.4}, channel {k}: π L = {:.4}, expected {expected:.4} (its base {:.4})", seen[k], passed * (1.0 - t) * tint[k]);
             assert!((seen[k] / expected - 1.0).abs() < 0.01, "transmission {t}, channel {k}: {} vs {expected}", seen[k]);
+        }
+    }
+}
+
+/// Alpha on a thin pane over a white floor in the sun (`pane_over_a_floor`): where it is there
+/// by the fraction a (BLEND), it passes P = a (1 − R)·tint + (1 − a) of the light — to the floor
+/// (shadow rays) and from the floor back up to the camera — so π L = P²; MASK cuts it away where
+/// the base colour texture's alpha is below the cutoff (π L = 1, the open floor) and keeps it
+/// whole above (a = 1). Per channel within 1 %.
+#[test]
+fn alpha_cuts_a_thin_pane_away_or_blends_it() {
+    let tint = Vec3::new(1.0, 0.5, 0.25);
+    let r = thin_slab_reflectance(0.0);
+    let fields = format!("thin = true, tint = {{{}, {}, {}}}", tint.x, tint.y, tint.z);
+    for (extra, texel, a) in [
+        (r#", alpha = 0.4, alpha_mode = "BLEND""#, None, 0.4f32),
+        (r#", alpha_mode = "MASK", tint_texture = "t.png""#, Some([255u8, 255, 255, 100]), 0.0),
+        (r#", alpha_mode = "MASK", tint_texture = "t.png""#, Some([255u8, 255, 255, 200]), 1.0),
+    ] {
+        let seen = pane_over_a_floor(&format!("{fields}{extra}"), texel);
+        for k in 0..3 {
+            let p = a * (1.0 - r) * tint[k] + 1.0 - a;
+            eprintln!("pane{extra} (texel {texel:?}), channel {k}: π L = {:.4}, expected P² = {:.4}", seen[k], p * p);
+            assert!((seen[k] / (p * p) - 1.0).abs() < 0.01, "{extra} {texel:?}, channel {k}: {} vs {}", seen[k], p * p);
         }
     }
 }

@@ -39,7 +39,7 @@ const MAX_SEE_THROUGH: u32 = 8u;
 
 // What a polished thin sheet passes of a shadow ray at a hit on it: its thin-slab transmittance
 // (1 − R_thin, the inner reflections summed per polarization, cross_interface's R) × its tint
-// × its transmission,
+// × its transmission where it is there, all of it where alpha cuts it away (`sheet_passes`),
 // straight through — exactly what its photons would carry, so they leave that light to shadow
 // rays (march.wgsl). A solid's surface or a rough sheet passes nothing: its light is photons'.
 fn sheet_transmittance(hit: SurfaceHit, w: vec3<f32>) -> vec3<f32> {
@@ -48,10 +48,13 @@ fn sheet_transmittance(hit: SurfaceHit, w: vec3<f32>) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     let surface = glass_surface_at(hit, 0u);
+    if surface.coverage <= 0.0 {
+        return vec3<f32>(1.0);
+    }
     if surface.roughness > 0.0 {
         return vec3<f32>(0.0);
     }
-    return surface.tint * surface.transmission * (1.0 - thin_sheet_reflectance(abs(dot(w, hit.normal)), interface_ior(f)));
+    return sheet_passes(surface, thin_sheet_reflectance(abs(dot(w, hit.normal)), interface_ior(f)));
 }
 
 // The light that passes the analytic interfaces along p + t·w, t < dist: each crossing of a

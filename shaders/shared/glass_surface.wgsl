@@ -32,7 +32,11 @@ fn glass_surface_at(hit: SurfaceHit, parts: u32) -> GlassSurface {
         s.roughness = clamp(s.roughness * texture_at(f.roughness_texture, uv).g, 0.0, 1.0);
     }
     if has_texture(f.tint_texture) {
-        s.tint *= texture_at(f.tint_texture, uv).rgb;
+        // (Its alpha cuts a sheet: glTF's base colour alpha.)
+        let c = texture_at(f.tint_texture, uv);
+        s.tint *= c.rgb;
+        s.coverage = sheet_coverage(f, f.alpha * c.a);
+        s.emission = f.emission * s.coverage;
     }
     if has_texture(f.transmission_texture) {
         s.transmission *= texture_at(f.transmission_texture, uv).r;

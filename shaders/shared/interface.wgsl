@@ -296,9 +296,12 @@ struct Crossing {
     // 0 for one surface): the transmitted branch starts past it (`crossing_exit`).
     through: f32,
     // Whether light sees a surface here at all: not where the same medium, or one of the same
-    // index, holds on both sides (a wall inside the liquid that overlaps it). Such a crossing
-    // passes straight and counts as no event.
+    // index, holds on both sides (a wall inside the liquid that overlaps it), nor where a sheet
+    // is cut away (`sheet_coverage`). Such a crossing passes straight and counts as no event.
     seen: bool,
+    // The share of the light that meets the surface's diffuse base (KHR_materials_transmission:
+    // what enters and is not transmitted, coloured by the base colour; the view's `base_branch`).
+    base: vec3<f32>,
 }
 
 // An orthonormal basis (t, b, n) around unit n (Duff et al. 2017, "Building an Orthonormal
@@ -339,15 +342,38 @@ struct GlassSurface {
     // The outward normal crossings refract and reflect about: the hit's, bent by a normal map.
     normal: vec3<f32>,
     // The fraction of the light entering the surface that passes it (KHR_materials_transmission);
-    // the rest meets a diffuse base of the tint's colour (the view's `glass_base`).
+    // the rest meets a diffuse base of the tint's colour (the view's `base_branch`).
     transmission: f32,
+    // How much of a thin sheet is there (`sheet_coverage`): 0 where a MASK cuts it away, alpha
+    // where it BLENDs, else 1; the rest passes unchanged.
+    coverage: f32,
+}
+
+// The coverage of a sheet of interface f whose alpha is `alpha` where it is met (glTF's alpha
+// modes; a solid, or a sheet without one, is all there).
+fn sheet_coverage(f: Interface, alpha: f32) -> f32 {
+    if (f.kind & INTERFACE_ALPHA_MASK) != 0u {
+        return select(0.0, 1.0, alpha >= f.alpha_cutoff);
+    }
+    if (f.kind & INTERFACE_ALPHA_BLEND) != 0u {
+        return clamp(alpha, 0.0, 1.0);
+    }
+    return 1.0;
+}
+
+// What a polished sheet of reflectance R passes straight through where it is met: of the part
+// that is there, (1 − R) × tint × transmission; the rest, where it is cut away, unchanged.
+fn sheet_passes(surface: GlassSurface, r: f32) -> vec3<f32> {
+    return surface.coverage * (1.0 - r) * surface.tint * surface.transmission + vec3<f32>(1.0 - surface.coverage);
 }
 
 // The surface of the interface met at `hit` by its factors alone (analytic shapes, untextured
 // meshes).
 fn plain_surface(hit: SurfaceHit) -> GlassSurface {
     let f = interfaces[hit.interface_id];
-    return GlassSurface(f.tint, f.roughness, f.emission, hit.normal, f.transmission);
+    // (A sheet glows where it is there.)
+    let coverage = sheet_coverage(f, f.alpha);
+    return GlassSurface(f.tint, f.roughness, f.emission * coverage, hit.normal, f.transmission, coverage);
 }
 
 // Smith's masking for GGX of a direction at cos θ = c from the normal (c > 0):
@@ -415,8 +441,8 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
     }
     geometric = select(geometric, -geometric, dot(geometric, d) > 0.0);
     let n = select(surface.normal, -surface.normal, dot(surface.normal, d) > 0.0);
-    if !thin && (beyond.holder == media.holder || beyond.ior == media.ior) {
-        return Crossing(d, d, 0.0, vec3<f32>(1.0), beyond, geometric, n, eta, 1.0, 1.0, 1.0, through, false);
+    if (!thin && (beyond.holder == media.holder || beyond.ior == media.ior)) || surface.coverage <= 0.0 {
+        return Crossing(d, d, 0.0, vec3<f32>(1.0), beyond, geometric, n, eta, 1.0, 1.0, 1.0, through, false, vec3<f32>(0.0));
     }
     let alpha = surface.roughness * surface.roughness;
     var m = n;
@@ -449,7 +475,18 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
         reflected_share = smith_g1(max(cr, 0.0), alpha) * step(0.0, cr) * energy;
         transmitted_share = smith_g1(max(ct, 0.0), alpha) * step(0.0, ct) * energy;
     }
-    return Crossing(reflected, transmitted, reflectance, surface.tint * surface.transmission, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true);
+    let base = surface.coverage * (1.0 - reflectance) * (1.0 - surface.transmission) * surface.tint;
+    var tint = surface.tint * surface.transmission;
+    if surface.coverage < 1.0 {
+        // A sheet partly there (alpha BLEND): the rest passes unchanged, folded into one
+        // reflectance and tint so photons, view branches and shadow rays (`sheet_passes`) agree.
+        // (Exact on a polished sheet, whose transmitted light goes straight on; a rough one
+        // sends the folded light along its microfacet's direction.)
+        let r = surface.coverage * reflectance;
+        tint = sheet_passes(surface, reflectance) / max(1.0 - r, 1e-6);
+        reflectance = r;
+    }
+    return Crossing(reflected, transmitted, reflectance, tint, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true, base);
 }
 
 // The media of a branch that leaves crossing c along w: the media beyond only if w passes

@@ -196,8 +196,9 @@ struct Interface {
     // The fraction of the light entering the surface that passes it; the rest meets a diffuse
     // base of the tint's colour. Times the transmission texture's red channel.
     transmission: f32,
-    _pad0: f32,
-    _pad1: f32,
+    // A thin sheet's alpha and cutoff, read as the kind's INTERFACE_ALPHA_* bit says.
+    alpha: f32,
+    alpha_cutoff: f32,
     transmission_texture: vec4<u32>,
 }
 
@@ -396,6 +397,8 @@ const INTERFACE_MESH: u32 = 3u;
 const INTERFACE_SHAPE: u32 = 0xffu;
 const INTERFACE_THIN: u32 = 0x100u;
 const INTERFACE_SINGLE_SCATTERING: u32 = 0x200u;
+const INTERFACE_ALPHA_MASK: u32 = 0x400u;
+const INTERFACE_ALPHA_BLEND: u32 = 0x800u;
 const INTERFACE_BIT: u32 = 0x80000000u;
 
 const FIELD_SPHERE: u32 = 0u;

@@ -108,11 +108,7 @@ impl<'a> Materials<'a> {
         let mut d = Diffuse {
             color: Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE),
             alpha: a.clamp(0.0, 1.0),
-            alpha_mode: match m.alpha_mode() {
-                gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
-                gltf::material::AlphaMode::Mask => AlphaMode::Mask,
-                gltf::material::AlphaMode::Blend => AlphaMode::Blend,
-            },
+            alpha_mode: alpha_mode(m),
             alpha_cutoff: m.alpha_cutoff().unwrap_or(0.5).clamp(0.0, 1.0),
             metallic: pbr.metallic_factor().clamp(0.0, 1.0),
             roughness: pbr.roughness_factor().clamp(0.0, 1.0),
@@ -172,12 +168,17 @@ impl<'a> Materials<'a> {
             bail!("{file}: {what}: KHR_materials_ior ior is {ior}; refrakt renders indices from 1 to 4");
         }
         // KHR_materials_transmission: the base colour tints what passes each surface.
-        let [r, g, b, _] = m.pbr_metallic_roughness().base_color_factor();
+        let [r, g, b, a] = m.pbr_metallic_roughness().base_color_factor();
+        if ![r, g, b, a, m.alpha_cutoff().unwrap_or(0.5)].iter().all(|f| f.is_finite()) {
+            bail!("{file}: {what}: baseColorFactor and alphaCutoff must be finite");
+        }
         let tint = Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE);
         // KHR_materials_transmission's factor: the rest of the light meets the base colour's
         // diffuse base (a medium without transmission has no surface of its own: all passes).
         let passed = if transmission > 0.0 { transmission.min(1.0) } else { 1.0 };
         let mut glass = Glass { ior, absorption: attenuation(m, file, what)?, tint, transmission: passed, ..Glass::default() };
+        // Base colour alpha cuts a thin sheet (a solid ignores it, and the frame says so).
+        (glass.alpha, glass.alpha_mode, glass.alpha_cutoff) = (a.clamp(0.0, 1.0), alpha_mode(m), m.alpha_cutoff().unwrap_or(0.5).clamp(0.0, 1.0));
         if let Some(a) = medium.absorption {
             glass.absorption = Vec3::from(a);
         }
@@ -236,9 +237,6 @@ impl<'a> Materials<'a> {
             glass.transmission_texture = Some(self.texture(&info, what, "transmission", false)?);
         }
         warn_uv_maps_differ(&maps, what, warnings);
-        if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
-            warnings.about(what, "refrakt does not cut glass by alpha (MASK or BLEND) yet: all of the glass is there");
-        }
         let specular = m.specular().filter(|s| {
             s.specular_factor() != 1.0 || s.specular_color_factor() != [1.0; 3] || s.specular_texture().is_some() || s.specular_color_texture().is_some()
         });
@@ -282,6 +280,15 @@ fn wrap(mode: gltf::texture::WrappingMode) -> Wrap {
         gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
         gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
         gltf::texture::WrappingMode::MirroredRepeat => Wrap::Mirror,
+    }
+}
+
+/// glTF's alphaMode as refrakt's.
+fn alpha_mode(m: &gltf::Material) -> AlphaMode {
+    match m.alpha_mode() {
+        gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+        gltf::material::AlphaMode::Mask => AlphaMode::Mask,
+        gltf::material::AlphaMode::Blend => AlphaMode::Blend,
     }
 }
 

@@ -339,8 +339,10 @@ gpu_struct! {
         /// The fraction of the light entering the surface that passes it (`Glass::transmission`);
         /// the rest meets a diffuse base of the tint's colour.
         pub transmission: f32,
-        pub _pad0: f32,
-        pub _pad1: f32,
+        /// A thin sheet's alpha (× the tint texture's) and cutoff, read as `kind`'s ALPHA_MASK
+        /// or ALPHA_BLEND bit says (`Glass::alpha_mode`); neither: the sheet is all there.
+        pub alpha: f32,
+        pub alpha_cutoff: f32,
         /// Its transmission texture (red × `transmission`), as the textures above.
         pub transmission_texture: [u32; 4],
     }
@@ -646,6 +648,10 @@ pub mod interface_kind {
     /// Set in `kind` for rough glass that does not keep the light masking takes
     /// (`Glass::multiscatter` false: single-scattering GGX).
     pub const SINGLE_SCATTERING: u32 = 0x200;
+    /// Set in `kind` for a thin sheet cut away where its alpha is below its cutoff.
+    pub const ALPHA_MASK: u32 = 0x400;
+    /// Set in `kind` for a thin sheet that is there by the fraction alpha.
+    pub const ALPHA_BLEND: u32 = 0x800;
     /// Set in `BvhTriangle::receiver` of an interface's triangle (low bits: the interface).
     pub const BIT: u32 = 0x8000_0000;
 }

@@ -9,12 +9,12 @@ use mlua::{Lua, Table, Value};
 use super::convert::{self as cv, FieldName, error_at};
 use super::objects::{Obj, construct, number_value, vec_value};
 use super::pbr::{texture, texture_value};
-use crate::scene::{Glass, Material, Texture2d};
+use crate::scene::{AlphaMode, Glass, Material, Texture2d};
 
 pub const FIELDS: &[&str] = &[
     "ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin", "dispersion", "abbe", "priority", "multiscatter", "emission",
     "emission_strength", "tint_texture", "roughness_texture", "emission_texture", "normal_texture", "normal_scale", "transmission",
-    "transmission_texture",
+    "transmission_texture", "alpha", "alpha_mode", "alpha_cutoff",
 ];
 
 /// The texture field `key` of `g`, and whether its file is sRGB-encoded (colour) or linear.
@@ -51,6 +51,9 @@ pub fn get(lua: &Lua, g: &Glass, key: &str) -> Option<mlua::Result<Value>> {
         "normal_texture" => texture_value(lua, &g.normal_texture),
         "transmission_texture" => texture_value(lua, &g.transmission_texture),
         "transmission" => Ok(number_value(g.transmission)),
+        "alpha" => Ok(number_value(g.alpha)),
+        "alpha_cutoff" => Ok(number_value(g.alpha_cutoff)),
+        "alpha_mode" => lua.create_string(g.alpha_mode.name()).map(Value::String),
         // The Abbe number V_d = 20/dispersion; nil without dispersion.
         "abbe" => Ok(if g.dispersion > 0.0 { number_value(20.0 / g.dispersion) } else { Value::Nil }),
         // Transmittance over one metre (the color a 1 m thick piece has).
@@ -123,6 +126,14 @@ fn set_field(lua: &Lua, g: &mut Glass, key: &str, value: Value) -> mlua::Result<
             g.g = cv::number_in(lua, name, &value, Some(-0.99), Some(0.99), "a number from −0.99 to 0.99")? as f32
         }
         "normal_scale" => g.normal_scale = cv::number_in(lua, name, &value, Some(-16.0), Some(16.0), "a number from −16 to 16")? as f32,
+        "alpha" => g.alpha = cv::number_in(lua, name, &value, Some(0.0), Some(1.0), "a number from 0 to 1")? as f32,
+        "alpha_cutoff" => g.alpha_cutoff = cv::number_in(lua, name, &value, Some(0.0), Some(1.0), "a number from 0 to 1")? as f32,
+        "alpha_mode" => {
+            let given = cv::string(lua, name, &value)?;
+            g.alpha_mode = AlphaMode::parse(&given).ok_or_else(|| {
+                error_at(lua, format!("{name} is \"OPAQUE\", \"MASK\" (a cut-out) or \"BLEND\" (see-through), got \"{given}\""))
+            })?;
+        }
         "transmission" => {
             g.transmission = cv::number_in(lua, name, &value, Some(0.0), Some(1.0), "a number from 0 (an opaque, diffuse base) to 1 (all glass)")? as f32
         }

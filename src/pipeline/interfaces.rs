@@ -15,7 +15,7 @@ use std::sync::Arc;
 use glam::{Mat3, Vec2, Vec3};
 
 use crate::bvh::{Placed, Triangle};
-use crate::scene::{MeshData, Texture2d};
+use crate::scene::{AlphaMode, MeshData, Texture2d};
 use crate::frame::{FieldDesc, FieldKind, FrameDesc, MeshInstance};
 use crate::gpu::types::{Interface, interface_kind};
 
@@ -44,7 +44,7 @@ pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; GLASS_TEXTURES]]) -> Vec<I
         let (glow_area, glow_side) = super::mesh_lights::glow_measure(&m.mesh, m.world, m.glass.emitted(), m.glass.emission_texture.is_some(), !m.thin);
         Interface {
             world_to_local: m.world.inverse().to_cols_array_2d(),
-            kind: interface_kind::MESH | thin_bit(m.thin) | single_scattering_bit(m.glass.multiscatter),
+            kind: interface_kind::MESH | thin_bit(m.thin) | single_scattering_bit(m.glass.multiscatter) | alpha_bits(m.thin, m.glass.alpha_mode),
             tint: m.glass.tint.into(),
             ior: m.glass.ior,
             absorption: m.glass.absorption.into(),
@@ -57,6 +57,8 @@ pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; GLASS_TEXTURES]]) -> Vec<I
             normal_scale: m.glass.normal_scale,
             transmission_texture: textures.get(j).map_or([0; 4], |t| t[4]),
             transmission: m.glass.transmission,
+            alpha: m.glass.alpha,
+            alpha_cutoff: m.glass.alpha_cutoff,
             emission: m.glass.emitted().into(),
             glow_area,
             glow_side,
@@ -130,7 +132,7 @@ fn analytic_record(f: &FieldDesc) -> Interface {
     Interface {
         world_to_local: f.world_to_local.to_cols_array_2d(),
         half_size: f.half_size.into(),
-        kind: kind | thin_bit(f.thin) | single_scattering_bit(f.multiscatter),
+        kind: kind | thin_bit(f.thin) | single_scattering_bit(f.multiscatter) | alpha_bits(f.thin, f.alpha_mode),
         tint: f.tint.into(),
         ior: f.ior,
         absorption: f.absorption.into(),
@@ -138,12 +140,23 @@ fn analytic_record(f: &FieldDesc) -> Interface {
         dispersion: f.dispersion,
         emission: f.emission.into(),
         transmission: f.transmission,
+        alpha: f.alpha,
+        alpha_cutoff: f.alpha_cutoff,
         ..Default::default()
     }
 }
 
 fn thin_bit(thin: bool) -> u32 {
     if thin { interface_kind::THIN } else { 0 }
+}
+
+/// A sheet's alpha mode; a solid's alpha is not read (`FrameDesc::warnings` says so).
+fn alpha_bits(thin: bool, mode: AlphaMode) -> u32 {
+    match mode {
+        AlphaMode::Mask if thin => interface_kind::ALPHA_MASK,
+        AlphaMode::Blend if thin => interface_kind::ALPHA_BLEND,
+        _ => 0,
+    }
 }
 
 fn single_scattering_bit(multiscatter: bool) -> u32 {

@@ -302,6 +302,9 @@ fn field_of(node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) 
         priority: glass.priority,
         textured: glass.textured(),
         transmission: glass.transmission,
+        alpha: glass.alpha,
+        alpha_mode: glass.alpha_mode,
+        alpha_cutoff: glass.alpha_cutoff,
         bounds: world_bounds(&world, half_size),
     }
 }

@@ -74,6 +74,13 @@ pub struct Glass {
     /// A transmission texture (glTF, linear): its red channel multiplies `transmission` — glass
     /// with an opaque pattern in it. A sharp mesh with texture coordinates only.
     pub transmission_texture: Option<Arc<Texture2d>>,
+    /// How much of a thin sheet is there (glTF's base colour alpha, times the tint texture's
+    /// alpha), read as `alpha_mode` says: `Mask` cuts the sheet away where alpha is below
+    /// `alpha_cutoff` (a leaded pane's clear openings, a cut-out decal), `Blend` keeps the
+    /// fraction alpha of it and lets the rest through unchanged. Solid glass ignores it (warned).
+    pub alpha: f32,
+    pub alpha_mode: AlphaMode,
+    pub alpha_cutoff: f32,
 }
 
 impl Glass {
@@ -116,7 +123,8 @@ impl Default for Glass {
     fn default() -> Self {
         Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0, tint: Vec3::ONE, roughness: 0.0, thin: None, dispersion: 0.0,
                roughness_texture: None, tint_texture: None, priority: 0, multiscatter: true, emission: Vec3::ZERO, emission_strength: 1.0,
-               emission_texture: None, normal_texture: None, normal_scale: 1.0, transmission: 1.0, transmission_texture: None }
+               emission_texture: None, normal_texture: None, normal_scale: 1.0, transmission: 1.0, transmission_texture: None, alpha: 1.0,
+               alpha_mode: AlphaMode::Opaque, alpha_cutoff: 0.5 }
     }
 }
 

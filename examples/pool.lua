@@ -6,7 +6,7 @@
 local r = require("refrakt")
 
 local scene = r.scene{
-  camera      = r.camera{ position = {0, 1.9, 2.3}, target = {0, 0, 0.05}, fov = 40, size = {960, 540} },
+  camera      = r.camera{ position = {0, 2.6, 1.9}, target = {0, 0, -0.1}, fov = 45, size = {960, 540} },
   environment = r.environment{ preset = "sunny", intensity = 0.4 },
   volume      = { resolution = 128 },
   photons     = 1000000,
@@ -52,7 +52,7 @@ for _, side in ipairs{ { {0, height / 2, (width + rim) / 2}, {width + 2 * rim, h
                        { {(width + rim) / 2, height / 2, 0}, {rim, height, width} },
                        { {-(width + rim) / 2, height / 2, 0}, {rim, height, width} } } do
   scene:add(r.node{ translation = side[1], shape = r.box{ size = side[2] },
-                    material = r.diffuse{ color = {0.62, 0.6, 0.56} } })
+                    material = r.diffuse{ color = {0.5, 0.47, 0.43} } })
 end
 scene:add(r.node{ name = "sun", light = r.sun{ direction = {-0.3, -1, -0.45}, intensity = 600, angular_diameter = 0.53 } })
 

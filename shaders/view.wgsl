@@ -273,22 +273,20 @@ fn pbr_surface(r: ReceiverGpu, hit: SurfaceHit, uv: vec2<f32>, base: vec3<f32>, 
     return s;
 }
 
-// Radiance leaving a receiver toward the camera at the hit, split into caustic, direct (the
-// lights, the environment and the surface's own emission) and indirect (bounced) light. A
-// receiver of the full model takes the lights through both lobes, the environment by the split
-// sum, the caustic and bounced light on the diffuse lobe only; a Lambertian one (metallic 0,
-// specular 0) reflects albedo / π of each; its emission times `glow` (`glow_share`). (One
-// call of `direct_light` for both: lavapipe inlines every call site anew.)
 // A Lambertian surface of albedo `base` facing `facing`, seen along d, as direct_light takes it.
 fn lambert_surface(base: vec3<f32>, facing: vec3<f32>, d: vec3<f32>) -> PbrSurface {
     return PbrSurface(base, 0.0, 1.0, 0.0, 1.0, facing, -d, 1.0, 0.0, 1.0, facing, 1.0, vec3<f32>(0.0), 0.0);
 }
 
-// The light a surface met at p along d sends back toward the camera: a receiver's at `hit`, or
-// with `glass_base` the diffuse base beneath a partly transmissive glass surface whose facing
-// normal is hit.normal (a Lambertian of albedo 1: its colour is in the branch's weight,
-// `base_branch`) — lit by the lights and the environment only, as glass has no irradiance
-// maps. (One call of direct_light for both: lavapipe inlines every call site anew.)
+// Radiance leaving a receiver toward the camera at the hit, split into caustic, direct (the
+// lights, the environment and the surface's own emission) and indirect (bounced) light. A
+// receiver of the full model takes the lights through both lobes, the environment by the split
+// sum, the caustic and bounced light on the diffuse lobe only; a Lambertian one (metallic 0,
+// specular 0) reflects albedo / π of each; its emission times `glow` (`glow_share`). With
+// `glass_base`, the diffuse base beneath a partly transmissive glass surface met at p, whose
+// facing normal is hit.normal: a Lambertian of albedo 1 (its colour is in the branch's weight,
+// `base_branch`) lit by the lights and the environment only, as glass has no irradiance maps.
+// (One call of `direct_light` for all three: lavapipe inlines every call site anew.)
 fn shade_receiver(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, k: u32, path: u32, glow: f32, glass_base: bool) -> Shading {
     var facing = hit.normal;
     var base = vec3<f32>(1.0);

@@ -398,7 +398,7 @@ fn march_path(photon: Photon, start_flux: vec3<f32>, key: u32, deposit_radiance:
             let incoming = d;
             if random01(params.seed, index, 16u + events) < c.reflectance {
                 d = c.reflected;
-                flux *= c.reflected_share;
+                flux *= at_wavelength(c.reflected_tint) * c.reflected_share;
                 passed_sheet = false;
             } else {
                 d = c.transmitted;

@@ -573,7 +573,7 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                     }
                     var next = b.d;
                     if c.reflectance < 1.0 {
-                        var reflected = Branch(s.x, c.reflected, b.weight * (c.reflectance * c.reflected_share), media_along(c, c.reflected, b.media), b.events, 2u * b.path + 1u, 0.0);
+                        var reflected = Branch(s.x, c.reflected, b.weight * c.reflected_tint * (c.reflectance * c.reflected_share), media_along(c, c.reflected, b.media), b.events, 2u * b.path + 1u, 0.0);
                         if rough {
                             reflected.lobe_pdf = sampled_lobe_pdf(c, b.media, b.d, c.reflected, alpha);
                         }
@@ -585,7 +585,7 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                         b.weight *= (1.0 - c.reflectance) * c.tint * c.transmitted_share;
                         next = c.transmitted;
                     } else {
-                        b.weight *= c.reflected_share;
+                        b.weight *= c.reflected_tint * c.reflected_share;
                         next = c.reflected;
                     }
                     b.lobe_pdf = 0.0;

@@ -322,6 +322,8 @@ pub struct FieldDesc {
     pub alpha: f32,
     pub alpha_mode: crate::scene::AlphaMode,
     pub alpha_cutoff: f32,
+    /// How much of its sharp surface is metal (`Glass::metallic`).
+    pub metallic: f32,
 }
 
 impl FieldDesc {

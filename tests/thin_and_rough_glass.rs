@@ -179,6 +179,38 @@ fn alpha_cuts_a_thin_pane_away_or_blends_it() {
     }
 }
 
+/// Metal on glass (glTF's metallic on a transmissive material): a thin pane in a uniform white
+/// sky, seen straight down, shows what it reflects and what it passes of the sky: the metal
+/// part m reflects Schlick's F from the base colour, at normal incidence the base colour c
+/// itself, and passes nothing; the glass part reflects R and passes (1 − R)·c — so
+/// L = (1 − m) R + m c + (1 − m)(1 − R) c, per channel within 1 % (all metal: L = c).
+#[test]
+fn metal_on_a_pane_reflects_its_base_colour_and_passes_nothing() {
+    let tint = Vec3::new(1.0, 0.5, 0.25);
+    let r = thin_slab_reflectance(0.0);
+    for m in [0.5f32, 1.0] {
+        let desc = frame_from_lua(&format!(
+            r#"local r = require("refrakt")
+            local scene = r.scene{{ volume = {{ resolution = 16 }}, photons = 1000, samples = 1, bounces = 0,
+                                    environment = r.environment{{ color = {{1, 1, 1}} }},
+                                    camera = r.camera{{ position = {{0, 0.5, 0}}, target = {{0, -1, 0}}, up = {{0, 0, -1}}, orthographic = 0.3, size = {{8, 8}} }} }}
+            scene:add(r.node{{ name = "pane", shape = r.plane{{ size = {{1, 1}} }},
+                              material = r.glass{{ ior = 1.5, thin = true, tint = {{{}, {}, {}}}, metallic = {m} }} }})
+            return scene"#,
+            tint.x, tint.y, tint.z
+        ));
+        let image = renderer().frame(&desc).unwrap();
+        let l = beauty(&image);
+        let n = l.data.len() / l.channels.len();
+        let seen = (0..n).map(|i| rgb(l, i)).sum::<Vec3>() / n as f32;
+        for k in 0..3 {
+            let expected = (1.0 - m) * r + m * tint[k] + (1.0 - m) * (1.0 - r) * tint[k];
+            eprintln!("pane of metallic {m}, channel {k}: L = {:.4}, expected {expected:.4}", seen[k]);
+            assert!((seen[k] / expected - 1.0).abs() < 0.01, "metallic {m}, channel {k}: {} vs {expected}", seen[k]);
+        }
+    }
+}
+
 /// A tilted pane in front of a dim striped wall (the issue's bright sky over a dim ground), seen
 /// by the camera: every pixel through it is what the same pixel shows without the pane, times
 /// tint · (1 − R_thin(θ)), plus R_thin(θ) of the sky in the mirror direction — tinted at 35°,

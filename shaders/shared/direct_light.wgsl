@@ -477,7 +477,7 @@ fn lights_through_rough(p: vec3<f32>, b: Branch, c: Crossing, alpha: f32, k: u32
             light_pdf = a.dist2 * radiance / max(a.intensity.r, max(a.intensity.g, a.intensity.b));
         }
         let share = select(1.0, light_pdf / (light_pdf + lobe.pdf), light_pdf > 0.0);
-        let tint = select(c.tint, vec3<f32>(1.0), dot(a.w, c.normal) > 0.0);
+        let tint = select(c.tint, c.reflected_tint, dot(a.w, c.normal) > 0.0);
         let seen = visibility(leave_surface(p, c.geometric, a.w, 1e-3 * params.grid.voxel_size), a.w, a.dist);
         light += a.intensity / a.dist2 * tint * seen * (lobe.weight * c.energy * lobe.pdf * share);
     }

@@ -29,7 +29,10 @@ fn glass_surface_at(hit: SurfaceHit, parts: u32) -> GlassSurface {
     }
     let uv = hit_uv(hit.triangle, hit.u, hit.v);
     if has_texture(f.roughness_texture) {
-        s.roughness = clamp(s.roughness * texture_at(f.roughness_texture, uv).g, 0.0, 1.0);
+        // glTF's metallic-roughness texture: roughness in green, metallic in blue.
+        let mr = texture_at(f.roughness_texture, uv);
+        s.roughness = clamp(s.roughness * mr.g, 0.0, 1.0);
+        s.metallic *= mr.b;
     }
     if has_texture(f.tint_texture) {
         // (Its alpha cuts a sheet: glTF's base colour alpha.)

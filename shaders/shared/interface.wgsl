@@ -302,6 +302,8 @@ struct Crossing {
     // The share of the light that meets the surface's diffuse base (KHR_materials_transmission:
     // what enters and is not transmitted, coloured by the base colour; the view's `base_branch`).
     base: vec3<f32>,
+    // The colour of the reflected light, per unit of `reflectance` (1 but for metal).
+    reflected_tint: vec3<f32>,
 }
 
 // An orthonormal basis (t, b, n) around unit n (Duff et al. 2017, "Building an Orthonormal
@@ -347,6 +349,9 @@ struct GlassSurface {
     // How much of a thin sheet is there (`sheet_coverage`): 0 where a MASK cuts it away, alpha
     // where it BLENDs, else 1; the rest passes unchanged.
     coverage: f32,
+    // How much of the surface is metal (glTF's metallic): it reflects by Schlick's Fresnel from
+    // the tint and passes nothing (`surface_split`).
+    metallic: f32,
 }
 
 // The coverage of a sheet of interface f whose alpha is `alpha` where it is met (glTF's alpha
@@ -362,9 +367,32 @@ fn sheet_coverage(f: Interface, alpha: f32) -> f32 {
 }
 
 // What a polished sheet of reflectance R passes straight through where it is met: of the part
-// that is there, (1 − R) × tint × transmission; the rest, where it is cut away, unchanged.
+// that is there and not metal, (1 − R) × tint × transmission; the rest, where it is cut away,
+// unchanged.
 fn sheet_passes(surface: GlassSurface, r: f32) -> vec3<f32> {
-    return surface.coverage * (1.0 - r) * surface.tint * surface.transmission + vec3<f32>(1.0 - surface.coverage);
+    return surface.coverage * (1.0 - surface.metallic) * (1.0 - r) * surface.tint * surface.transmission + vec3<f32>(1.0 - surface.coverage);
+}
+
+// How a surface splits the light that meets it at cos θ = c from the facet's normal, where the
+// glass alone reflects R, per channel (glTF's metallic-roughness model with
+// KHR_materials_transmission): the metal (`metallic` of it) reflects Schlick's F from the tint
+// (the base colour) at c; the glass reflects R and of the rest passes `transmission` (tinted)
+// into the glass or through the sheet and sends the remainder to its diffuse base; where a sheet
+// is cut away (1 − coverage) the light passes unchanged.
+struct SurfaceSplit {
+    reflected: vec3<f32>,
+    passed: vec3<f32>,
+    base: vec3<f32>,
+}
+
+fn surface_split(surface: GlassSurface, r: f32, c: f32) -> SurfaceSplit {
+    let x = 1.0 - clamp(c, 0.0, 1.0);
+    let x2 = x * x;
+    let metal = surface.tint + (vec3<f32>(1.0) - surface.tint) * (x2 * x2 * x);
+    let glass = surface.coverage * (1.0 - surface.metallic);
+    let reflected = glass * r + surface.coverage * surface.metallic * metal;
+    let base = glass * (1.0 - r) * (1.0 - surface.transmission) * surface.tint;
+    return SurfaceSplit(reflected, sheet_passes(surface, r), base);
 }
 
 // The surface of the interface met at `hit` by its factors alone (analytic shapes, untextured
@@ -373,7 +401,7 @@ fn plain_surface(hit: SurfaceHit) -> GlassSurface {
     let f = interfaces[hit.interface_id];
     // (A sheet glows where it is there.)
     let coverage = sheet_coverage(f, f.alpha);
-    return GlassSurface(f.tint, f.roughness, f.emission * coverage, hit.normal, f.transmission, coverage);
+    return GlassSurface(f.tint, f.roughness, f.emission * coverage, hit.normal, f.transmission, coverage, f.metallic);
 }
 
 // Smith's masking for GGX of a direction at cos θ = c from the normal (c > 0):
@@ -442,7 +470,7 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
     geometric = select(geometric, -geometric, dot(geometric, d) > 0.0);
     let n = select(surface.normal, -surface.normal, dot(surface.normal, d) > 0.0);
     if (!thin && (beyond.holder == media.holder || beyond.ior == media.ior)) || surface.coverage <= 0.0 {
-        return Crossing(d, d, 0.0, vec3<f32>(1.0), beyond, geometric, n, eta, 1.0, 1.0, 1.0, through, false, vec3<f32>(0.0));
+        return Crossing(d, d, 0.0, vec3<f32>(1.0), beyond, geometric, n, eta, 1.0, 1.0, 1.0, through, false, vec3<f32>(0.0), vec3<f32>(1.0));
     }
     let alpha = surface.roughness * surface.roughness;
     var m = n;
@@ -475,18 +503,23 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
         reflected_share = smith_g1(max(cr, 0.0), alpha) * step(0.0, cr) * energy;
         transmitted_share = smith_g1(max(ct, 0.0), alpha) * step(0.0, ct) * energy;
     }
-    let base = surface.coverage * (1.0 - reflectance) * (1.0 - surface.transmission) * surface.tint;
     var tint = surface.tint * surface.transmission;
-    if surface.coverage < 1.0 {
-        // A sheet partly there (alpha BLEND): the rest passes unchanged, folded into one
-        // reflectance and tint so photons, view branches and shadow rays (`sheet_passes`) agree.
-        // (Exact on a polished sheet, whose transmitted light goes straight on; a rough one
-        // sends the folded light along its microfacet's direction.)
-        let r = surface.coverage * reflectance;
-        tint = sheet_passes(surface, reflectance) / max(1.0 - r, 1e-6);
+    var reflected_tint = vec3<f32>(1.0);
+    if surface.coverage < 1.0 || surface.metallic > 0.0 {
+        // Metal (coloured reflection, nothing passed) or a sheet partly there (alpha BLEND: the
+        // rest passes unchanged), folded into one reflectance (the mean over the channels), the
+        // colour of what it reflects and the tint of what passes, so photons, view branches and
+        // shadow rays (`sheet_passes`) agree. (Exact on polished glass; a rough sheet partly
+        // there sends what passes its uncovered part along the microfacet's direction.)
+        let split = surface_split(surface, reflectance, cos_i);
+        let r = (split.reflected.r + split.reflected.g + split.reflected.b) / 3.0;
+        reflected_tint = split.reflected / max(r, 1e-6);
+        tint = split.passed / max(1.0 - r, 1e-6);
         reflectance = r;
+        return Crossing(reflected, transmitted, reflectance, tint, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true, split.base, reflected_tint);
     }
-    return Crossing(reflected, transmitted, reflectance, tint, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true, base);
+    let base = (1.0 - reflectance) * (1.0 - surface.transmission) * surface.tint;
+    return Crossing(reflected, transmitted, reflectance, tint, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true, base, reflected_tint);
 }
 
 // The media of a branch that leaves crossing c along w: the media beyond only if w passes

@@ -200,6 +200,11 @@ struct Interface {
     alpha: f32,
     alpha_cutoff: f32,
     transmission_texture: vec4<u32>,
+    // How much of the surface is metal (× the roughness texture's blue channel).
+    metallic: f32,
+    _pad0: f32,
+    _pad1: f32,
+    _pad2: f32,
 }
 
 struct ReceiverGpu {

@@ -345,6 +345,11 @@ gpu_struct! {
         pub alpha_cutoff: f32,
         /// Its transmission texture (red × `transmission`), as the textures above.
         pub transmission_texture: [u32; 4],
+        /// How much of the surface is metal (`Glass::metallic`; × the roughness texture's blue).
+        pub metallic: f32,
+        pub _pad0: f32,
+        pub _pad1: f32,
+        pub _pad2: f32,
     }
 }
 
@@ -813,7 +818,7 @@ mod tests {
         let rust = [
             ("INTERFACE_NONE", i::NONE), ("INTERFACE_SPHERE", i::SPHERE), ("INTERFACE_BOX", i::BOX), ("INTERFACE_MESH", i::MESH),
             ("INTERFACE_SHAPE", i::SHAPE), ("INTERFACE_THIN", i::THIN), ("INTERFACE_SINGLE_SCATTERING", i::SINGLE_SCATTERING),
-            ("INTERFACE_BIT", i::BIT), ("FIELD_SPHERE", field_kind::SPHERE), ("FIELD_BOX", field_kind::BOX),
+            ("INTERFACE_ALPHA_MASK", i::ALPHA_MASK), ("INTERFACE_ALPHA_BLEND", i::ALPHA_BLEND), ("INTERFACE_BIT", i::BIT), ("FIELD_SPHERE", field_kind::SPHERE), ("FIELD_BOX", field_kind::BOX),
             ("FIELD_LUNEBURG", field_kind::LUNEBURG), ("FIELD_SLAB", field_kind::SLAB), ("FIELD_SAMPLED", field_kind::SAMPLED),
             ("VIEW_FLAG_MEDIA", view_flags::MEDIA), ("VIEW_FLAG_SCATTERING", view_flags::SCATTERING),
             ("VIEW_FLAG_CAUSTICS", view_flags::CAUSTICS), ("VIEW_FLAG_SEE_THROUGH", view_flags::SEE_THROUGH),

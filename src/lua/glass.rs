@@ -14,7 +14,7 @@ use crate::scene::{AlphaMode, Glass, Material, Texture2d};
 pub const FIELDS: &[&str] = &[
     "ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin", "dispersion", "abbe", "priority", "multiscatter", "emission",
     "emission_strength", "tint_texture", "roughness_texture", "emission_texture", "normal_texture", "normal_scale", "transmission",
-    "transmission_texture", "alpha", "alpha_mode", "alpha_cutoff",
+    "transmission_texture", "alpha", "alpha_mode", "alpha_cutoff", "metallic",
 ];
 
 /// The texture field `key` of `g`, and whether its file is sRGB-encoded (colour) or linear.
@@ -52,6 +52,7 @@ pub fn get(lua: &Lua, g: &Glass, key: &str) -> Option<mlua::Result<Value>> {
         "transmission_texture" => texture_value(lua, &g.transmission_texture),
         "transmission" => Ok(number_value(g.transmission)),
         "alpha" => Ok(number_value(g.alpha)),
+        "metallic" => Ok(number_value(g.metallic)),
         "alpha_cutoff" => Ok(number_value(g.alpha_cutoff)),
         "alpha_mode" => lua.create_string(g.alpha_mode.name()).map(Value::String),
         // The Abbe number V_d = 20/dispersion; nil without dispersion.
@@ -127,6 +128,7 @@ fn set_field(lua: &Lua, g: &mut Glass, key: &str, value: Value) -> mlua::Result<
         }
         "normal_scale" => g.normal_scale = cv::number_in(lua, name, &value, Some(-16.0), Some(16.0), "a number from −16 to 16")? as f32,
         "alpha" => g.alpha = cv::number_in(lua, name, &value, Some(0.0), Some(1.0), "a number from 0 to 1")? as f32,
+        "metallic" => g.metallic = cv::number_in(lua, name, &value, Some(0.0), Some(1.0), "a number from 0 (glass) to 1 (metal)")? as f32,
         "alpha_cutoff" => g.alpha_cutoff = cv::number_in(lua, name, &value, Some(0.0), Some(1.0), "a number from 0 to 1")? as f32,
         "alpha_mode" => {
             let given = cv::string(lua, name, &value)?;

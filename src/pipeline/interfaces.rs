@@ -59,6 +59,7 @@ pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; GLASS_TEXTURES]]) -> Vec<I
             transmission: m.glass.transmission,
             alpha: m.glass.alpha,
             alpha_cutoff: m.glass.alpha_cutoff,
+            metallic: m.glass.metallic,
             emission: m.glass.emitted().into(),
             glow_area,
             glow_side,
@@ -142,6 +143,7 @@ fn analytic_record(f: &FieldDesc) -> Interface {
         transmission: f.transmission,
         alpha: f.alpha,
         alpha_cutoff: f.alpha_cutoff,
+        metallic: f.metallic,
         ..Default::default()
     }
 }

@@ -305,6 +305,7 @@ fn field_of(node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) 
         alpha: glass.alpha,
         alpha_mode: glass.alpha_mode,
         alpha_cutoff: glass.alpha_cutoff,
+        metallic: glass.metallic,
         bounds: world_bounds(&world, half_size),
     }
 }

@@ -81,6 +81,10 @@ pub struct Glass {
     pub alpha: f32,
     pub alpha_mode: AlphaMode,
     pub alpha_cutoff: f32,
+    /// How much of the surface is metal, 0 to 1 (glTF's metallicFactor × the metallic-roughness
+    /// texture's blue channel where light meets it): the metal reflects with Schlick's Fresnel
+    /// from the tint (the base colour) and passes nothing; the rest is the glass.
+    pub metallic: f32,
 }
 
 impl Glass {
@@ -124,7 +128,7 @@ impl Default for Glass {
         Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0, tint: Vec3::ONE, roughness: 0.0, thin: None, dispersion: 0.0,
                roughness_texture: None, tint_texture: None, priority: 0, multiscatter: true, emission: Vec3::ZERO, emission_strength: 1.0,
                emission_texture: None, normal_texture: None, normal_scale: 1.0, transmission: 1.0, transmission_texture: None, alpha: 1.0,
-               alpha_mode: AlphaMode::Opaque, alpha_cutoff: 0.5 }
+               alpha_mode: AlphaMode::Opaque, alpha_cutoff: 0.5, metallic: 0.0 }
     }
 }
 

@@ -177,8 +177,6 @@ impl<'a> Materials<'a> {
         // diffuse base (a medium without transmission has no surface of its own: all passes).
         let passed = if transmission > 0.0 { transmission.min(1.0) } else { 1.0 };
         let mut glass = Glass { ior, absorption: attenuation(m, file, what)?, tint, transmission: passed, ..Glass::default() };
-        // glTF's metallic on a transmissive material: that much of the surface is metal.
-        glass.metallic = m.pbr_metallic_roughness().metallic_factor().clamp(0.0, 1.0);
         // Base colour alpha cuts a thin sheet (a solid ignores it, and the frame says so).
         (glass.alpha, glass.alpha_mode, glass.alpha_cutoff) = (a.clamp(0.0, 1.0), alpha_mode(m), m.alpha_cutoff().unwrap_or(0.5).clamp(0.0, 1.0));
         if let Some(a) = medium.absorption {
@@ -315,6 +313,21 @@ fn transmission_roughness(m: &gltf::Material, file: &str, what: &str) -> Result<
     Ok(roughness)
 }
 
+/// How metal a glass mesh is, at its most: metallicFactor × the metallic-roughness texture's
+/// blue channel at the mesh's vertices (`uvs`, already through the material's UV map).
+/// Sampled where the mesh is, not over the whole image: exporters write metallicFactor 1 with an
+/// atlas that is metal elsewhere and 0 on the glass (Khronos' GlassHurricaneCandleHolder does),
+/// which is no metal at all. (Metal only inside a large triangle is missed: the warning is a
+/// hint, the rendering is the same.)
+pub fn glass_metallic(m: &gltf::Material, metallic_roughness: Option<&Texture2d>, uvs: Option<&[Vec2]>) -> f32 {
+    let factor = m.pbr_metallic_roughness().metallic_factor();
+    let texel_max = match (metallic_roughness, uvs) {
+        (Some(t), Some(uvs)) => uvs.iter().map(|&uv| t.sample(uv).z).fold(0.0, f32::max),
+        _ => 1.0,
+    };
+    factor * texel_max
+}
+
 /// Warns once per texture whose UV map (set and transform) differs from the first texture's:
 /// a material's textures are all sampled with the first one's.
 fn warn_uv_maps_differ(maps: &[(&str, UvMap)], what: &str, warnings: &mut Collector) {
@@ -404,5 +417,26 @@ mod tests {
         // Offset and scale alone: what gltfpack writes for quantized texture coordinates.
         let q = texture_transform(Vec2::new(0.25, -0.5), 0.0, Vec2::new(2.0, 4.0));
         assert_eq!(q.transform_point2(Vec2::new(0.5, 0.5)), Vec2::new(1.25, 1.5));
+    }
+
+    /// A document of one material, metallicFactor ½ (not 1, so the factor shows in the product).
+    fn half_metallic() -> gltf::Document {
+        let json = r#"{"asset":{"version":"2.0"},"materials":[{"pbrMetallicRoughness":{"metallicFactor":0.5}}]}"#;
+        gltf::Gltf::from_slice(json.as_bytes()).expect("valid glTF").document
+    }
+
+    #[test]
+    fn glass_is_metallic_only_where_its_mesh_samples_a_metal_texel() {
+        let doc = half_metallic();
+        let m = doc.materials().next().expect("one material");
+        // A 2×1 atlas: metal (blue 1) on the left, glass (blue 0) on the right.
+        let atlas = Texture2d { width: 2, height: 1, texels: vec![[0.0, 0.1, 1.0, 1.0], [0.0, 0.1, 0.0, 1.0]], wrap: [Wrap::Clamp; 2] };
+        let on_glass = [Vec2::new(0.9, 0.5), Vec2::new(1.0, 0.2)];
+        let on_metal = [Vec2::new(0.9, 0.5), Vec2::new(0.1, 0.5)];
+        assert_eq!(glass_metallic(&m, Some(&atlas), Some(&on_glass)), 0.0);
+        assert_eq!(glass_metallic(&m, Some(&atlas), Some(&on_metal)), 0.5);
+        // No texture, or no UVs to read it with: the factor is all there is.
+        assert_eq!(glass_metallic(&m, None, Some(&on_glass)), 0.5);
+        assert_eq!(glass_metallic(&m, Some(&atlas), None), 0.5);
     }
 }

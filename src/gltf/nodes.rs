@@ -281,6 +281,7 @@ impl<'a> Builder<'a, '_> {
                 self.warn_if_flat_but_curved(g, &m, &part);
                 if let Material::Glass(glass) = &*material.borrow() {
                     self.warn_if_no_volume(g, &m, &part, glass.thin);
+                    self.warn_if_metallic(&part, glass);
                 }
             }
             let source = format!("{} meshes[{}]{}", self.file(), m.index(), mesh::quoted(m.name()));
@@ -348,6 +349,18 @@ impl<'a> Builder<'a, '_> {
                 "has no NORMAL attribute, so it is shaded flat as glTF requires, though its faces meet at the small angles \
                  of a curved surface: its facets will show; export it with normals (Blender: Export ▸ Data ▸ Mesh ▸ Normals) \
                  for a smooth surface",
+            );
+        }
+    }
+
+    /// Metal on glass is not rendered: say so where the primitive's surface is metallic.
+    fn warn_if_metallic(&mut self, part: &Part, glass: &Glass) {
+        let Some((index, m)) = part.material.and_then(|i| Some((i, self.materials.doc.materials().nth(i)?))) else { return };
+        let metallic = material::glass_metallic(&m, glass.roughness_texture.as_deref(), part.rest.uvs.as_deref());
+        if metallic > 0.0 {
+            self.warnings.about(
+                format!("materials[{index}]{} (metallic up to {metallic:.2})", mesh::quoted(m.name())),
+                "is metallic and transmissive; refrakt renders the glass without the metal",
             );
         }
     }

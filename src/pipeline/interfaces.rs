@@ -239,14 +239,14 @@ fn field_contains(f: &FieldDesc, p: Vec3) -> bool {
 }
 
 
-/// A sharp mesh by pointer, its placement, and its textures by pointer.
-pub type MeshKey = (usize, glam::Mat4, [usize; GLASS_TEXTURES]);
+/// A sharp mesh, its placement, and its textures: held (so no other can take their addresses
+/// while a layout built from them is kept), compared by pointer first, then by data.
+pub type MeshKey = (Arc<MeshData>, glam::Mat4, [Option<Arc<Texture2d>>; GLASS_TEXTURES]);
 
 /// What identifies the sharp meshes' triangles and textures (so the BVH and the texel atlas
 /// are rebuilt when one moves or another texture takes its place).
 pub fn mesh_key(desc: &FrameDesc) -> Vec<MeshKey> {
-    let ptr = |t: &Option<Arc<Texture2d>>| t.as_ref().map_or(0, |t| Arc::as_ptr(t) as usize);
-    sharp_meshes(desc).map(|m| (Arc::as_ptr(&m.mesh) as usize, m.world, m.glass.textures().map(ptr))).collect()
+    sharp_meshes(desc).map(|m| (m.mesh.clone(), m.world, m.glass.textures().map(Clone::clone))).collect()
 }
 
 #[cfg(test)]

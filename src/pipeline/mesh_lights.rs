@@ -18,6 +18,7 @@ use glam::Vec3;
 
 use crate::frame::{LightDesc, LightShape, MeshInstance, Receiver};
 use crate::scene::mesh::MeshData;
+use crate::scene::Texture2d;
 use crate::gpu::types::LightTriangle;
 
 /// The frame's glowing meshes: one light per emissive receiver, and their triangles.
@@ -27,19 +28,18 @@ pub struct MeshLights {
     pub triangles: Vec<LightTriangle>,
 }
 
-/// What identifies a glowing receiver's light: its mesh by pointer, placement, emission and
-/// emission texture by pointer.
-fn key_of(r: &Receiver) -> (usize, glam::Mat4, Vec3, usize) {
-    let texture = r.diffuse.emission_texture.as_ref().map_or(0, |t| Arc::as_ptr(t) as usize);
-    (Arc::as_ptr(&r.mesh) as usize, r.world, r.diffuse.emitted(), texture)
+/// What identifies a glowing receiver's light: its mesh, placement, emission and emission
+/// texture (shared data compares by pointer first, then by data: a procedural lamp made afresh
+/// at every evaluation keeps its light while its parameters do).
+fn key_of(r: &Receiver) -> (&Arc<MeshData>, glam::Mat4, Vec3, &Option<Arc<Texture2d>>) {
+    (&r.mesh, r.world, r.diffuse.emitted(), &r.diffuse.emission_texture)
 }
 
 /// The glowing meshes of the frames so far, built again only when a glowing receiver's mesh,
 /// placement or emission changes (an animation's glass moving under a still lamp keeps them).
 #[derive(Debug, Default)]
 pub struct GlowingMeshes {
-    /// The glowing receivers they were built from (held, so the addresses `key_of` compares are
-    /// not reused).
+    /// The glowing receivers they were built from (what `key_of` compares the next frame's with).
     built_from: Vec<Receiver>,
     pub built: MeshLights,
     /// Whether the last [`update`](Self::update) built them anew (their triangles need uploading).

@@ -17,7 +17,7 @@ use std::sync::Arc;
 use glam::{Vec2, Vec3};
 
 use crate::bvh::{Bvh, MeshTrees, Placed, Triangle};
-use crate::scene::{AlphaMode, Diffuse, Texture2d, Wrap};
+use crate::scene::{AlphaMode, Diffuse, MeshData, Texture2d, Wrap};
 use super::resources::GrowableBuffer;
 use crate::frame::{FrameDesc, Receiver};
 use crate::gpu::GpuContext;
@@ -517,18 +517,20 @@ pub struct Receivers {
     key: Option<(Vec<ReceiverKey>, Vec<interfaces::MeshKey>)>,
 }
 
-/// What identifies a receiver: its mesh by pointer, placement, material (textures compare by
-/// pointer first).
-type ReceiverKey = (usize, glam::Mat4, Diffuse);
+/// What identifies a receiver: its mesh, placement and material. The key holds the mesh (and
+/// the material its textures), so no other can take its address while the layout is kept;
+/// they compare by pointer first, then by data (a procedural plane, box or sphere is made
+/// afresh at every evaluation and still keeps its layout while its parameters do).
+type ReceiverKey = (Arc<MeshData>, glam::Mat4, Diffuse);
 
 /// What identifies the receivers of a frame.
 fn key_of(desc: &FrameDesc, texel: f32) -> Vec<ReceiverKey> {
     let mut key: Vec<_> = desc
         .receivers
         .iter()
-        .map(|r| (Arc::as_ptr(&r.mesh) as usize, r.world, r.diffuse.clone()))
+        .map(|r| (r.mesh.clone(), r.world, r.diffuse.clone()))
         .collect();
-    key.push((0, glam::Mat4::from_scale(Vec3::splat(texel)), Diffuse::default()));
+    key.push((Arc::default(), glam::Mat4::from_scale(Vec3::splat(texel)), Diffuse::default()));
     key
 }
 
@@ -662,6 +664,29 @@ mod tests {
         assert_eq!((small.indirect_charts[0].width, small.indirect_charts[0].texel), (small.charts[0].width, 0.01));
         // The indirect charts start at a whole 256 bytes (8 charts of 32 bytes).
         assert_eq!((indirect_chart_base(0), indirect_chart_base(2), indirect_chart_base(9)), (8, 8, 16));
+    }
+
+    /// A script's `r.plane` floor is a new mesh at every evaluation: the same size keeps the
+    /// layout's key (the meshes compare by data), a new size changes it, and the key holds the
+    /// mesh it was built from, so no later mesh can reuse its address and pass for it.
+    #[test]
+    fn a_procedural_floor_made_afresh_keeps_its_layout_while_its_size_does() {
+        let dir = tempfile::tempdir().unwrap();
+        let script = dir.path().join("floor.lua");
+        std::fs::write(&script, r#"local r = require("refrakt")
+local scene = r.scene{ camera = r.camera{ position = {0, 1, 3}, target = {0, 0, 0}, size = {8, 8} } }
+local floor = r.plane{ size = {1, 1} }
+scene:add(r.node{ shape = floor, material = r.diffuse{ color = {0.5, 0.5, 0.5} } })
+function update(scene, t) floor.size = {1 + math.floor(t), 1} end
+return scene
+"#).unwrap();
+        let mut source = crate::render::SceneSource::load(&script, &[], &Default::default()).unwrap();
+        let mut key_at = |t| key_of(&source.frame_desc(t, &Default::default()).unwrap(), 0.01);
+        let (first, again, wider) = (key_at(0.0), key_at(0.5), key_at(1.0));
+        assert!(!Arc::ptr_eq(&first[0].0, &again[0].0), "each evaluation makes its plane afresh");
+        assert!(first == again, "the same plane keeps its layout");
+        assert!(first != wider, "a wider plane gets a new one");
+        assert_eq!(Arc::strong_count(&first[0].0), 1, "the key alone holds the first frame's mesh");
     }
 
     #[test]

@@ -291,39 +291,18 @@ pub struct FieldDesc {
     pub boundary: f32,
     /// Metres per local unit.
     pub scale: f32,
-    pub absorption: Vec3,
-    pub scattering: Vec3,
-    pub g: f32,
     /// World-space bounding box, including half the boundary.
     pub bounds: (Vec3, Vec3),
     /// A sharp interface (a glass sphere or box): rays refract at its exact surface, and the
     /// grid holds only its medium (see `gpu::types::Interface`).
     pub sharp: bool,
-    /// Transmission tint per crossing of a sharp surface (`Glass::tint`).
-    pub tint: Vec3,
-    /// GGX roughness of a sharp surface (`Glass::roughness`).
-    pub roughness: f32,
     /// A sharp surface that is a thin shell with no inside (a bubble: `Glass::thin`).
     pub thin: bool,
-    /// Its rough crossings keep the light masking takes (`Glass::multiscatter`).
-    pub multiscatter: bool,
-    /// Radiance its sharp surface gives off (`Glass::emission`).
-    pub emission: Vec3,
-    /// KHR dispersion, 20/V_d (`Glass::dispersion`); 0: none.
-    pub dispersion: f32,
-    /// Which medium holds where sharp solids overlap (`Glass::priority`).
-    pub priority: i32,
-    /// Its glass was given textures, which an analytic shape cannot show: it has no texture
-    /// coordinates (`FrameDesc::warnings` says so).
-    pub textured: bool,
-    /// The fraction of the light entering its sharp surface that passes (`Glass::transmission`).
-    pub transmission: f32,
-    /// A thin shell's alpha (`Glass::alpha`, `alpha_mode`, `alpha_cutoff`).
-    pub alpha: f32,
-    pub alpha_mode: crate::scene::AlphaMode,
-    pub alpha_cutoff: f32,
-    /// How much of its sharp surface is metal (`Glass::metallic`).
-    pub metallic: f32,
+    /// Its material: the medium it holds (absorption, scattering, dispersion; none in a shell)
+    /// and, where sharp, its surface — the same record a sharp mesh's surface is filled from
+    /// (`pipeline::interfaces::surface_record`). Its `ior` is a sphere's or box's; a slab's,
+    /// Luneburg lens's or index function's own is `ior` above.
+    pub glass: crate::scene::Glass,
 }
 
 impl FieldDesc {
@@ -347,8 +326,8 @@ impl FieldDesc {
             ior_gradient: self.gradient,
             boundary: self.boundary,
             scale: self.scale,
-            absorption: self.absorption.extend(0.0).into(),
-            scattering: self.scattering.extend(self.g).into(),
+            absorption: self.glass.absorption.extend(0.0).into(),
+            scattering: self.glass.scattering.extend(self.glass.g).into(),
             sample_first: first.into(),
             sample_offset,
             sample_dims: dims.into(),
@@ -358,7 +337,7 @@ impl FieldDesc {
 
     /// Whether the field absorbs or scatters light.
     pub fn has_medium(&self) -> bool {
-        self.absorption.max_element() > 0.0 || self.scattering.max_element() > 0.0
+        self.glass.absorption.max_element() > 0.0 || self.glass.scattering.max_element() > 0.0
     }
 }
 
@@ -514,14 +493,14 @@ impl FrameDesc {
                 m.origin, m.name, m.glass.ior, 1.0 + crate::pipeline::photons::EPS_REFRACT
             ));
         }
-        for f in self.fields.iter().filter(|f| f.sharp && f.emission.max_element() > 0.0) {
+        for f in self.fields.iter().filter(|f| f.sharp && f.glass.emitted().max_element() > 0.0) {
             out.push(format!(
                 "glass \"{}\" glows on an analytic shape: its glow shows where it is seen but lights nothing (a glass \
                  mesh's glow lights the scene: r.icosphere, r.mesh)",
                 f.name
             ));
         }
-        for f in self.fields.iter().filter(|f| f.textured) {
+        for f in self.fields.iter().filter(|f| f.glass.textured()) {
             out.push(format!(
                 "glass \"{}\" has textures, but a sphere or box has no texture coordinates: it keeps its factors (give it a \
                  mesh with texture coordinates: r.cube, r.plane, an OBJ with vt, a glTF with TEXCOORD_0)",
@@ -529,7 +508,7 @@ impl FrameDesc {
             ));
         }
         let solid_with_alpha = self.meshes.iter().filter(|m| !m.thin && m.glass.alpha_mode != crate::scene::AlphaMode::Opaque).map(|m| (&m.name, m.glass.alpha_mode));
-        for (name, mode) in solid_with_alpha.chain(self.fields.iter().filter(|f| !f.thin && f.alpha_mode != crate::scene::AlphaMode::Opaque).map(|f| (&f.name, f.alpha_mode))) {
+        for (name, mode) in solid_with_alpha.chain(self.fields.iter().filter(|f| !f.thin && f.glass.alpha_mode != crate::scene::AlphaMode::Opaque).map(|f| (&f.name, f.glass.alpha_mode))) {
             out.push(format!(
                 "glass \"{name}\" has alpha mode {}, but alpha cuts thin glass only (a sheet, a shell): as a solid it is all there \
                  (make it a sheet: thin = true, or glTF without KHR_materials_volume)",
@@ -540,7 +519,7 @@ impl FrameDesc {
             let why = if m.sharp { "has no texture coordinates" } else { "is voxelized into a smooth medium, which has no surface to texture" };
             out.push(format!("{}: glass mesh \"{}\" has textures, but it {why}: it keeps its factors", m.origin, m.name));
         }
-        for f in self.fields.iter().filter(|f| !f.sharp && f.tint != Vec3::ONE) {
+        for f in self.fields.iter().filter(|f| !f.sharp && f.glass.tint != Vec3::ONE) {
             let why = if matches!(f.kind, FieldKind::Sphere | FieldKind::Box) && (f.ior - 1.0).abs() <= crate::pipeline::photons::EPS_REFRACT {
                 format!("has index {}: it bends no light, and refrakt renders such glass as air (give it an index above {}, or make it a shell: thin = true)", f.ior, 1.0 + crate::pipeline::photons::EPS_REFRACT)
             } else {
@@ -604,14 +583,14 @@ impl FrameDesc {
     /// the largest among them (`warnings` says when they differ); sharp glass keeps its own on
     /// its interface record.
     pub fn spectrum(&self) -> Spectrum {
-        let sharp = self.fields.iter().filter(|f| f.sharp).map(|f| f.dispersion).chain(self.meshes.iter().filter(|m| m.sharp).map(|m| m.glass.dispersion));
+        let sharp = self.fields.iter().filter(|f| f.sharp).map(|f| f.glass.dispersion).chain(self.meshes.iter().filter(|m| m.sharp).map(|m| m.glass.dispersion));
         let grid_dispersion = self.grid_dispersions().iter().map(|&(_, d)| d).fold(0.0, f32::max);
         Spectrum { spectral: grid_dispersion > 0.0 || sharp.fold(0.0, f32::max) > 0.0, grid_dispersion }
     }
 
     /// (name, dispersion) of each object whose index is in the grid, not on a sharp surface.
     fn grid_dispersions(&self) -> Vec<(&str, f32)> {
-        let fields = self.fields.iter().filter(|f| !f.sharp).map(|f| (f.name.as_str(), f.dispersion));
+        let fields = self.fields.iter().filter(|f| !f.sharp).map(|f| (f.name.as_str(), f.glass.dispersion));
         fields.chain(self.meshes.iter().filter(|m| !m.sharp).map(|m| (m.name.as_str(), m.glass.dispersion))).collect()
     }
 

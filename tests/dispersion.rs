@@ -373,7 +373,7 @@ fn lua_glass_takes_an_abbe_number_or_khr_dispersion() {
         scene:add(r.node{ name = "b", translation = {1, 0, 0}, shape = r.luneburg{ radius = 0.2 }, material = clear })
         return scene"#,
     );
-    assert_eq!(desc.fields[0].dispersion, 1.0);
+    assert_eq!(desc.fields[0].glass.dispersion, 1.0);
     let s = desc.spectrum();
     assert!(s.spectral && s.grid_dispersion == 0.5, "{s:?}");
     let limits = refrakt::lua::Limits::default();

@@ -53,12 +53,12 @@ pub fn medium_at(fields: &[FieldDesc], fog: Option<&crate::frame::FogDesc>, x: V
             // A sharp interface adds no n (rays refract at its surface) and only its scattering,
             // with a hard edge (voxelize.wgsl's `composite`).
             let inside = if a >= 0.5 { 1.0 } else { 0.0 };
-            scattering = scattering.lerp(f.scattering.extend(f.g), inside);
+            scattering = scattering.lerp(f.glass.scattering.extend(f.glass.g), inside);
             continue;
         }
         n = n * (1.0 - a) + nf * a;
-        absorption = absorption.lerp(f.absorption, a);
-        scattering = scattering.lerp(f.scattering.extend(f.g), a);
+        absorption = absorption.lerp(f.glass.absorption, a);
+        scattering = scattering.lerp(f.glass.scattering.extend(f.glass.g), a);
     }
     (n, absorption + scattering.truncate(), scattering)
 }

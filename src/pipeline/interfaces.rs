@@ -15,7 +15,7 @@ use std::sync::Arc;
 use glam::{Mat3, Vec2, Vec3};
 
 use crate::bvh::{Placed, Triangle};
-use crate::scene::{AlphaMode, MeshData, Texture2d};
+use crate::scene::{AlphaMode, Glass, MeshData, Texture2d};
 use crate::frame::{FieldDesc, FieldKind, FrameDesc, MeshInstance};
 use crate::gpu::types::{Interface, interface_kind};
 
@@ -42,28 +42,19 @@ pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; GLASS_TEXTURES]]) -> Vec<I
     let meshes = sharp_meshes(desc).enumerate().map(|(j, m)| {
         // (Every frame: a sharp mesh is a sheet or a closed solid, so `thin` says which.)
         let (glow_area, glow_side) = super::mesh_lights::glow_measure(&m.mesh, m.world, m.glass.emitted(), m.glass.emission_texture.is_some(), !m.thin);
+        let texture = |k: usize| textures.get(j).map_or([0; 4], |t| t[k]);
+        let surface = surface_record(&m.glass, m.thin);
         Interface {
             world_to_local: m.world.inverse().to_cols_array_2d(),
-            kind: interface_kind::MESH | thin_bit(m.thin) | single_scattering_bit(m.glass.multiscatter) | alpha_bits(m.thin, m.glass.alpha_mode),
-            tint: m.glass.tint.into(),
-            ior: m.glass.ior,
-            absorption: m.glass.absorption.into(),
-            roughness: m.glass.roughness,
-            dispersion: m.glass.dispersion,
-            roughness_texture: textures.get(j).map_or([0; 4], |t| t[0]),
-            tint_texture: textures.get(j).map_or([0; 4], |t| t[1]),
-            emission_texture: textures.get(j).map_or([0; 4], |t| t[2]),
-            normal_texture: textures.get(j).map_or([0; 4], |t| t[3]),
-            normal_scale: m.glass.normal_scale,
-            transmission_texture: textures.get(j).map_or([0; 4], |t| t[4]),
-            transmission: m.glass.transmission,
-            alpha: m.glass.alpha,
-            alpha_cutoff: m.glass.alpha_cutoff,
-            metallic: m.glass.metallic,
-            emission: m.glass.emitted().into(),
+            kind: interface_kind::MESH | surface.kind,
+            roughness_texture: texture(0),
+            tint_texture: texture(1),
+            emission_texture: texture(2),
+            normal_texture: texture(3),
+            transmission_texture: texture(4),
             glow_area,
             glow_side,
-            ..Default::default()
+            ..surface
         }
     });
     let mut table: Vec<Interface> = analytic.chain(meshes).collect();
@@ -93,7 +84,7 @@ impl Solid {
 }
 
 fn solids(desc: &FrameDesc) -> Vec<Solid> {
-    let analytic = desc.fields.iter().filter(|f| f.sharp).map(|f| Solid { solid: !f.thin, priority: f.priority, bounds: f.bounds });
+    let analytic = desc.fields.iter().filter(|f| f.sharp).map(|f| Solid { solid: !f.thin, priority: f.glass.priority, bounds: f.bounds });
     let meshes = sharp_meshes(desc).map(|m| Solid { solid: !m.thin, priority: m.glass.priority, bounds: m.bounds });
     analytic.chain(meshes).collect()
 }
@@ -130,20 +121,26 @@ fn analytic_record(f: &FieldDesc) -> Interface {
         FieldKind::Box => interface_kind::BOX,
         _ => unreachable!("only spheres and boxes are sharp (scene::eval::is_sharp)"),
     };
+    let surface = surface_record(&f.glass, f.thin);
+    Interface { world_to_local: f.world_to_local.to_cols_array_2d(), half_size: f.half_size.into(), kind: kind | surface.kind, ..surface }
+}
+
+/// What a sharp object's glass says of its surface and the medium behind it, as one record:
+/// the part analytic shapes and meshes share (their shape, placement and textures are theirs).
+fn surface_record(glass: &Glass, thin: bool) -> Interface {
     Interface {
-        world_to_local: f.world_to_local.to_cols_array_2d(),
-        half_size: f.half_size.into(),
-        kind: kind | thin_bit(f.thin) | single_scattering_bit(f.multiscatter) | alpha_bits(f.thin, f.alpha_mode),
-        tint: f.tint.into(),
-        ior: f.ior,
-        absorption: f.absorption.into(),
-        roughness: f.roughness,
-        dispersion: f.dispersion,
-        emission: f.emission.into(),
-        transmission: f.transmission,
-        alpha: f.alpha,
-        alpha_cutoff: f.alpha_cutoff,
-        metallic: f.metallic,
+        kind: thin_bit(thin) | single_scattering_bit(glass.multiscatter) | alpha_bits(thin, glass.alpha_mode),
+        tint: glass.tint.into(),
+        ior: glass.ior,
+        absorption: glass.absorption.into(),
+        roughness: glass.roughness,
+        dispersion: glass.dispersion,
+        emission: glass.emitted().into(),
+        normal_scale: glass.normal_scale,
+        transmission: glass.transmission,
+        alpha: glass.alpha,
+        alpha_cutoff: glass.alpha_cutoff,
+        metallic: glass.metallic,
         ..Default::default()
     }
 }

@@ -776,7 +776,7 @@ impl Renderer {
 /// each field and mesh.
 fn scattering_media(desc: &FrameDesc) -> impl Iterator<Item = (glam::Vec3, f32)> + '_ {
     let fog = desc.fog.iter().map(|f| (f.scattering, f.g));
-    let fields = desc.fields.iter().map(|f| (f.scattering, f.g));
+    let fields = desc.fields.iter().map(|f| (f.glass.scattering, f.glass.g));
     fog.chain(fields).chain(desc.meshes.iter().map(|m| (m.glass.scattering, m.glass.g)))
 }
 

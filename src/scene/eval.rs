@@ -280,6 +280,12 @@ fn field_of(node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) 
     let sharp = matches!(shape, Shape::Sphere { .. } | Shape::Box { .. })
         && (is_sharp(&glass, shape.boundary()) || (shell && shape.boundary().is_none() && glass.tinted()));
     let thin = sharp && shell;
+    let mut glass = glass;
+    if thin {
+        // A shell has no inside to absorb or scatter in (as a sheet, `mesh_instance`).
+        glass.absorption = Vec3::ZERO;
+        glass.scattering = Vec3::ZERO;
+    }
     FieldDesc {
         name: node.name.clone(),
         kind,
@@ -290,22 +296,8 @@ fn field_of(node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) 
         boundary: shape.boundary().unwrap_or(-1.0),
         sharp,
         scale: uniform,
-        absorption: if thin { Vec3::ZERO } else { glass.absorption },
-        scattering: if thin { Vec3::ZERO } else { glass.scattering },
-        g: glass.g,
-        tint: glass.tint,
-        roughness: glass.roughness,
         thin,
-        multiscatter: glass.multiscatter,
-        emission: glass.emitted(),
-        dispersion: glass.dispersion,
-        priority: glass.priority,
-        textured: glass.textured(),
-        transmission: glass.transmission,
-        alpha: glass.alpha,
-        alpha_mode: glass.alpha_mode,
-        alpha_cutoff: glass.alpha_cutoff,
-        metallic: glass.metallic,
+        glass,
         bounds: world_bounds(&world, half_size),
     }
 }

@@ -153,13 +153,13 @@ fn priority_and_contact_are_read_from_lua_and_gltf() {
         scene:add(r.node{ name = "water", shape = r.sphere{ radius = 0.2 }, material = water })
         return scene"#,
     );
-    assert_eq!((desc.fields[0].priority, desc.volume.contact), (3, 0.001));
+    assert_eq!((desc.fields[0].glass.priority, desc.volume.contact), (3, 0.001));
     assert_eq!(frame_from_lua(r#"return require("refrakt").scene{}"#).volume.contact, refrakt::scene::DEFAULT_CONTACT);
     let error = load_error("local g = require('refrakt').glass{ priority = 1.5 }", &Default::default());
     assert!(error.contains("priority") && error.contains("whole number"), "{error}");
 
     let (mut g, water, scene) = common::gltf_builder::tetrahedron_of(
-        serde_json::json!({ "name": "Water", "extras": { "refrakt": { "priority": 2 } },
+        serde_json::json!({ "name": "Water", "extras": { "refrakt": { "priority": 2 } }, "pbrMetallicRoughness": { "metallicFactor": 0.0 },
             "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } } }),
         &["KHR_materials_transmission"],
     );

@@ -417,11 +417,11 @@ fn thin_walled_glass_is_a_sheet_and_a_solid_with_it_is_named_in_a_warning() {
     g.uses("KHR_materials_volume", false);
     let thin = g.push(
         "materials",
-        json!({ "name": "Pane", "pbrMetallicRoughness": { "roughnessFactor": 0.25 }, "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } } }),
+        json!({ "name": "Pane", "pbrMetallicRoughness": { "metallicFactor": 0.0, "roughnessFactor": 0.25 }, "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } } }),
     );
     let thick = g.push(
         "materials",
-        json!({ "name": "Solid", "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 }, "KHR_materials_volume": { "thicknessFactor": 0.1 } } }),
+        json!({ "name": "Solid", "pbrMetallicRoughness": { "metallicFactor": 0.0 }, "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 }, "KHR_materials_volume": { "thicknessFactor": 0.1 } } }),
     );
     let pane = g.mesh(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2], [0, 2, 3]], Some(thin));
     let shell = g.mesh(&TETRA, &TETRA_TRIS, Some(thin));
@@ -482,7 +482,7 @@ fn dump_prints_zero_not_negative_zero() {
     g.uses("KHR_materials_transmission", false);
     g.uses("KHR_materials_volume", false);
     // −ln(1) / d is −0: the red channel absorbs nothing.
-    let m = g.push("materials", json!({ "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 },
+    let m = g.push("materials", json!({ "pbrMetallicRoughness": { "metallicFactor": 0.0 }, "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 },
         "KHR_materials_volume": { "attenuationColor": [1.0, 0.5, 0.25], "attenuationDistance": 2.0 } } }));
     let mesh = g.mesh(&TETRA, &TETRA_TRIS, Some(m));
     let n = g.push("nodes", json!({ "mesh": mesh }));
@@ -613,6 +613,7 @@ fn glass_textures_refrakt_does_not_read_are_said() {
         g.uses(ext, false);
     }
     let glass = g.push("materials", json!({ "name": "Etched", "alphaMode": "MASK", "normalTexture": { "index": texture }, "emissiveFactor": [1, 1, 1],
+        "pbrMetallicRoughness": { "metallicFactor": 0.0 },
         "extensions": { "KHR_materials_transmission": { "transmissionFactor": 0.75, "transmissionTexture": { "index": texture } },
                         "KHR_materials_specular": { "specularFactor": 0.5 } } }));
     let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
@@ -636,4 +637,34 @@ fn glass_textures_refrakt_does_not_read_are_said() {
     assert_eq!(doc["materials"][0]["transmission_texture"], json!([1, 1]));
     assert_eq!(doc["materials"][0]["alpha_mode"], json!("MASK"));
     assert!(w.iter().all(|w| !w.contains("alpha")), "{w:#?}");
+}
+
+/// glTF's metallic on a transmissive material is read as the spec says (transmission applies to
+/// the dielectric part only): metallicFactor, whose default is 1. Glass left without it is a
+/// mirror, as in glTF viewers, and the import says so; a factor of 0 is clear glass and an
+/// explicit part is read without a word.
+#[test]
+fn metallic_on_glass_is_read_and_a_default_mirror_is_said() {
+    let mut g = GltfBuilder::new();
+    g.uses("KHR_materials_transmission", false);
+    let transmission = json!({ "KHR_materials_transmission": { "transmissionFactor": 1.0 } });
+    let unsaid = g.push("materials", json!({ "name": "Unsaid", "extensions": transmission }));
+    let clear = g.push("materials", json!({ "name": "Clear", "pbrMetallicRoughness": { "metallicFactor": 0.0 }, "extensions": transmission }));
+    let gilt = g.push("materials", json!({ "name": "Gilt", "pbrMetallicRoughness": { "metallicFactor": 0.25 }, "extensions": transmission }));
+    let nodes: Vec<usize> = [unsaid, clear, gilt].iter().enumerate().map(|(k, &m)| {
+        let mesh = g.mesh(&TETRA, &TETRA_TRIS, Some(m));
+        g.push("nodes", json!({ "mesh": mesh, "translation": [2.0 * k as f32, 0.0, 0.0] }))
+    }).collect();
+    g.scene("S", &nodes);
+    let dir = tempfile::tempdir().unwrap();
+    let path = g.write_glb(&dir.path().join("metal.glb"));
+    let w = warnings(&path);
+    let said: Vec<&String> = w.iter().filter(|w| w.contains("metallic")).collect();
+    assert_eq!(said.len(), 1, "{w:#?}");
+    assert!(said[0].contains("materials[0] \"Unsaid\"") && said[0].contains("\"metallicFactor\": 0"), "{}", said[0]);
+    let (code, out, err) = dump(&[path.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let doc: Value = serde_json::from_str(out.trim()).unwrap();
+    let metallic: Vec<&Value> = (0..3).map(|k| &doc["materials"][k]["metallic"]).collect();
+    assert_eq!(metallic, [&json!(1.0), &json!(0.0), &json!(0.25)], "{}", doc["materials"]);
 }

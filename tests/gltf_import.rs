@@ -129,13 +129,13 @@ fn material_of(scene: &Scene, name: &str) -> Material {
 fn transmission_ior_and_volume_make_glass_with_beer_lambert_absorption() {
     let (c, d) = ([0.8f32, 0.5, 0.25], 0.2f32);
     let g = material_scene(&[
-        ("glass", json!({ "extensions": {
+        ("glass", json!({ "pbrMetallicRoughness": { "metallicFactor": 0.0 }, "extensions": {
             "KHR_materials_transmission": { "transmissionFactor": 1.0 },
             "KHR_materials_ior": { "ior": 1.33 },
             "KHR_materials_dispersion": { "dispersion": 0.625 },
             "KHR_materials_volume": { "thicknessFactor": 0.1, "attenuationColor": c, "attenuationDistance": d } } })),
-        ("clear", json!({ "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } } })),
-        ("override", json!({ "extensions": {
+        ("clear", json!({ "pbrMetallicRoughness": { "metallicFactor": 0.0 }, "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } } })),
+        ("override", json!({ "pbrMetallicRoughness": { "metallicFactor": 0.0 }, "extensions": {
             "KHR_materials_transmission": { "transmissionFactor": 1.0 },
             "KHR_materials_volume": { "attenuationColor": c, "attenuationDistance": d } },
             "extras": { "refrakt": { "absorption": [0.4, 0.2, 0.0], "scattering": [0.1, 0.1, 0.1], "g": 0.3, "boundary": 2.0 } } })),
@@ -171,7 +171,7 @@ fn transmission_ior_and_volume_make_glass_with_beer_lambert_absorption() {
 #[test]
 fn a_negative_or_non_numeric_dispersion_is_refused_with_its_material() {
     for bad in [json!(-0.5), json!("strong")] {
-        let g = material_scene(&[("prism", json!({ "extensions": {
+        let g = material_scene(&[("prism", json!({ "pbrMetallicRoughness": { "metallicFactor": 0.0 }, "extensions": {
             "KHR_materials_transmission": { "transmissionFactor": 1.0 },
             "KHR_materials_dispersion": { "dispersion": bad } } }))]);
         let dir = tempfile::tempdir().unwrap();
@@ -340,7 +340,7 @@ fn perspective_cameras_take_yfov_and_aspect_and_are_picked_by_name() {
 #[test]
 fn refrakt_extras_set_the_scene_and_turn_nodes_into_fields_or_leave_them_out() {
     let mut g = GltfBuilder::new();
-    let glass = g.push("materials", json!({ "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } },
+    let glass = g.push("materials", json!({ "pbrMetallicRoughness": { "metallicFactor": 0.0 }, "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } },
                                              "extras": { "refrakt": { "absorption": [0.1, 0.2, 0.3] } } }));
     let mesh = g.mesh(&TETRA, &TETRA_TRIS, Some(glass));
     let lens = g.push("nodes", json!({ "name": "Lens", "mesh": mesh, "extras": { "refrakt": { "field": "luneburg", "radius": 0.4, "boundary": 2.0 } } }));

@@ -48,7 +48,7 @@ fn write_ball(dir: &std::path::Path) {
     for ext in ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume"] {
         g.uses(ext, false);
     }
-    let m = g.push("materials", json!({ "pbrMetallicRoughness": { "roughnessFactor": 0.0 }, "extensions": {
+    let m = g.push("materials", json!({ "pbrMetallicRoughness": { "metallicFactor": 0.0, "roughnessFactor": 0.0 }, "extensions": {
         "KHR_materials_transmission": { "transmissionFactor": 1.0 },
         "KHR_materials_ior": { "ior": IOR },
         "KHR_materials_volume": { "thicknessFactor": 0.8, "attenuationColor": COLOR, "attenuationDistance": DISTANCE } } }));
@@ -214,7 +214,7 @@ fn a_mirrored_gltf_mesh_voxelizes_as_its_mirror_image() {
         g.uses("KHR_materials_transmission", false);
         let m = g.push(
             "materials",
-            json!({ "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } }, "extras": { "refrakt": { "boundary": 3 } } }),
+            json!({ "pbrMetallicRoughness": { "metallicFactor": 0.0 }, "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } }, "extras": { "refrakt": { "boundary": 3 } } }),
         );
         let mesh = g.mesh(positions, tris, Some(m));
         let n = g.push("nodes", json!({ "name": "solid", "mesh": mesh, "scale": scale }));

@@ -636,7 +636,7 @@ fn multiscatter_is_read_from_lua_and_gltf() {
 
     let (mut g, frosted, _) = tetrahedron_of(
         serde_json::json!({ "name": "Frosted", "extras": { "refrakt": { "multiscatter": false } },
-            "pbrMetallicRoughness": { "roughnessFactor": 0.5 }, "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } } }),
+            "pbrMetallicRoughness": { "metallicFactor": 0.0, "roughnessFactor": 0.5 }, "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 } } }),
         &["KHR_materials_transmission"],
     );
     let dir = tempfile::tempdir().unwrap();
@@ -776,7 +776,7 @@ fn glowing_glass_shows_its_emission_from_its_front() {
         }
     }
     let (g, _, _) = tetrahedron_of(
-        serde_json::json!({ "name": "Shade", "emissiveFactor": [1.0, 0.5, 0.25],
+        serde_json::json!({ "name": "Shade", "emissiveFactor": [1.0, 0.5, 0.25], "pbrMetallicRoughness": { "metallicFactor": 0.0 },
             "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 }, "KHR_materials_emissive_strength": { "emissiveStrength": 4.0 } } }),
         &["KHR_materials_transmission", "KHR_materials_emissive_strength"],
     );

@@ -194,6 +194,7 @@ impl<'a> Materials<'a> {
         let mut uv = None;
         if transmission > 0.0 {
             glass.roughness = transmission_roughness(m, file, what)?;
+            glass.metallic = transmission_metallic(m, file, what)?;
             glass.thin = medium.thin.or(thin_walled(m));
             uv = self.glass_textures(m, what, &mut glass, warnings)?;
         }
@@ -313,19 +314,16 @@ fn transmission_roughness(m: &gltf::Material, file: &str, what: &str) -> Result<
     Ok(roughness)
 }
 
-/// How metal a glass mesh is, at its most: metallicFactor × the metallic-roughness texture's
-/// blue channel at the mesh's vertices (`uvs`, already through the material's UV map).
-/// Sampled where the mesh is, not over the whole image: exporters write metallicFactor 1 with an
-/// atlas that is metal elsewhere and 0 on the glass (Khronos' GlassHurricaneCandleHolder does),
-/// which is no metal at all. (Metal only inside a large triangle is missed: the warning is a
-/// hint, the rendering is the same.)
-pub fn glass_metallic(m: &gltf::Material, metallic_roughness: Option<&Texture2d>, uvs: Option<&[Vec2]>) -> f32 {
-    let factor = m.pbr_metallic_roughness().metallic_factor();
-    let texel_max = match (metallic_roughness, uvs) {
-        (Some(t), Some(uvs)) => uvs.iter().map(|&uv| t.sample(uv).z).fold(0.0, f32::max),
-        _ => 1.0,
-    };
-    factor * texel_max
+/// The metal part of a transmissive material's surface (the glTF PBR spec: transmission applies
+/// to the dielectric part only): metallicFactor, which the metallic-roughness texture's blue
+/// channel scales where light meets the glass. Its default is 1, as for every material: the
+/// Khronos samples leave it out and paint their glass's metal in the texture (0 on the glass).
+fn transmission_metallic(m: &gltf::Material, file: &str, what: &str) -> Result<f32> {
+    let metallic = m.pbr_metallic_roughness().metallic_factor();
+    if !(0.0..=1.0).contains(&metallic) {
+        bail!("{file}: {what}: metallicFactor is {metallic}; it must be from 0 to 1");
+    }
+    Ok(metallic)
 }
 
 /// Warns once per texture whose UV map (set and transform) differs from the first texture's:
@@ -417,26 +415,5 @@ mod tests {
         // Offset and scale alone: what gltfpack writes for quantized texture coordinates.
         let q = texture_transform(Vec2::new(0.25, -0.5), 0.0, Vec2::new(2.0, 4.0));
         assert_eq!(q.transform_point2(Vec2::new(0.5, 0.5)), Vec2::new(1.25, 1.5));
-    }
-
-    /// A document of one material, metallicFactor ½ (not 1, so the factor shows in the product).
-    fn half_metallic() -> gltf::Document {
-        let json = r#"{"asset":{"version":"2.0"},"materials":[{"pbrMetallicRoughness":{"metallicFactor":0.5}}]}"#;
-        gltf::Gltf::from_slice(json.as_bytes()).expect("valid glTF").document
-    }
-
-    #[test]
-    fn glass_is_metallic_only_where_its_mesh_samples_a_metal_texel() {
-        let doc = half_metallic();
-        let m = doc.materials().next().expect("one material");
-        // A 2×1 atlas: metal (blue 1) on the left, glass (blue 0) on the right.
-        let atlas = Texture2d { width: 2, height: 1, texels: vec![[0.0, 0.1, 1.0, 1.0], [0.0, 0.1, 0.0, 1.0]], wrap: [Wrap::Clamp; 2] };
-        let on_glass = [Vec2::new(0.9, 0.5), Vec2::new(1.0, 0.2)];
-        let on_metal = [Vec2::new(0.9, 0.5), Vec2::new(0.1, 0.5)];
-        assert_eq!(glass_metallic(&m, Some(&atlas), Some(&on_glass)), 0.0);
-        assert_eq!(glass_metallic(&m, Some(&atlas), Some(&on_metal)), 0.5);
-        // No texture, or no UVs to read it with: the factor is all there is.
-        assert_eq!(glass_metallic(&m, None, Some(&on_glass)), 0.5);
-        assert_eq!(glass_metallic(&m, Some(&atlas), None), 0.5);
     }
 }

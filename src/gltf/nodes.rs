@@ -353,14 +353,16 @@ impl<'a> Builder<'a, '_> {
         }
     }
 
-    /// Metal on glass is not rendered: say so where the primitive's surface is metallic.
+    /// Glass that is all metal, with no texture to say where: glTF's metallicFactor defaults to
+    /// 1, so a transmissive material written without it (by hand, or by a tool that leaves
+    /// defaults out) is a mirror, in refrakt as in every glTF viewer. Said, as the likely slip.
     fn warn_if_metallic(&mut self, part: &Part, glass: &Glass) {
         let Some((index, m)) = part.material.and_then(|i| Some((i, self.materials.doc.materials().nth(i)?))) else { return };
-        let metallic = material::glass_metallic(&m, glass.roughness_texture.as_deref(), part.rest.uvs.as_deref());
-        if metallic > 0.0 {
+        if glass.metallic >= 1.0 && glass.roughness_texture.is_none() {
             self.warnings.about(
-                format!("materials[{index}]{} (metallic up to {metallic:.2})", mesh::quoted(m.name())),
-                "is metallic and transmissive; refrakt renders the glass without the metal",
+                format!("materials[{index}]{}", mesh::quoted(m.name())),
+                "is transmissive but metallic 1 (metallicFactor 1, glTF's default when it is left out): its surface is \
+                 metal, which reflects and passes nothing, as glTF viewers show it; write \"metallicFactor\": 0 for glass",
             );
         }
     }

@@ -199,7 +199,7 @@ pub fn sample_scene() -> GltfBuilder {
     for ext in ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume", "KHR_lights_punctual"] {
         g.uses(ext, false);
     }
-    let glass = g.push("materials", json!({ "name": "Glass", "pbrMetallicRoughness": { "roughnessFactor": 0.0 }, "extensions": {
+    let glass = g.push("materials", json!({ "name": "Glass", "pbrMetallicRoughness": { "metallicFactor": 0.0, "roughnessFactor": 0.0 }, "extensions": {
         "KHR_materials_transmission": { "transmissionFactor": 1.0 }, "KHR_materials_ior": { "ior": 1.45 },
         "KHR_materials_volume": { "thicknessFactor": 0.5, "attenuationColor": [0.9, 0.8, 0.7], "attenuationDistance": 0.5 } },
         "extras": { "refrakt": { "boundary": 2.0 } } }));

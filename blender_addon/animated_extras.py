@@ -1,11 +1,15 @@
-"""What glTF has no field for, animated: a camera's thin lens (focus, aperture, lens shift), a
-point or spot light's radius, and area lights (their power, colour and size). Blender's exporter samples only what glTF defines, so a focus
-pull keyed in Blender would reach refrakt as its value at the exported frame. These go out as
-KHR_animation_pointer channels into refrakt's own extras (`/cameras/i/extras/refrakt/focus`,
-`…/aperture`, `…/shift`, `/extensions/KHR_lights_punctual/lights/i/extras/refrakt/radius`,
-`/nodes/i/extras/refrakt/light/intensity`, `…/color`, `…/size`;
-docs/gltf.md, Animation), sampled at every frame of the scene's range, as the exporter samples
-the rest, and only where the value changes."""
+"""What Blender's exporter does not animate: what glTF has no field for — a camera's thin lens
+(focus, aperture, lens shift), a point or spot light's radius, and area lights (their power,
+colour and size) — and a Glass or Refraction BSDF's IOR, Color and Roughness, which the exporter
+does not understand (the add-on's hooks write their still values). The exporter samples only
+what it knows, so a focus pull or a glass's index keyed in Blender would reach refrakt as its
+value at the exported frame. These go out as KHR_animation_pointer channels: into refrakt's own
+extras (`/cameras/i/extras/refrakt/focus`, `…/aperture`, `…/shift`,
+`/extensions/KHR_lights_punctual/lights/i/extras/refrakt/radius`,
+`/nodes/i/extras/refrakt/light/intensity`, `…/color`, `…/size`; docs/gltf.md, Animation) and the
+glass's material (`/materials/i/extensions/KHR_materials_ior/ior`,
+`…/pbrMetallicRoughness/baseColorFactor`, `…/roughnessFactor`), sampled at every frame of the
+scene's range, as the exporter samples the rest, and only where the value changes."""
 
 import json
 import struct
@@ -73,7 +77,27 @@ def _tracks(doc, scene):
         if area and obj is not None and obj.type == "LIGHT" and (_is_animated(obj.data) or _is_animated(obj)):
             for leaf in ("intensity", "color", "size"):
                 tracks.append((f"/nodes/{i}/extras/refrakt/light/{leaf}", lambda o=obj, leaf=leaf: _area_value(o, leaf)))
+    for i, material in enumerate(doc.get("materials", [])):
+        blender = bpy.data.materials.get(material.get("name", ""))
+        if blender is not None and extras.glass_surface(blender) is not None and _is_animated(blender.node_tree):
+            for leaf, pointer in GLASS_BSDF_POINTERS.items():
+                tracks.append((f"/materials/{i}/{pointer}", lambda b=blender, leaf=leaf: _glass_bsdf_value(b, leaf)))
     return tracks
+
+
+# A Glass BSDF's values, as the hooks write them still (gltf_hooks.py), by their glTF pointers.
+GLASS_BSDF_POINTERS = {
+    "ior": "extensions/KHR_materials_ior/ior",
+    "color": "pbrMetallicRoughness/baseColorFactor",
+    "roughness": "pbrMetallicRoughness/roughnessFactor",
+}
+
+
+def _glass_bsdf_value(material, leaf):
+    """A Glass BSDF's index, colour (its Color in full: Cycles tints each surface by it) or
+    roughness at the current frame."""
+    ior, color, roughness = extras.glass_surface(material)
+    return {"ior": [ior], "color": color + [1.0], "roughness": [roughness]}[leaf]
 
 
 def _area_value(obj, leaf):
@@ -149,7 +173,7 @@ def add_channels(path, scene, seconds_per_frame):
     times = next(iter(tracks.values()))[0]
     binary, input_ = _accessor(doc, binary, times, "SCALAR", bounds=True)
     for pointer, (_, values) in tracks.items():
-        binary, output = _accessor(doc, binary, values, {1: "SCALAR", 2: "VEC2", 3: "VEC3"}[len(values[0])])
+        binary, output = _accessor(doc, binary, values, {1: "SCALAR", 2: "VEC2", 3: "VEC3", 4: "VEC4"}[len(values[0])])
         animation["samplers"].append({"input": input_, "output": output, "interpolation": "LINEAR"})
         animation["channels"].append({"sampler": len(animation["samplers"]) - 1, "target": {
             "path": "pointer", "extensions": {"KHR_animation_pointer": {"pointer": pointer}}}})

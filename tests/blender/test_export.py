@@ -104,6 +104,13 @@ def dumped_frames(real_refrakt, glb, scene, size):
         yield doc
 
 
+def ball_glass_frames(real_refrakt, glb, scene):
+    """(frame, the Ball's material) in `refrakt dump` of frames 1–5, Blender's scene at each."""
+    for doc in dumped_frames(real_refrakt, glb, scene, "32x18"):
+        ball = next(n for n in doc["nodes"] if n["name"] == "Ball")
+        yield doc["frame"], doc["materials"][ball["material"]]
+
+
 def test_animated_light_power_and_colour_reach_the_gltf_in_its_units(addon, saved_blend, real_refrakt):
     """A point light's power, a sun's strength, a light's colour and a camera's focal length keyed
     over the frames go out
@@ -189,16 +196,46 @@ def test_a_keyed_glass_index_and_glow_reach_refrakt_frame_by_frame(addon, saved_
     for leaf in ("KHR_materials_ior/ior", "KHR_materials_emissive_strength/emissiveStrength"):
         pointer_channel(gltf, f"/materials/{glass_index}/extensions/{leaf}")
     seen = []
-    for doc in dumped_frames(real_refrakt, paths.glb, scene, "32x18"):
-        ball = next(n for n in doc["nodes"] if n["name"] == "Ball")
-        glass = doc["materials"][ball["material"]]
-        assert glass["kind"] == "glass" and glass["ior"] == pytest.approx(ior.default_value, abs=1e-4), doc["frame"]
+    for frame, glass in ball_glass_frames(real_refrakt, paths.glb, scene):
+        assert glass["kind"] == "glass" and glass["ior"] == pytest.approx(ior.default_value, abs=1e-4), frame
         glow = [c * glass["emission_strength"] for c in glass["emission"]]
-        assert glow == pytest.approx([strength.default_value * c for c in (1.0, 0.5, 0.25)], rel=1e-4), doc["frame"]
+        assert glow == pytest.approx([strength.default_value * c for c in (1.0, 0.5, 0.25)], rel=1e-4), frame
         # Principled glass tints by √(Base Color) at each surface, as the still export does.
-        assert glass["tint"] == pytest.approx([math.sqrt(c) for c in base.default_value[:3]], abs=1e-4), doc["frame"]
+        assert glass["tint"] == pytest.approx([math.sqrt(c) for c in base.default_value[:3]], abs=1e-4), frame
         seen.append(glass["ior"])
     assert seen[0] == pytest.approx(scenes.GLASS_IOR, abs=1e-4) and seen[-1] == pytest.approx(1.33, abs=1e-4), seen
+
+
+def test_a_keyed_glass_bsdf_reaches_refrakt_frame_by_frame(addon, saved_blend, real_refrakt):
+    """A Glass BSDF's IOR, Color and Roughness keyed in Blender (1.45 → 1.33, white → blue,
+    polished → 0.4 over frames 1–5), which Blender's exporter does not understand, go out as
+    KHR_animation_pointer channels the add-on samples every frame, and refrakt's glass has the
+    Glass BSDF's values at every frame (its Color in full, as Cycles tints each surface)."""
+    scene = scenes.round_trip_scene()
+    scene.frame_start, scene.frame_end = 1, 5
+    m = bpy.data.materials.new("Keyed glass")
+    m.use_nodes = True
+    nodes = m.node_tree.nodes
+    nodes.remove(nodes["Principled BSDF"])
+    bsdf = nodes.new("ShaderNodeBsdfGlass")
+    m.node_tree.links.new(bsdf.outputs[0], nodes["Material Output"].inputs["Surface"])
+    bpy.data.objects["Ball"].data.materials[0] = m
+    ior, colour, roughness = bsdf.inputs["IOR"], bsdf.inputs["Color"], bsdf.inputs["Roughness"]
+    for frame, values in ((1, (scenes.GLASS_IOR, (1.0, 1.0, 1.0, 1.0), 0.0)), (5, (1.33, (0.25, 0.5, 1.0, 1.0), 0.4))):
+        ior.default_value, colour.default_value, roughness.default_value = values
+        for socket in (ior, colour, roughness):
+            socket.keyframe_insert("default_value", frame=frame)
+    paths, gltf = export(saved_blend)
+    index = next(i for i, mat in enumerate(gltf.json["materials"]) if mat["name"] == "Keyed glass")
+    for pointer in ("extensions/KHR_materials_ior/ior", "pbrMetallicRoughness/baseColorFactor", "pbrMetallicRoughness/roughnessFactor"):
+        pointer_channel(gltf, f"/materials/{index}/{pointer}")
+    seen = []
+    for frame, glass in ball_glass_frames(real_refrakt, paths.glb, scene):
+        assert glass["kind"] == "glass" and glass["ior"] == pytest.approx(ior.default_value, abs=1e-4), frame
+        assert glass["tint"] == pytest.approx(list(colour.default_value)[:3], abs=1e-4), frame
+        assert glass["roughness"] == pytest.approx(roughness.default_value, abs=1e-4), frame
+        seen.append((glass["ior"], glass["roughness"]))
+    assert seen[0] == pytest.approx((scenes.GLASS_IOR, 0.0), abs=1e-4) and seen[-1] == pytest.approx((1.33, 0.4), abs=1e-4), seen
 
 
 def test_depth_of_field_reaches_refrakts_thin_lens(addon, saved_blend, real_refrakt):

@@ -69,17 +69,20 @@ impl GlowingMeshes {
 }
 
 /// A sharp glass mesh's glow as the receiver that would give it off: the same mesh in the same
-/// place, black but for its emission (and emission texture). None where the glass does not glow
-/// (or is a voxelized solid, whose surface the view does not meet and so shows no glow).
+/// place, black but for its emission (and emission texture) where its alpha leaves it (a sheet
+/// glows where it is there, as the view shows it: by its mean coverage, as a texture lights by
+/// its mean). None where the glass does not glow (or is a voxelized solid, whose surface the
+/// view does not meet and so shows no glow).
 fn glow_of_glass(m: &MeshInstance) -> Option<Receiver> {
     let g = &m.glass;
-    (m.sharp && g.emitted().max_element() > 0.0).then(|| Receiver {
+    let coverage = g.mean_coverage(m.thin);
+    (m.sharp && coverage > 0.0 && g.emitted().max_element() > 0.0).then(|| Receiver {
         name: m.name.clone(),
         mesh: m.mesh.clone(),
         world: m.world,
         diffuse: crate::scene::material::Diffuse {
             color: Vec3::ZERO,
-            emission: g.emission,
+            emission: g.emission * coverage,
             emission_strength: g.emission_strength,
             emission_texture: g.emission_texture.clone(),
             ..crate::scene::material::Diffuse::pbr()
@@ -236,6 +239,26 @@ mod tests {
 
     /// A closed mesh glows on its outer side: its triangles face away from its centre, even
     /// through a mirroring transform; an open one is marked two-sided.
+    /// A glowing sheet lights the scene by the part of it its alpha leaves: a BLEND sheet of
+    /// alpha ¼ with a texture half transparent gives ⅛ of its glow, a MASK sheet cut below ½ a
+    /// half, an all-cut sheet none; a solid ignores alpha.
+    #[test]
+    fn a_glowing_sheet_lights_by_the_part_its_alpha_leaves() {
+        let half_clear = Arc::new(crate::scene::Texture2d { width: 2, height: 1, texels: vec![[1.0, 1.0, 1.0, 1.0], [1.0, 1.0, 1.0, 0.0]], wrap: Default::default() });
+        let sheet = |alpha_mode, alpha, thin| {
+            let glass = crate::scene::Glass { emission: Vec3::ONE, alpha_mode, alpha, tint_texture: Some(half_clear.clone()), ..Default::default() };
+            MeshInstance { name: "shade".into(), origin: String::new(), mesh: Arc::new(plane(glam::Vec2::ONE)), world: glam::Mat4::IDENTITY, glass,
+                boundary: 0.0, bounds: (Vec3::ZERO, Vec3::ONE), sharp: true, thin, guessed: false }
+        };
+        let glow = |m: MeshInstance| glow_of_glass(&m).map(|r| r.diffuse.emission.x);
+        use crate::scene::AlphaMode::{Blend, Mask, Opaque};
+        assert_eq!(glow(sheet(Blend, 0.25, true)), Some(0.125));
+        assert_eq!(glow(sheet(Mask, 1.0, true)), Some(0.5));
+        assert_eq!(glow(sheet(Mask, 0.25, true)), None, "cut away everywhere");
+        assert_eq!(glow(sheet(Opaque, 0.25, true)), Some(1.0));
+        assert_eq!(glow(sheet(Blend, 0.25, false)), Some(1.0), "a solid is all there");
+    }
+
     #[test]
     fn a_closed_mesh_is_wound_outward() {
         let mirror = glam::Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));

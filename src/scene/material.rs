@@ -121,6 +121,22 @@ impl Glass {
     pub fn tinted(&self) -> bool {
         self.tint != Vec3::ONE || self.tint_texture.is_some()
     }
+
+    /// The fraction of a sheet that its alpha leaves there, over its whole tint texture (the
+    /// shaders' `sheet_coverage` of alpha × the texture's alpha, averaged over the texels; the
+    /// factor alone without one). A solid is all there (`thin` false).
+    pub fn mean_coverage(&self, thin: bool) -> f32 {
+        let coverage = |alpha: f32| match self.alpha_mode {
+            AlphaMode::Opaque => 1.0,
+            AlphaMode::Mask => if alpha >= self.alpha_cutoff { 1.0 } else { 0.0 },
+            AlphaMode::Blend => alpha.clamp(0.0, 1.0),
+        };
+        match &self.tint_texture {
+            _ if !thin => 1.0,
+            Some(t) if !t.texels.is_empty() => t.texels.iter().map(|c| coverage(self.alpha * c[3])).sum::<f32>() / t.texels.len() as f32,
+            _ => coverage(self.alpha),
+        }
+    }
 }
 
 impl Default for Glass {

@@ -488,8 +488,8 @@ impl FrameDesc {
         }
         for m in self.meshes.iter().filter(|m| !m.sharp && !m.glass.refracts() && m.glass.tinted()) {
             out.push(format!(
-                "{}: glass mesh \"{}\" has index {}: it bends no light, and refrakt renders such a solid as air, without \
-                 its tint (give it an index above {}, or make it a sheet: thin = true)",
+                "{}: glass mesh \"{}\" has index {} and is neither a closed solid nor a sheet: it bends no light, and refrakt \
+                 renders it as air, without its tint (close the mesh, make it a sheet: thin = true, or give it an index above {})",
                 m.origin, m.name, m.glass.ior, 1.0 + crate::pipeline::photons::EPS_REFRACT
             ));
         }
@@ -520,14 +520,11 @@ impl FrameDesc {
             out.push(format!("{}: glass mesh \"{}\" has textures, but it {why}: it keeps its factors", m.origin, m.name));
         }
         for f in self.fields.iter().filter(|f| !f.sharp && f.glass.tint != Vec3::ONE) {
-            let why = if matches!(f.kind, FieldKind::Sphere | FieldKind::Box) && (f.ior - 1.0).abs() <= crate::pipeline::photons::EPS_REFRACT {
-                format!("has index {}: it bends no light, and refrakt renders such glass as air (give it an index above {}, or make it a shell: thin = true)", f.ior, 1.0 + crate::pipeline::photons::EPS_REFRACT)
-            } else {
-                "is a smooth index field, and a tint colours light where it crosses a sharp surface only (leave out `boundary` \
-                 on a sphere or box, or colour the field with `absorption`)"
-                    .to_string()
-            };
-            out.push(format!("glass \"{}\" {why}: its tint is not applied", f.name));
+            out.push(format!(
+                "glass \"{}\" is a smooth index field, and a tint colours light where it crosses a sharp surface only (leave \
+                 out `boundary` on a sphere or box, or colour the field with `absorption`): its tint is not applied",
+                f.name
+            ));
         }
         let (lo, hi) = (self.volume.min, self.volume.max());
         let sharp = self.fields.iter().filter(|f| f.sharp).map(|f| (&f.name, f.bounds));

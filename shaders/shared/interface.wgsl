@@ -469,7 +469,9 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
     }
     geometric = select(geometric, -geometric, dot(geometric, d) > 0.0);
     let n = select(surface.normal, -surface.normal, dot(surface.normal, d) > 0.0);
-    if (!thin && (beyond.holder == media.holder || beyond.ior == media.ior)) || surface.coverage <= 0.0 {
+    // (Where the index does not change — tinted glass of index 1, a liquid of its glass's index —
+    // the crossing below bends and reflects nothing but still tints.)
+    if (!thin && beyond.holder == media.holder) || surface.coverage <= 0.0 {
         return Crossing(d, d, 0.0, vec3<f32>(1.0), beyond, geometric, n, eta, 1.0, 1.0, 1.0, through, false, vec3<f32>(0.0), vec3<f32>(1.0));
     }
     let alpha = surface.roughness * surface.roughness;

@@ -215,13 +215,14 @@ fn mesh_instance(node: &Node, mesh: &Arc<MeshData>, world: Mat4, glass: Glass, b
     // A glass mesh whose material does not say whether it is a sheet: a flat one is a pane,
     // a closed one a solid, an open curved one is voxelized as the solid it bounds (robust to
     // holes, as before sharp interfaces) — the first and last are guesses the frame warns of.
-    // A tinted sheet of index 1 (a gel, a coloured film: glTF's thin-walled transmission with
-    // an index of 1) bends nothing but still colours what crosses it: a sheet, sharp, where it is
-    // one (`thin`, or flat); as a solid it would be air (`FrameDesc::warnings` says so).
+    // Tinted glass of index 1 (a gel, a coloured film, a tile of KHR_materials_transmission with
+    // an index of 1) bends nothing but still colours what crosses it, as glTF tints at each
+    // surface: sharp, a sheet where it is one (`thin`, or flat) and a solid where it is closed;
+    // only an open solid of it would be air (`FrameDesc::warnings` says so).
     let refracts = is_sharp(&glass, boundary);
-    let gel = !refracts && boundary.is_none() && glass.tinted() && glass.thin != Some(false);
+    let gel = !refracts && boundary.is_none() && glass.tinted();
     let facts = (refracts || gel).then(|| MeshData::glass_facts(mesh));
-    let closed = refracts && facts.as_ref().is_some_and(|f| f.closed);
+    let closed = facts.as_ref().is_some_and(|f| f.closed);
     let flat = glass.thin.is_none() && facts.as_ref().is_some_and(|f| f.flat);
     let guessed = refracts && glass.thin.is_none() && (flat || !closed);
     let thin = (refracts || gel) && glass.thin.unwrap_or(flat);
@@ -274,11 +275,12 @@ fn field_of(node: &Node, shape: &Shape, world: Mat4, scale: Vec3, glass: Glass) 
         Shape::Field { size, .. } => (FieldKind::Sampled(Arc::default()), *size * 0.5, 1.0, 0.0),
         Shape::Mesh { .. } | Shape::Plane { .. } => unreachable!("meshes and planes are not analytic fields"),
     };
-    // A thin sphere or box is a shell (a soap bubble), sharp or nothing — sharp also at index 1
-    // where it is tinted (a coloured globe of film, as a tinted sheet in `mesh_instance`).
+    // A thin sphere or box is a shell (a soap bubble). Tinted glass of index 1 is sharp too, a
+    // shell or a solid (a coloured globe of film, a tinted ball that bends nothing), as tinted
+    // glass of index 1 is in `mesh_instance`.
     let shell = glass.thin == Some(true);
     let sharp = matches!(shape, Shape::Sphere { .. } | Shape::Box { .. })
-        && (is_sharp(&glass, shape.boundary()) || (shell && shape.boundary().is_none() && glass.tinted()));
+        && (is_sharp(&glass, shape.boundary()) || (shape.boundary().is_none() && glass.tinted()));
     let thin = sharp && shell;
     let mut glass = glass;
     if thin {

@@ -3,16 +3,18 @@ Glass/Refraction BSDF) reaches refrakt through the glTF export and what it does 
 what it ignores. It follows refrakt's glTF importer (docs/gltf.md, Materials): a material that
 transmits light (KHR_materials_transmission) or holds a medium is glass, with KHR_materials_ior's
 index and the base colour as the tint (a Glass BSDF's Color at each surface; a Principled
-BSDF's Base Color once through a solid, as Cycles tints it: √ at each surface); any other is a
-diffuse receiver whose albedo is the base colour.
+BSDF's Base Color once through a solid, as Cycles tints it: √ at each surface, and its metal
+part); any other is a receiver of glTF's metallic-roughness model whose albedo is the base colour.
 """
 
 from dataclasses import dataclass, field
 
 from . import extras
 
-# Principled BSDF inputs refrakt does not render, with the value at which they do nothing.
-IGNORED = (
+# Principled BSDF inputs beyond the colour and roughness, with the value at which they do
+# nothing: those the glTF export carries and refrakt reads, per kind, show as rows with what
+# refrakt does with them (docs/gltf.md, Materials); the rest are listed as ignored when set.
+OTHER_INPUTS = (
     ("Metallic", 0.0),
     ("Specular IOR Level", 0.5),
     ("Anisotropic", 0.0),
@@ -23,6 +25,19 @@ IGNORED = (
     ("Dispersion", 0.0),  # Blender 4.4 and later
     ("Alpha", 1.0),
 )
+READ = {
+    "glass": {
+        "Metallic": "the metal part of its surface: reflects Base Color, passes nothing",
+        "Alpha": "a thin sheet's coverage (a solid ignores it)",
+    },
+    "receiver": {
+        "Metallic": "metallic: reflects Base Color",
+        "Specular IOR Level": "specular weight (KHR_materials_specular)",
+        "Coat Weight": "a clear coat (KHR_materials_clearcoat)",
+        "Sheen Weight": "sheen (KHR_materials_sheen)",
+        "Alpha": "coverage: cut out or see-through",
+    },
+}
 
 
 @dataclass
@@ -96,20 +111,24 @@ def _principled(node, medium):
         rows.append(("Base Color", _color(value("Base Color")), albedo))
     if glass:
         rows.append(("Roughness", f"{value('Roughness'):.3g}", "GGX roughness: frosted glass" if value("Roughness") > 0 else "polished"))
-    elif value("Roughness") > 0.0:
-        ignored.append(f"Roughness {value('Roughness'):.3g} (receivers are Lambertian)")
+    else:
+        rows.append(("Roughness", f"{value('Roughness'):.3g}", "GGX roughness of its reflection"))
     emitting = value("Emission Strength") > 0.0 and max(list(value("Emission Color"))[:3]) > 0.0
     if emitting and glass:
         ignored.append(f"Emission Strength {value('Emission Strength'):.3g} (glass does not glow)")
     elif emitting:
         rows.append(("Emission", f"{_color(value('Emission Color'))} × {value('Emission Strength'):.3g}",
                      "glows, and lights the scene from both sides"))
-    for name, neutral in IGNORED:
+    read = READ["glass" if glass else "receiver"]
+    for name, neutral in OTHER_INPUTS:
         if name in node.inputs and abs(value(name) - neutral) > 1e-6:
-            ignored.append(f"{name} {value(name):.3g}")
+            if name in read:
+                rows.append((name, f"{value(name):.3g}", read[name]))
+            else:
+                ignored.append(f"{name} {value(name):.3g}")
     for name in ("IOR", "Transmission Weight", "Roughness"):
         if _linked(node, name):
             ignored.append(f"the nodes driving {name} (its plain value is exported)")
     if _linked(node, "Normal"):
-        ignored.append("Normal map (refrakt uses the mesh's own normals)")
+        rows.append(("Normal", "linked", "a normal map (an Image Texture through a Normal Map node) bends the surface"))
     return Reading("glass" if glass else "receiver", rows, ignored, medium)

@@ -133,9 +133,11 @@ def test_material_panel_shows_refrakts_reading_of_the_principled_bsdf(addon):
     assert "Base Color: 0.9 0.8 0.7 → tint, once through a solid (as Cycles)" in labels
     assert "Roughness: 0.2 → GGX roughness: frosted glass" in labels
     assert "Glass: Auto → closed meshes solid, flat ones thin sheets" in labels
+    # Metal on glass is read (glTF's metallicFactor on a transmissive material); a coat is not.
+    assert "Metallic: 0.5 → the metal part of its surface: reflects Base Color, passes nothing" in labels
     ignored = labels[labels.index("Ignored:") + 1:]
-    assert not any(text.startswith("Roughness") for text in ignored)
-    assert "Metallic 0.5" in ignored and "Coat Weight 0.3" in ignored
+    assert not any(text.startswith(("Roughness", "Metallic")) for text in ignored)
+    assert "Coat Weight 0.3" in ignored
     glass.refrakt.surface = "THIN"
     labels = [text for kind, text in draw("MATERIAL_PT_refrakt", Context(material=glass)) if kind == "label"]
     assert "Glass: Thin → a thin sheet" in labels
@@ -143,14 +145,19 @@ def test_material_panel_shows_refrakts_reading_of_the_principled_bsdf(addon):
     bsdf.inputs["Transmission Weight"].default_value = 0.0
     glass.node_tree.links.remove(glass.node_tree.nodes["Material Output"].inputs["Volume"].links[0])
     reading = submodule("material_reading").read(glass)
-    assert reading.kind == "receiver" and reading.rows == [("Base Color", "0.9 0.8 0.7", "albedo")]
+    # A receiver is read with glTF's metallic-roughness model, its clear coat too.
+    assert reading.kind == "receiver" and reading.rows == [
+        ("Base Color", "0.9 0.8 0.7", "albedo"), ("Roughness", "0.2", "GGX roughness of its reflection"),
+        ("Metallic", "0.5", "metallic: reflects Base Color"), ("Coat Weight", "0.3", "a clear coat (KHR_materials_clearcoat)"),
+    ]
+    assert reading.ignored == []
     shown = draw("MATERIAL_PT_refrakt", Context(material=glass))
     assert not [name for kind, name in shown if kind == "prop"], "glass settings on an opaque receiver"
     assert ("label", "Glass settings show for a transmissive material (Transmission > 0)") in shown
     bsdf.inputs["Emission Color"].default_value = (1.0, 0.5, 0.25, 1.0)
     bsdf.inputs["Emission Strength"].default_value = 3.0
     reading = submodule("material_reading").read(glass)
-    assert reading.rows[-1] == ("Emission", "1 0.5 0.25 × 3", "glows, and lights the scene from both sides")
+    assert ("Emission", "1 0.5 0.25 × 3", "glows, and lights the scene from both sides") in reading.rows
 
 
 

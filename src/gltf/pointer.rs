@@ -213,8 +213,8 @@ pub fn apply_camera(camera: &mut Camera, p: CameraProperty, v: &[f32]) {
 }
 
 /// Sets a material's animated factor, held within what the import accepts: a receiver's, or a
-/// glass's tint, roughness, emission, index (1 to 4) and dispersion (0 to 20); what a material does not
-/// have (a receiver's index, a glass's metallic) is left alone.
+/// glass's tint and alpha, metallic, roughness, emission, alpha cutoff, index (1 to 4) and
+/// dispersion (0 to 20); what a material does not have (a receiver's index) is left alone.
 pub fn apply_material(material: &mut Material, p: MaterialProperty, v: &[f32]) {
     let unit = |x: f32| x.clamp(0.0, 1.0);
     match material {
@@ -231,13 +231,17 @@ pub fn apply_material(material: &mut Material, p: MaterialProperty, v: &[f32]) {
             MaterialProperty::Ior | MaterialProperty::Dispersion => {}
         },
         Material::Glass(g) => match p {
-            MaterialProperty::BaseColor => g.tint = Vec3::from_slice(&v[..3]).clamp(Vec3::ZERO, Vec3::ONE),
+            MaterialProperty::BaseColor => {
+                let c = Vec4::from_slice(v).clamp(Vec4::ZERO, Vec4::ONE);
+                (g.tint, g.alpha) = (c.truncate(), c.w);
+            }
+            MaterialProperty::Metallic => g.metallic = unit(v[0]),
             MaterialProperty::Roughness => g.roughness = unit(v[0]),
             MaterialProperty::Emissive => g.emission = Vec3::from_slice(v).max(Vec3::ZERO),
             MaterialProperty::EmissiveStrength => g.emission_strength = v[0].max(0.0),
+            MaterialProperty::AlphaCutoff => g.alpha_cutoff = unit(v[0]),
             MaterialProperty::Ior => g.ior = v[0].clamp(1.0, 4.0),
             MaterialProperty::Dispersion => g.dispersion = v[0].clamp(0.0, 20.0),
-            _ => {}
         },
     }
 }
@@ -287,6 +291,18 @@ mod tests {
         apply_material(&mut m, MaterialProperty::Ior, &[1.33]);
         let Material::Glass(g) = &m else { unreachable!() };
         assert_eq!(g.ior, 1.33);
+    }
+
+    /// A glass's animated base colour is its tint and (on a sheet) its alpha, as the still import
+    /// reads them; its metallic and alpha cutoff animate too, each held to 0–1.
+    #[test]
+    fn an_animated_glass_surface_animates_what_the_still_import_reads() {
+        let mut m = Material::Glass(Default::default());
+        apply_material(&mut m, MaterialProperty::BaseColor, &[0.5, 2.0, 0.25, 0.4]);
+        apply_material(&mut m, MaterialProperty::Metallic, &[1.5]);
+        apply_material(&mut m, MaterialProperty::AlphaCutoff, &[0.25]);
+        let Material::Glass(g) = &m else { unreachable!() };
+        assert_eq!((g.tint, g.alpha, g.metallic, g.alpha_cutoff), (Vec3::new(0.5, 1.0, 0.25), 0.4, 1.0, 0.25));
     }
 
     #[test]

@@ -394,10 +394,19 @@ fn fit_volume(objects: &[(Vec3, Vec3, Option<f32>)], s: &super::VolumeSettings, 
     if !(voxel_size.is_finite() && voxel_size > 0.0) {
         bail!("the volume box {lo} → {hi} is degenerate");
     }
-    let dims = (extent / voxel_size).ceil().as_uvec3().max(UVec3::splat(4));
+    let dims = UVec3::from((extent / voxel_size).ceil().as_uvec3().max(UVec3::splat(4)).to_array().map(off_powers_of_two));
     // Centre the voxel grid on the box (rounding up may add a fraction of a voxel).
     let min = 0.5 * (lo + hi) - 0.5 * dims.as_vec3() * voxel_size;
     Ok(VolumeDesc { min, voxel_size, dims, step: s.step * voxel_size, contact: s.contact })
+}
+
+/// A side of `n` voxels, or one more where `n` is a power of two. Mesa's software Vulkan driver
+/// (lavapipe) compiles a shader anew — a minute for the view stage — for each combination of
+/// power-of-two sides among the textures it samples; volumes whose sides never are one (nor are
+/// the stand-in grids of `pipeline::resources::NO_FOG_DIMS`) compile each stage once. The extra
+/// voxel is air around the centred grid: nothing else changes.
+pub fn off_powers_of_two(n: u32) -> u32 {
+    if n.is_power_of_two() { n + 1 } else { n }
 }
 
 /// The nodes that carry a camera, in evaluation order: what `--camera INDEX` counts (and
@@ -465,4 +474,25 @@ fn camera_of(scene: &Scene, placed: &[Placed], opts: &EvalOptions) -> Result<Cam
         region.apply(&mut desc)?;
     }
     Ok(desc)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_volume_side_is_never_a_power_of_two() {
+        // A cube fitted at 128 voxels a side gets 129, centred on the same box; 96 stays 96.
+        let cube = [(Vec3::splat(-0.5), Vec3::splat(0.5), None)];
+        for (resolution, side) in [(128, 129), (96, 96), (32, 33)] {
+            let v = fit_volume(&cube, &Default::default(), resolution).unwrap();
+            assert_eq!(v.dims, UVec3::splat(side), "at {resolution}");
+            assert!((v.min + v.max()).length() < 1e-5, "centred: {} {}", v.min, v.max());
+            assert!(v.min.cmple(Vec3::splat(-0.5)).all(), "the box still holds the cube");
+        }
+        // A flat box's short sides too (4 voxels at least: 5).
+        let slab = [(Vec3::new(-1.0, -0.001, -1.0), Vec3::new(1.0, 0.001, 1.0), None)];
+        let v = fit_volume(&slab, &Default::default(), 64).unwrap();
+        assert!(v.dims.to_array().iter().all(|d| !d.is_power_of_two()), "{}", v.dims);
+    }
 }

@@ -48,6 +48,10 @@ between the caustic and the shadow's edge is dark (tests/contact.rs).
 small spherical light (r = 5 cm, 2000 cd), seen from 45° by a pinhole camera: Mitsuba's path
 tracer's radiance, 64², with alpha marking the pixels that see the floor through the ball.
 
+`rim_view` (`rim_view_reference`): the same ball, floor and camera under a vertical sun of 1 W/m²,
+by the particle tracer: the floor under and around the ball's rim seen directly (alpha marks
+those pixels), 64², 262144 light paths per pixel (about 2 min here).
+
 `white_room` (`white_room_reference`): a closed white room (4 × 3 × 4 m, albedo 0.75) with a glass
 ball (r = 0.4 m, 0.2 m above the floor) under a spot of 300 cd pointing down past it, seen by a
 pinhole camera from a corner: the radiance of every pixel that sees a receiver directly (Mitsuba's
@@ -625,7 +629,7 @@ def white_room_reference(spp):
     return np.concatenate([img, mask[..., None]], axis=-1)
 
 
-# Shared with tests/contact.rs (`seen_through_scene`).
+# Shared with tests/contact.rs (`resting_ball_from_45`).
 THROUGH_FLOOR_ALBEDO = 0.5
 THROUGH_LIGHT = dict(position=[0.6, 2.2, -0.4], radius=0.05, candela=2000.0)
 THROUGH_CAMERA = dict(position=[0.0, 1.6, 1.6], target=[0.0, 0.3, 0.0], fov=36.0, pixels=64)
@@ -669,7 +673,43 @@ def seen_through_reference(spp):
     return np.concatenate([img, through[..., None]], axis=-1)
 
 
-SPP = {"ball": 16384, "facets": 16384, "bunny": 16384, "hdri": 65536, "white_room": 16384, "resting": 16384, "seen_through": 65536}
+# Shared with tests/contact.rs (`rim_view`): floor points within this distance of the contact.
+RIM_VIEW_REACH = 0.8
+
+
+def rim_view_scene():
+    """`seen_through`'s resting ball, grey floor and 45° camera under a vertical sun of 1 W/m²
+    instead of the bulb, by the particle tracer (a path tracer cannot reach a delta light through
+    glass)."""
+    s = seen_through_scene()
+    del s["bulb"]
+    s["sun"] = {"type": "directional", "direction": [0.0, -1.0, 0.0], "irradiance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}
+    s["integrator"] = {"type": "ptracer", "max_depth": 64, "hide_emitters": True}
+    return s
+
+
+def rim_view_reference(spp):
+    """The floor under and around the rim of the resting ball, seen directly from 45° (the
+    issue's "floor under the rim at pixel scale"): the caustic converging under the ball, the dark
+    ring out to its shadow's edge and the lit floor beyond, in W/m²/sr, 64²; alpha marks the
+    pixels whose centre ray passes the ball by (radius × 1.05) and meets the floor within
+    `RIM_VIEW_REACH` of the contact."""
+    started = time.time()
+    img = np.array(mi.render(mi.load_dict(rim_view_scene()), spp=spp), dtype=np.float32)
+    print(f"  particle tracer, {spp} spp: {time.time() - started:.0f} s")
+    cam = THROUGH_CAMERA
+    d = camera_rays(cam)
+    t = -cam["position"][1] / d[..., 1]
+    floor = np.array(cam["position"]) + t[..., None] * d
+    near = (t > 0) & (np.hypot(floor[..., 0], floor[..., 2]) < RIM_VIEW_REACH)
+    compared = ball_mask(cam, RESTING, 1.05) * near
+    lit = THROUGH_FLOOR_ALBEDO / math.pi
+    print(f"  {int(compared.sum())} pixels compared, mean {img[compared == 1].mean():.5f} W/m²/sr (the open floor {lit:.5f})")
+    return np.concatenate([img, compared[..., None]], axis=-1)
+
+
+SPP = {"ball": 16384, "facets": 16384, "bunny": 16384, "hdri": 65536, "white_room": 16384, "resting": 16384, "seen_through": 65536,
+       "rim_view": 65536}
 
 
 def main():
@@ -685,8 +725,8 @@ def main():
             write(name, hdri_reference(spp))
             print(f"  {name}: {time.time() - started:.0f} s")
             continue
-        if name in ("white_room", "seen_through"):
-            rgba = white_room_reference(spp) if name == "white_room" else seen_through_reference(spp)
+        if name in ("white_room", "seen_through", "rim_view"):
+            rgba = {"white_room": white_room_reference, "seen_through": seen_through_reference, "rim_view": rim_view_reference}[name](spp)
             path = os.path.join(OUT, name + ".exr")
             mi.Bitmap(rgba, pixel_format=mi.Bitmap.PixelFormat.RGBA).write(path)
             print(f"wrote {path}  {name}: {time.time() - started:.0f} s")

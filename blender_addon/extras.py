@@ -15,7 +15,7 @@ import math
 import os
 
 import bpy
-from mathutils import Vector
+from mathutils import Euler, Matrix, Vector
 
 
 class Warnings(list):
@@ -359,7 +359,7 @@ def world_in_frames(scene):
 
 def environment(scene, directory, warnings):
     """The world as refrakt's environment: radiance = color × intensity in Blender's units, or an
-    equirectangular image (path relative to the exported file) with its Mapping Z rotation.
+    equirectangular image (path relative to the exported file) turned as its Mapping node turns it.
     Refracted and reflected rays always see it; the camera as `world_in_frames` says."""
     env = {"visible": world_in_frames(scene)}
     world = scene.world
@@ -387,7 +387,7 @@ def environment(scene, directory, warnings):
         warnings.add(f"World '{world.name}': the background color comes from '{texture.bl_label}', which refrakt "
                      "can only read as an Environment Texture of an image file on disk; using the viewport color")
         return {**env, "color": list(world.color), "intensity": strength}
-    return {**env, "image": _relative(path, directory), "intensity": strength, "rotation": _mapping_rotation(texture)}
+    return {**env, "image": _relative(path, directory), "intensity": strength, **_mapping_turn(texture, world.name, warnings)}
 
 
 def _relative(path, directory):
@@ -397,19 +397,41 @@ def _relative(path, directory):
         return path
 
 
-def _mapping_rotation(texture):
-    """refrakt's environment rotation (degrees) from a Mapping node feeding the texture's Vector.
+# Blender's Z-up frame → refrakt's Y-up one (as glTF's exporter converts): (x, y, z) → (x, z, −y).
+Z_UP_TO_Y_UP = Matrix(((1.0, 0.0, 0.0), (0.0, 0.0, 1.0), (0.0, -1.0, 0.0)))
 
-    Blender's Mapping rotates the lookup direction: with Z rotation θ, what was seen along d is
-    seen along R_z(−θ)·d (for the Point and Vector types; the Texture type is the inverse).
-    refrakt's rotation θ' turns the environment itself: what was seen along d is seen along
-    R_y(θ')·d, and R_z in Blender's frame is R_y in refrakt's Y-up one. So θ' = −θ."""
+
+def _mapping_turn(texture, world_name, warnings):
+    """refrakt's environment `rotation` (degrees about +Y) and `tilt` (a unit quaternion x, y, z,
+    w) from a Mapping node feeding the texture's Vector.
+
+    Blender's Mapping turns the lookup direction: the image is read along M·d, M = R (Euler XYZ:
+    R_z·R_y·R_x) for the Point, Vector and Normal types, R⁻¹ for Texture. refrakt turns the
+    environment itself: what the image holds along r is seen along Q·r, i.e. it is read along
+    Q⁻¹·d. In refrakt's frame (C: Z up → Y up) that makes Q = C·M⁻¹·C⁻¹. A turn about Z alone is
+    a turn about refrakt's +Y, written as `rotation` (so θ' = −θ for the Point type); anything
+    else goes whole into `tilt`. Location and scale do not turn a direction: they are warned."""
     vector = texture.inputs["Vector"]
     if not (vector.is_linked and vector.links[0].from_node.bl_idname == "ShaderNodeMapping"):
-        return 0.0
+        return {"rotation": 0.0}
     mapping = vector.links[0].from_node
-    angle = math.degrees(mapping.inputs["Rotation"].default_value[2])
-    return angle if mapping.vector_type == "TEXTURE" else -angle
+    inputs = mapping.inputs
+    moves = mapping.vector_type in ("POINT", "TEXTURE")  # (a Vector's or Normal's location is unused)
+    location = inputs["Location"].default_value if moves else (0.0, 0.0, 0.0)
+    scale = inputs["Scale"].default_value if "Scale" in inputs else (1.0, 1.0, 1.0)
+    if any(abs(c) > 1e-6 for c in location) or any(abs(c - 1.0) > 1e-6 for c in scale):
+        warnings.add(f"World '{world_name}': refrakt turns the environment by its Mapping node's rotation; "
+                     "the Mapping's location and scale are not used")
+    euler = inputs["Rotation"].default_value
+    inverse = mapping.vector_type == "TEXTURE"
+    if abs(euler[0]) < 1e-6 and abs(euler[1]) < 1e-6:
+        angle = math.degrees(euler[2])
+        return {"rotation": angle if inverse else -angle}
+    lookup = Euler(tuple(euler), "XYZ").to_matrix()
+    if inverse:
+        lookup = lookup.transposed()
+    q = (Z_UP_TO_Y_UP @ lookup.transposed() @ Z_UP_TO_Y_UP.transposed()).to_quaternion()
+    return {"rotation": 0.0, "tilt": [q.x, q.y, q.z, q.w]}
 
 
 def fog(scene, warnings):

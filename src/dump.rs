@@ -101,7 +101,7 @@ pub fn frame_json(scene: &Scene, desc: &FrameDesc, frame: Option<i64>) -> Result
         "fields": desc.fields.iter().map(|f| json!({ "node": f.name, "ior": f.ior })).collect::<Vec<_>>(),
         "receivers": desc.receivers.iter().map(|r| r.name.clone()).collect::<Vec<_>>(),
         "environment": { "kind": env_kind, "source": env_name, "intensity": env.intensity,
-                         "rotation": env.rotation, "visible": env.visible },
+                         "rotation": env.rotation, "tilt": env.tilt.to_array(), "visible": env.visible },
         "fog": desc.fog.map(|f| json!({ "scattering": vec3(f.scattering), "absorption": vec3(f.absorption), "g": f.g })),
         "photons": desc.photons,
         "samples": desc.samples,

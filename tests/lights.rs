@@ -8,7 +8,7 @@ use std::f32::consts::PI;
 use std::sync::Arc;
 
 use common::{frame_from_lua, shared_renderer};
-use glam::Vec3;
+use glam::{Quat, Vec3};
 use refrakt::output::{Image, Layer};
 use refrakt::pipeline::env_light::{EnvLightTable, from_table_frame};
 use refrakt::scene::{EnvImage, Environment, EnvironmentSource};
@@ -22,9 +22,16 @@ fn layer<'a>(image: &'a Image, name: &str) -> &'a Layer {
     image.layer(name).unwrap_or_else(|| panic!("a {name} layer"))
 }
 
-/// The environment of an image (its table is built from it as it is: ≤ 1024 wide).
-fn image_environment(image: EnvImage, intensity: f32, rotation: f32) -> Environment {
-    Environment { source: EnvironmentSource::Image { path: "test.exr".into(), image: Arc::new(image) }, intensity, rotation, visible: true }
+/// The environment of an image (its table is built from it as it is: ≤ 1024 wide), turned by
+/// `rotation` about +Y after `tilt`.
+fn image_environment(image: EnvImage, intensity: f32, rotation: f32, tilt: Quat) -> Environment {
+    Environment { source: EnvironmentSource::Image { path: "test.exr".into(), image: Arc::new(image) }, intensity, rotation, tilt, visible: true }
+}
+
+/// A tilt of the environment's horizon (Blender's Mapping turned about X and Y) the tests
+/// below turn their images by, so that photons and shadow rays must follow a general turn.
+fn tilt() -> Quat {
+    Quat::from_rotation_x(0.2) * Quat::from_rotation_z(-0.15)
 }
 
 /// The world point an orthographic camera looking straight down (up = −Z) at height 5 sees at
@@ -105,12 +112,13 @@ fn an_open_plane_under_an_image_gets_its_irradiance_exactly() {
             nx = normal.x,
             ny = normal.y
         ));
-        desc.environment = image_environment(patchy_sky(), intensity, rotation);
+        desc.environment = image_environment(patchy_sky(), intensity, rotation, tilt());
         let image = shared_renderer().frame(&desc).unwrap();
         let direct = layer(&image, "direct");
         let n = direct.data.len() / direct.channels.len();
         let mean = (0..n).map(|i| rgb(direct, i)).sum::<Vec3>() / n as f32;
-        let e = table.irradiance(refrakt::pipeline::env_light::to_table_frame(rotation, normal), 16) * intensity;
+        let turn = Quat::from_rotation_y(rotation) * tilt();
+        let e = table.irradiance(refrakt::pipeline::env_light::to_table_frame(turn, normal), 16) * intensity;
         let expected = e * 0.5 / PI;
         println!("plane facing {normal}: {mean} vs {expected}");
         for c in 0..3 {
@@ -149,7 +157,7 @@ fn an_hdri_sun_throws_the_caustic_and_shadow_of_a_sun_light() {
     let radiance = 40.0;
     let sky = EnvImage::from_fn(1024, 512, |d| if d.dot(sun_table) >= half_angle.cos() { Vec3::splat(radiance) } else { Vec3::ZERO });
     let table = EnvLightTable::of_image(&sky);
-    let toward_sun = from_table_frame(rotation, sun_table);
+    let toward_sun = from_table_frame(Quat::from_rotation_y(rotation) * tilt(), sun_table);
     // The irradiance the image's sun gives a plane facing it: the sun light's (lux = W/m² · 683).
     let e_sun = table.irradiance(sun_table, 2).x;
     let scene = |light: &str| ball_over_floor(800_000, 2, light);
@@ -161,7 +169,7 @@ fn an_hdri_sun_throws_the_caustic_and_shadow_of_a_sun_light() {
         e_sun * 683.0
     ));
     let mut hdri = scene("");
-    hdri.environment = image_environment(sky, 1.0, rotation);
+    hdri.environment = image_environment(sky, 1.0, rotation, tilt());
     let mut r = shared_renderer();
     let with_sun = r.frame(&sun).unwrap();
     let flux_sun = r.photon_stats().expect("photons were traced").caustic[0];
@@ -200,7 +208,7 @@ fn a_dark_environment_changes_nothing() {
     let mut black = frame_from_lua(source);
     black.environment = Environment { source: EnvironmentSource::Color(Vec3::ZERO), ..Environment::default() };
     let mut dark_image = black.clone();
-    dark_image.environment = image_environment(EnvImage { width: 4, height: 2, texels: vec![[0.0, 0.0, 0.0, 1.0]; 8] }, 1.0, 0.0);
+    dark_image.environment = image_environment(EnvImage { width: 4, height: 2, texels: vec![[0.0, 0.0, 0.0, 1.0]; 8] }, 1.0, 0.0, Quat::IDENTITY);
     let mut r = shared_renderer();
     let a = r.frame(&black).unwrap();
     let b = r.frame(&dark_image).unwrap();

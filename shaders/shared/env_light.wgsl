@@ -66,9 +66,7 @@ fn env_luminance(c: vec3<f32>) -> f32 {
 
 // The inverse of env_rotate: the table's frame → world.
 fn env_unrotate(env: EnvParams, r: vec3<f32>) -> vec3<f32> {
-    let c = cos(env.rotation);
-    let s = sin(env.rotation);
-    return vec3<f32>(c * r.x + s * r.z, r.y, -s * r.x + c * r.z);
+    return quat_rotate(env.turn, r);
 }
 
 // A world direction drawn from the environment by two uniform numbers.

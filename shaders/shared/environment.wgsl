@@ -1,19 +1,23 @@
 // The environment seen along a direction. Equirectangular images follow Blender's convention
 // (converted to Y up), so an HDRI lights a refrakt scene as it lights the same scene in Blender:
 // u = 0.5 + atan2(d.z, d.x) / 2π (the image centre looks down +X), v = 0.5 + asin(d.y) / π,
-// image row 0 at the top. `rotation` turns the environment about +Y (radians, counter-clockwise
-// seen from above): what was seen along d is then seen along R_y(rotation)·d.
+// image row 0 at the top. `turn` (a unit quaternion: the scene's rotation about +Y times its
+// tilt) turns the environment: what was seen along d is then seen along turn·d.
 //
 // Needs: #import shared/types.wgsl. The CPU twin is `Environment::radiance_over` in
 // src/scene/environment.rs (and `studio` there for `env_studio`).
 
 const PI: f32 = 3.14159265358979;
 
-// Rotating the environment by +θ is looking it up along the direction turned by −θ.
+// q·v·q⁻¹ for a unit quaternion q = (x, y, z, w): v + 2w(u × v) + 2u × (u × v), u = q.xyz.
+fn quat_rotate(q: vec4<f32>, v: vec3<f32>) -> vec3<f32> {
+    let t = 2.0 * cross(q.xyz, v);
+    return v + q.w * t + cross(q.xyz, t);
+}
+
+// Turning the environment by q is looking it up along the direction turned back by q⁻¹.
 fn env_rotate(env: EnvParams, d: vec3<f32>) -> vec3<f32> {
-    let c = cos(env.rotation);
-    let s = sin(env.rotation);
-    return vec3<f32>(c * d.x - s * d.z, d.y, s * d.x + c * d.z);
+    return quat_rotate(vec4<f32>(-env.turn.xyz, env.turn.w), d);
 }
 
 fn env_uv(env: EnvParams, d: vec3<f32>) -> vec2<f32> {

@@ -34,10 +34,11 @@ struct Camera {
 struct EnvParams {
     color: vec3<f32>,
     intensity: f32,
-    rotation: f32,
+    turn: vec4<f32>,
     kind: u32,
     visible: u32,
     footprint: f32,
+    _pad0: f32,
 }
 
 // EnvParams.kind (src/gpu/types.rs, env_kind).

@@ -12,7 +12,7 @@
 //! range are errors naming the object and key.
 
 use anyhow::{Result, anyhow, bail};
-use glam::{Vec2, Vec3};
+use glam::{Quat, Vec2, Vec3};
 use serde::Deserialize;
 use serde::de::DeserializeOwned;
 
@@ -73,6 +73,9 @@ pub struct EnvironmentExtras {
     pub image: Option<String>,
     /// Degrees about +Y.
     pub rotation: Option<f32>,
+    /// A unit quaternion (x, y, z, w) turning the environment before `rotation` (Blender's
+    /// Mapping node rotated about X or Y).
+    pub tilt: Option<[f32; 4]>,
     /// A built-in environment (refrakt's own addition; the add-on does not write it).
     pub preset: Option<String>,
 }
@@ -122,6 +125,8 @@ pub fn scene_extras(scene: &gltf::Scene, file: &str, warnings: &mut Collector) -
         check(non_negative(e.color), file, &what, "environment.color", "three numbers ≥ 0")?;
         check(e.intensity.is_none_or(|i| i.is_finite() && i >= 0.0), file, &what, "environment.intensity", "a number ≥ 0")?;
         check(e.rotation.is_none_or(f32::is_finite), file, &what, "environment.rotation", "a number of degrees")?;
+        let unit = |q: &[f32; 4]| q.iter().all(|c| c.is_finite()) && (Quat::from_array(*q).length() - 1.0).abs() < 1e-3;
+        check(e.tilt.as_ref().is_none_or(unit), file, &what, "environment.tilt", "a unit quaternion [x, y, z, w]")?;
         let sources = [e.color.is_some(), e.image.is_some(), e.preset.is_some()].iter().filter(|x| **x).count();
         check(sources <= 1, file, &what, "environment", "one of color, image or preset")?;
     }

@@ -334,6 +334,7 @@ fn environment_of(e: &extras::EnvironmentExtras, at: &buffers::Location) -> Resu
     }
     env.intensity = e.intensity.unwrap_or(env.intensity);
     env.rotation = e.rotation.map_or(env.rotation, f32::to_radians);
+    env.tilt = e.tilt.map_or(env.tilt, |q| glam::Quat::from_array(q).normalize());
     env.visible = e.visible.unwrap_or(env.visible);
     Ok(env)
 }

@@ -68,16 +68,17 @@ gpu_struct! {
 
 gpu_struct! {
     /// The environment seen by rays that leave the scene: one of [`env_kind`]'s, scaled by
-    /// `intensity` and turned about +Y by `rotation`.
+    /// `intensity` and turned by the unit quaternion `turn` (x, y, z, w: `Environment::turn`).
     pub struct EnvParams {
         pub color: [f32; 3],
         pub intensity: f32,
-        pub rotation: f32,
+        pub turn: [f32; 4],
         pub kind: u32,
         pub visible: u32,
         /// The angular width (radians) of a camera pixel: the cone a per-ray environment
         /// (the studio preset) is filtered over.
         pub footprint: f32,
+        pub _pad0: f32,
     }
 }
 

@@ -731,7 +731,7 @@ impl LuaObject for Camera {
 // ---------------------------------------------------------------------------------------------
 // Environment.
 
-const ENVIRONMENT_FIELDS: &[&str] = &["color", "image", "preset", "intensity", "rotation", "visible"];
+const ENVIRONMENT_FIELDS: &[&str] = &["color", "image", "preset", "intensity", "rotation", "tilt", "visible"];
 
 impl LuaObject for Environment {
     fn kind(&self) -> &'static str {
@@ -748,6 +748,7 @@ impl LuaObject for Environment {
             ("color" | "image" | "preset", _) => Ok(Value::Nil),
             ("intensity", _) => Ok(number_value(self.intensity)),
             ("rotation", _) => Ok(number_value(self.rotation.to_degrees())),
+            ("tilt", _) => LQuat(self.tilt).into_lua(lua),
             ("visible", _) => Ok(Value::Boolean(self.visible)),
             _ => Err(unknown_field(lua, "environment", key, ENVIRONMENT_FIELDS)),
         }
@@ -769,6 +770,7 @@ impl LuaObject for Environment {
             }
             "intensity" => self.intensity = cv::non_negative(lua, name, &value)?,
             "rotation" => self.rotation = (cv::number(lua, name, &value)? as f32).to_radians(),
+            "tilt" => self.tilt = cv::rotation(lua, name, &value)?,
             "visible" => self.visible = cv::boolean(lua, name, &value)?,
             _ => return Err(unknown_field(lua, "environment", key, ENVIRONMENT_FIELDS)),
         }

@@ -12,7 +12,7 @@
 
 use std::f32::consts::PI;
 
-use glam::{Vec2, Vec3};
+use glam::{Quat, Vec2, Vec3};
 
 use crate::scene::environment::{EnvImage, dir_to_uv};
 use crate::scene::{Environment, EnvironmentSource};
@@ -30,17 +30,15 @@ pub fn luminance(c: Vec3) -> f32 {
     (c.x + c.y + c.z) / 3.0
 }
 
-/// Rotating the environment by +θ about Y is looking it up along the direction turned by −θ
+/// Turning the environment by `turn` is looking it up along the direction turned back
 /// (`env_rotate` in shared/environment.wgsl): world → the table's frame.
-pub fn to_table_frame(rotation: f32, d: Vec3) -> Vec3 {
-    let (s, c) = rotation.sin_cos();
-    Vec3::new(c * d.x - s * d.z, d.y, s * d.x + c * d.z)
+pub fn to_table_frame(turn: Quat, d: Vec3) -> Vec3 {
+    turn.inverse() * d
 }
 
-/// The table's frame → world (the inverse rotation).
-pub fn from_table_frame(rotation: f32, r: Vec3) -> Vec3 {
-    let (s, c) = rotation.sin_cos();
-    Vec3::new(c * r.x + s * r.z, r.y, -s * r.x + c * r.z)
+/// The table's frame → world (`env_unrotate`).
+pub fn from_table_frame(turn: Quat, r: Vec3) -> Vec3 {
+    turn * r
 }
 
 /// What the table is multiplied by on the GPU: the environment's colour (a colour
@@ -315,6 +313,7 @@ mod tests {
     #[test]
     fn rotation_round_trips() {
         let d = Vec3::new(0.3, 0.5, -0.8).normalize();
-        assert!((from_table_frame(0.7, to_table_frame(0.7, d)) - d).length() < 1e-6);
+        let turn = Quat::from_rotation_y(0.7) * Quat::from_rotation_x(0.3);
+        assert!((from_table_frame(turn, to_table_frame(turn, d)) - d).length() < 1e-6);
     }
 }

@@ -49,7 +49,7 @@ pub struct PhotonKey {
     lights: Vec<LightDesc>,
     /// The environment as a light: which image (by identity: images are shared, never
     /// mutated), its colour × intensity and its turn.
-    environment: (ImageIdentity, [f32; 3], f32),
+    environment: (ImageIdentity, [f32; 3], [f32; 4]),
     receivers: Vec<Receiver>,
     photons: u32,
     bounces: (u32, u32),
@@ -63,7 +63,7 @@ impl PhotonKey {
             lights: desc.lights.iter().map(|l| LightDesc { name: String::new(), ..l.clone() }).collect(),
             environment: {
                 let env = &desc.environment;
-                (ImageIdentity(env.image().cloned()), super::env_light::scale(env).into(), env.rotation)
+                (ImageIdentity(env.image().cloned()), super::env_light::scale(env).into(), env.turn().to_array())
             },
             receivers: desc.receivers.iter().map(|r| Receiver { name: String::new(), ..r.clone() }).collect(),
             photons: desc.photons,

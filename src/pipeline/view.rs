@@ -107,7 +107,7 @@ pub fn env_params(desc: &FrameDesc) -> EnvParams {
         _ if env.evaluated_per_ray() => (glam::Vec3::ONE, env_kind::STUDIO),
         _ => (glam::Vec3::ONE, env_kind::IMAGE),
     };
-    EnvParams { color: color.into(), intensity: env.intensity, rotation: env.rotation, kind, visible: env.visible as u32, footprint: desc.camera.pixel_angle() }
+    EnvParams { color: color.into(), intensity: env.intensity, turn: env.turn().to_array(), kind, visible: env.visible as u32, footprint: desc.camera.pixel_angle(), _pad0: 0.0 }
 }
 
 /// Shadow-ray pairs toward the environment per receiver hit and camera sample

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, OnceLock};
 
 use anyhow::{Context, Result, bail};
-use glam::{Vec2, Vec3};
+use glam::{Quat, Vec2, Vec3};
 
 use super::image_header;
 
@@ -101,13 +101,16 @@ pub struct Environment {
     pub intensity: f32,
     /// Turn about +Y, radians (counter-clockwise seen from above).
     pub rotation: f32,
+    /// A turn before `rotation` that tilts the environment's horizon (Blender's Mapping node
+    /// rotated about X or Y): what was seen along d is seen along `turn()`·d.
+    pub tilt: Quat,
     /// Whether camera rays that meet no medium see it (false: transparent film).
     pub visible: bool,
 }
 
 impl Default for Environment {
     fn default() -> Self {
-        Self { source: EnvironmentSource::Color(Vec3::splat(0.05)), intensity: 1.0, rotation: 0.0, visible: true }
+        Self { source: EnvironmentSource::Color(Vec3::splat(0.05)), intensity: 1.0, rotation: 0.0, tilt: Quat::IDENTITY, visible: true }
     }
 }
 
@@ -125,6 +128,12 @@ impl Environment {
         matches!(&self.source, EnvironmentSource::Preset { name, .. } if name == "studio")
     }
 
+    /// The environment's whole turn, R_y(rotation) · tilt: what was seen along d (in the image's
+    /// own frame) is seen along turn·d.
+    pub fn turn(&self) -> Quat {
+        Quat::from_rotation_y(self.rotation) * self.tilt
+    }
+
     /// Radiance seen along unit direction `d`, as a point.
     pub fn radiance(&self, d: Vec3) -> Vec3 {
         self.radiance_over(d, 0.0)
@@ -133,8 +142,7 @@ impl Environment {
     /// Radiance seen along unit direction `d` by a cone `footprint` radians wide (a camera
     /// pixel's) — the CPU twin of `env_radiance` in WGSL.
     pub fn radiance_over(&self, d: Vec3, footprint: f32) -> Vec3 {
-        let (s, c) = self.rotation.sin_cos();
-        let r = Vec3::new(c * d.x - s * d.z, d.y, s * d.x + c * d.z);
+        let r = self.turn().inverse() * d;
         match &self.source {
             EnvironmentSource::Color(col) => *col * self.intensity,
             _ if self.evaluated_per_ray() => studio(r, footprint) * self.intensity,
@@ -439,11 +447,32 @@ mod tests {
             source: EnvironmentSource::Preset { name: "checker".into(), image: img.clone() },
             intensity: 1.0,
             rotation,
+            tilt: Quat::IDENTITY,
             visible: true,
         };
         // What was seen along +X is seen along R_y(90°)·X = −Z after turning by 90°.
         let before = env(0.0).radiance(Vec3::new(1.0, 0.3, 0.05).normalize());
         let after = env(PI / 2.0).radiance(Vec3::new(0.05, 0.3, -1.0).normalize());
         assert!((before - after).length() < 1e-3, "{before} vs {after}");
+    }
+
+    #[test]
+    fn tilt_turns_the_environment_before_its_rotation() {
+        // An image whose colour is the direction it is seen along, (d + 1)/2.
+        let image = Arc::new(EnvImage::from_fn(256, 128, |d| (d + Vec3::ONE) / 2.0));
+        let env = |rotation: f32, tilt: Quat| Environment {
+            source: EnvironmentSource::Image { path: "d.exr".into(), image: image.clone() },
+            rotation,
+            tilt,
+            ..Default::default()
+        };
+        let seen = |env: &Environment, d: Vec3| env.radiance(d.normalize()) * 2.0 - Vec3::ONE;
+        // Tilted 90° about X, the zenith is seen along R_x(90°)·Y = +Z.
+        let tilted = env(0.0, Quat::from_rotation_x(PI / 2.0));
+        assert!((seen(&tilted, Vec3::Z) - Vec3::Y).length() < 0.02, "{}", seen(&tilted, Vec3::Z));
+        // Then turned 90° about Y: along R_y(90°)·Z = +X.
+        let both = env(PI / 2.0, Quat::from_rotation_x(PI / 2.0));
+        assert!((seen(&both, Vec3::X) - Vec3::Y).length() < 0.02, "{}", seen(&both, Vec3::X));
+        assert_eq!(both.turn(), Quat::from_rotation_y(PI / 2.0) * Quat::from_rotation_x(PI / 2.0));
     }
 }

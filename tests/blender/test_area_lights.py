@@ -327,3 +327,40 @@ def test_lights_the_camera_sees_match_cycles(kind, addon, real_refrakt, saved_bl
     print(f"\n{kind} seen by the camera: Cycles {cycles:.4f}, refrakt {ours:.4f}, closed form {expected:.4f}")
     assert cycles == pytest.approx(expected, rel=0.01, abs=1e-6)
     assert ours == pytest.approx(expected, rel=0.01, abs=1e-6)
+
+
+def smooth_sky(path, width=64, height=32):
+    """An equirectangular image whose colour runs smoothly round the horizon (red and blue as the
+    cosine and sine of the azimuth) and from bottom to top (green), written as a float EXR of
+    linear values (Blender's `Image.save` would write them through the view transform) and
+    loaded."""
+    import exr_writer
+
+    u = (np.arange(width) + 0.5) / width
+    v = 1.0 - (np.arange(height) + 0.5) / height  # rows top first
+    uu, vv = np.meshgrid(u, v)
+    planes = {"R": 0.5 + 0.5 * np.cos(2 * np.pi * uu), "G": vv, "B": 0.5 + 0.5 * np.sin(2 * np.pi * uu)}
+    exr_writer.write(str(path), width, height, {c: p.ravel().tolist() for c, p in planes.items()})
+    return bpy.data.images.load(str(path))
+
+
+@pytest.mark.parametrize(("vector_type", "turn"), [("POINT", (0, 0, 90)), ("POINT", (30, -20, 90)), ("TEXTURE", (30, -20, 90))])
+def test_a_turned_and_tilted_environment_is_seen_as_in_cycles(vector_type, turn, addon, real_refrakt, saved_blend, tmp_path):
+    """A World whose Environment Texture is turned by a Mapping node (about Z: the environment's
+    `rotation`; about all three axes: its `tilt` as well) looks the same to a camera in Cycles and
+    in refrakt through the engine: the mean absolute difference of the pixels within 1 % of their
+    mean (measured 0.1 %; with the tilt left out, 8–59 %)."""
+    scene = wide_camera_scene((0.0, 0.0, 0.0), (math.radians(70.0), 0.0, math.radians(30.0)))
+    nodes, links = scene.world.node_tree.nodes, scene.world.node_tree.links
+    texture = nodes.new("ShaderNodeTexEnvironment")
+    texture.image = smooth_sky(tmp_path / "sky.exr")
+    mapping = nodes.new("ShaderNodeMapping")
+    mapping.vector_type = vector_type
+    mapping.inputs["Rotation"].default_value = tuple(math.radians(a) for a in turn)
+    links.new(nodes.new("ShaderNodeTexCoord").outputs["Generated"], mapping.inputs["Vector"])  # as Ctrl+T wires it
+    links.new(mapping.outputs[0], texture.inputs["Vector"])
+    links.new(texture.outputs["Color"], nodes["Background"].inputs["Color"])
+    cycles, ours = render_both(scene, tmp_path, saved_blend, real_refrakt, 16)
+    difference = float(np.abs(ours - cycles).mean() / cycles.mean())
+    print(f"\n{vector_type} mapping turned {turn}: mean |refrakt − Cycles| / mean {difference:.4f}")
+    assert difference < 0.01

@@ -11,10 +11,7 @@
 //! the view differed from its reference by at most 0.0028, in the preset's re-made texels; and
 //! once more when the camera's image became a window on the image plane (lens shift, regions:
 //! `CameraDesc::image_window`), which rounds the camera rays' directions differently in their last
-//! bits — 1232 of 3840 values moved, by at most 0.0026, at the glass's silhouettes; and once more
-//! when no volume side could be a power of two any more (`scene::eval::off_powers_of_two`: the
-//! view scene's resolution 32 became 33 finer voxels along the box's longest side, so the lens's
-//! index is sampled at other points — 567 values moved, by up to 1.18 at the lens's edge), so a
+//! bits — 1232 of 3840 values moved, by at most 0.0026, at the glass's silhouettes), so a
 //! change that alters the non-dispersive path — a spectral photon, a wavelength-dependent index where none was asked
 //! for — fails here bit for bit.
 //!

@@ -188,16 +188,16 @@ fn glass_ball_caustic_is_brightest_at_the_paraxial_focus() {
     let peaks: Vec<f32> = distances.iter().map(|&d| floor_peak(60_000, d)).collect();
     eprintln!("peak caustic irradiance at {distances:?} m below the centre: {peaks:?} W/m²");
     assert!(peaks[1] > peaks[0] && peaks[1] > peaks[2], "the floor at the paraxial focus must see the brightest caustic");
-    // With more photons the peak settles to a stable value. (Measured on the sharp sphere: 764,
-    // 860, 817, 815, 804 W/m² for 300 … 76 800 photons at 65 voxels a side — the density-adaptive
-    // footprint shrinks to one texel at the focus early, so 4800 photons resolve it to within
-    // 2 %; at 64 voxels, before a side could not be a power of two: 602, 731, 718, 734, 729.)
+    // With more photons the peak settles to a stable value. (Measured on the sharp sphere: 602,
+    // 731, 718, 734, 729 W/m² for 300 … 76 800 photons — the density-adaptive footprint shrinks
+    // to one texel at the focus early, so 1200 photons resolve it to within 2 %; 300 photons,
+    // of which Fresnel reflects some away, see a focus 17 % dim.)
     let counts = [300u32, 1_200, 4_800, 19_200, 76_800];
     let at_focus: Vec<f32> = counts.iter().map(|&n| floor_peak(n, f)).collect();
     eprintln!("peak at the focus with {counts:?} photons: {at_focus:?} W/m²");
     let last = at_focus[4];
     let spread: Vec<f32> = at_focus.iter().map(|p| (p - last).abs() / last).collect();
-    assert!(spread[0] < 0.25 && spread[2] < 0.025 && spread[3] < 0.015, "the peak should converge: {spread:?}");
+    assert!(spread[0] < 0.25 && spread[2] < 0.025 && spread[3] < 0.012, "the peak should converge: {spread:?}");
     assert!(spread[3] < spread[0], "and get closer with more photons: {spread:?}");
 }
 

@@ -28,6 +28,7 @@ pub mod voxelize;
 pub mod voxelize_mesh;
 
 use anyhow::{Result, bail};
+use glam::UVec3;
 
 use crate::frame::{FrameDesc, LightDesc};
 use crate::gpu::GpuContext;
@@ -435,7 +436,7 @@ impl Renderer {
         };
         let new_triangles = if self.glowing.changed { &self.glowing.built.triangles[..] } else { &[] };
         self.lights.update(&self.ctx, &all_lights, new_triangles, &media, &desc.volume, env, reach, desc.traces_bounces());
-        let radiance_dims = if self.deposits(desc) { desc.volume.dims } else { resources::NO_FOG_DIMS };
+        let radiance_dims = if self.deposits(desc) { desc.volume.dims } else { UVec3::ONE };
         if self.radiance.as_ref().is_none_or(|r| r.dims != radiance_dims) {
             self.radiance = Some(RadianceGrid::new(&self.ctx, radiance_dims)?);
         }

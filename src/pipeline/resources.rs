@@ -37,11 +37,6 @@ fn allocating<T>(ctx: &GpuContext, what: &str, f: impl FnOnce() -> T) -> Result<
 /// The format of every filtered 3D grid: see `shaders/gradient.wgsl` for why 16-bit floats.
 pub const GRID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
-/// The radiance grids' sides in a frame without fog deposits (they are bound, never read):
-/// not powers of two, like a volume's (`scene::eval::off_powers_of_two`), so the stages that
-/// bind them are the same shader variant for lavapipe with fog or without.
-pub const NO_FOG_DIMS: UVec3 = UVec3::splat(3);
-
 /// One filterable 3D grid that compute stages write and later stages sample.
 pub struct Grid3d {
     pub texture: wgpu::Texture,

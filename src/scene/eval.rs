@@ -367,8 +367,6 @@ pub(super) fn world_bounds(m: &Mat4, h: Vec3) -> (Vec3, Vec3) {
 /// The volume box: fixed by the script, or fitted around the refractive objects with the
 /// margin plus enough voxels of air for the smooth boundary and the gradient stencil.
 fn fit_volume(objects: &[(Vec3, Vec3, Option<f32>)], s: &super::VolumeSettings, resolution: u32) -> Result<VolumeDesc> {
-    // Voxels along the longest side: the resolution, or one more (a finer voxel, the same box).
-    let resolution = off_powers_of_two(resolution);
     let max_boundary = objects.iter().filter_map(|o| o.2).fold(s.boundary, f32::max);
     let (lo, hi) = match s.bounds {
         Some((lo, hi)) => {
@@ -396,21 +394,10 @@ fn fit_volume(objects: &[(Vec3, Vec3, Option<f32>)], s: &super::VolumeSettings, 
     if !(voxel_size.is_finite() && voxel_size > 0.0) {
         bail!("the volume box {lo} → {hi} is degenerate");
     }
-    let dims = UVec3::from((extent / voxel_size).ceil().as_uvec3().max(UVec3::splat(4)).to_array().map(off_powers_of_two));
+    let dims = (extent / voxel_size).ceil().as_uvec3().max(UVec3::splat(4));
     // Centre the voxel grid on the box (rounding up may add a fraction of a voxel).
     let min = 0.5 * (lo + hi) - 0.5 * dims.as_vec3() * voxel_size;
     Ok(VolumeDesc { min, voxel_size, dims, step: s.step * voxel_size, contact: s.contact })
-}
-
-/// A side of `n` voxels, or one more where `n` is a power of two. Mesa's software Vulkan driver
-/// (lavapipe) compiles a shader anew — a minute for the view stage — for each combination of
-/// power-of-two sides among the textures it samples; volumes whose sides never are one (nor are
-/// the stand-in grids of `pipeline::resources::NO_FOG_DIMS`) compile each stage once. Along the
-/// longest side the voxels get finer, so the box stays the box (fog fills it exactly); a shorter
-/// side, whose voxel count is already rounded up, grows by up to one voxel around the centred
-/// grid.
-pub fn off_powers_of_two(n: u32) -> u32 {
-    if n.is_power_of_two() { n + 1 } else { n }
 }
 
 /// The nodes that carry a camera, in evaluation order: what `--camera INDEX` counts (and
@@ -478,30 +465,4 @@ fn camera_of(scene: &Scene, placed: &[Placed], opts: &EvalOptions) -> Result<Cam
         region.apply(&mut desc)?;
     }
     Ok(desc)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_volume_side_is_never_a_power_of_two() {
-        // A box given by the script, 128 voxels along its longest side: 129 finer ones, the box
-        // exactly; 96 stays 96.
-        let settings = |lo: Vec3, hi: Vec3| crate::scene::VolumeSettings { bounds: Some((lo, hi)), ..Default::default() };
-        for (resolution, side) in [(128, 129), (96, 96), (32, 33)] {
-            let v = fit_volume(&[], &settings(Vec3::splat(-1.0), Vec3::ONE), resolution).unwrap();
-            assert_eq!(v.dims, UVec3::splat(side), "at {resolution}");
-            assert!((v.min + Vec3::ONE).length() < 1e-5 && (v.max() - Vec3::ONE).length() < 1e-5, "the box: {} {}", v.min, v.max());
-        }
-        // A fitted cube: the grid is centred on it and holds it.
-        let cube = [(Vec3::splat(-0.5), Vec3::splat(0.5), None)];
-        let v = fit_volume(&cube, &Default::default(), 64).unwrap();
-        assert_eq!(v.dims, UVec3::splat(65));
-        assert!((v.min + v.max()).length() < 1e-5 && v.min.cmple(Vec3::splat(-0.5)).all(), "{} {}", v.min, v.max());
-        // A flat box's short sides too (4 voxels at least: 5).
-        let slab = [(Vec3::new(-1.0, -0.001, -1.0), Vec3::new(1.0, 0.001, 1.0), None)];
-        let v = fit_volume(&slab, &Default::default(), 64).unwrap();
-        assert!(v.dims.to_array().iter().all(|d| !d.is_power_of_two()), "{}", v.dims);
-    }
 }

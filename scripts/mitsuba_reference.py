@@ -709,7 +709,7 @@ def rim_view_reference(spp):
 
 
 SPP = {"ball": 16384, "facets": 16384, "bunny": 16384, "hdri": 65536, "white_room": 16384, "resting": 16384, "seen_through": 65536,
-       "rim_view": 65536}
+       "rim_view": 262144}
 
 
 def main():

@@ -313,7 +313,7 @@ fn contact_holds_for_seamed_meshes_floor_meshes_spots_and_rects() {
                 "r.mesh{ vertices = {{-100, 0, -100}, {100, 0, -100}, {100, 0, 100}, {-100, 0, 100}}, triangles = {{1, 3, 2}, {1, 4, 3}} }".to_string()
             };
             let light_node = match light {
-                "sun" => r#"r.node{ name = "sun", light = r.sun{ direction = {0, -1, 0}, intensity = 683, angular_diameter = 0 } }"#.to_string(),
+                "sun" => VERTICAL_SUN.to_string(),
                 "spot" => format!(r#"r.node{{ name = "spot", translation = {{0, {LIGHT_HEIGHT}, 0}}, light = r.spot{{ intensity = {SPOT_CANDELA}, radius = 0, angle = 20, blend = 0, target = {{0, 0, 0}} }} }}"#),
                 _ => format!(r#"r.node{{ name = "rect", translation = {{0, {LIGHT_HEIGHT}, 0}}, light = r.rect{{ size = {{{RECT_SIDE}, {RECT_SIDE}}}, intensity = {RECT_NITS}, target = {{0, 0, 0}} }} }}"#),
             };
@@ -338,6 +338,10 @@ fn contact_holds_for_seamed_meshes_floor_meshes_spots_and_rects() {
         }
     }
 }
+
+/// A sun straight down, 1 W/m² across its beam (683 lux), a point in the sky (Mitsuba's
+/// `directional`).
+const VERTICAL_SUN: &str = r#"r.node{ name = "sun", light = r.sun{ direction = {0, -1, 0}, intensity = 683, angular_diameter = 0 } }"#;
 
 /// The bulb of `scripts/mitsuba_reference.py --only seen_through`: 5 cm across, 2000 cd.
 const THROUGH_BULB: &str = r#"r.node{ name = "bulb", translation = {0.6, 2.2, -0.4}, light = r.point{ intensity = 2000, radius = 0.05 } }"#;
@@ -409,8 +413,7 @@ fn the_floor_seen_through_a_resting_ball_matches_mitsuba() {
 fn the_floor_under_the_rim_of_a_resting_ball_matches_mitsuba_pixel_by_pixel() {
     let n = 64usize;
     let (exact, compared) = masked_reference("rim_view", n);
-    let sun = r#"r.node{ name = "sun", light = r.sun{ direction = {0, -1, 0}, intensity = 683, angular_diameter = 0 } }"#;
-    let image = shared_renderer().frame(&resting_ball_from_45("r.sphere{ radius = 0.5 }", "r.plane{ size = {6, 6} }", sun)).unwrap();
+    let image = shared_renderer().frame(&resting_ball_from_45("r.sphere{ radius = 0.5 }", "r.plane{ size = {6, 6} }", VERTICAL_SUN)).unwrap();
     let got: Vec<f32> = image.layer("beauty").expect("beauty").data.chunks(4).map(|p| (p[0] + p[1] + p[2]) / 3.0).collect();
     let pixels: Vec<usize> = (0..n * n).filter(|&i| compared[i]).collect();
     let sum = |img: &[f32]| pixels.iter().map(|&i| img[i] as f64).sum::<f64>();

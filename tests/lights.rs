@@ -117,8 +117,7 @@ fn an_open_plane_under_an_image_gets_its_irradiance_exactly() {
         let direct = layer(&image, "direct");
         let n = direct.data.len() / direct.channels.len();
         let mean = (0..n).map(|i| rgb(direct, i)).sum::<Vec3>() / n as f32;
-        let turn = Quat::from_rotation_y(rotation) * tilt();
-        let e = table.irradiance(refrakt::pipeline::env_light::to_table_frame(turn, normal), 16) * intensity;
+        let e = table.irradiance(refrakt::pipeline::env_light::to_table_frame(desc.environment.turn(), normal), 16) * intensity;
         let expected = e * 0.5 / PI;
         println!("plane facing {normal}: {mean} vs {expected}");
         for c in 0..3 {
@@ -157,7 +156,8 @@ fn an_hdri_sun_throws_the_caustic_and_shadow_of_a_sun_light() {
     let radiance = 40.0;
     let sky = EnvImage::from_fn(1024, 512, |d| if d.dot(sun_table) >= half_angle.cos() { Vec3::splat(radiance) } else { Vec3::ZERO });
     let table = EnvLightTable::of_image(&sky);
-    let toward_sun = from_table_frame(Quat::from_rotation_y(rotation) * tilt(), sun_table);
+    let environment = image_environment(sky, 1.0, rotation, tilt());
+    let toward_sun = from_table_frame(environment.turn(), sun_table);
     // The irradiance the image's sun gives a plane facing it: the sun light's (lux = W/m² · 683).
     let e_sun = table.irradiance(sun_table, 2).x;
     let scene = |light: &str| ball_over_floor(800_000, 2, light);
@@ -169,7 +169,7 @@ fn an_hdri_sun_throws_the_caustic_and_shadow_of_a_sun_light() {
         e_sun * 683.0
     ));
     let mut hdri = scene("");
-    hdri.environment = image_environment(sky, 1.0, rotation, tilt());
+    hdri.environment = environment;
     let mut r = shared_renderer();
     let with_sun = r.frame(&sun).unwrap();
     let flux_sun = r.photon_stats().expect("photons were traced").caustic[0];

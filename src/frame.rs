@@ -218,10 +218,28 @@ impl VolumeDesc {
             voxel_size: self.voxel_size,
             dims: self.dims.into(),
             voxel_count: self.voxel_count().min(u32::MAX as u64) as u32,
-            inv_extent: (1.0 / (self.dims.as_vec3() * self.voxel_size)).into(),
+            inv_extent: (1.0 / (texture_dims(self.dims).as_vec3() * self.voxel_size)).into(),
             _pad0: 0.0,
         }
     }
+}
+
+/// The sides of the 3D texture that holds a grid of `dims` voxels: each side that is a power of
+/// two gets texels more (1 → 3, 2 → 3, 128 → 129), never read (`grid_uvw` in
+/// `shaders/shared/grid.wgsl` holds lookups inside the grid's own voxels).
+///
+/// Why: Mesa's llvmpipe compiles a shader variant per combination of its sampled textures'
+/// sides being powers of two or not (`lp_sampler_static_texture_state`: `pot_width`, …), ~70 s
+/// each for the view and march stages on two cores. With no side a power of two, every volume
+/// and the fog's radiance grids share one variant. On other GPUs it costs a few texels.
+pub fn texture_dims(dims: UVec3) -> UVec3 {
+    let side = |mut s: u32| {
+        while s.is_power_of_two() {
+            s += 1;
+        }
+        s
+    };
+    UVec3::new(side(dims.x), side(dims.y), side(dims.z))
 }
 
 /// Kinds of index field.
@@ -702,5 +720,15 @@ mod tests {
         }
         let pinhole_camera = CameraDesc { aperture: 0.0, ..camera };
         assert_eq!(pinhole_camera.lens_ray_through(pixel, Vec2::new(0.05, 0.0)), (camera.position, pinhole));
+    }
+
+    #[test]
+    fn a_grid_texture_has_no_side_a_power_of_two_and_holds_its_voxels() {
+        assert_eq!(texture_dims(UVec3::new(1, 2, 4)), UVec3::new(3, 3, 5));
+        assert_eq!(texture_dims(UVec3::new(128, 127, 96)), UVec3::new(129, 127, 96));
+        for side in 1..=2048u32 {
+            let t = texture_dims(UVec3::splat(side)).x;
+            assert!(!t.is_power_of_two() && t >= side && t <= side + 2, "{side} -> {t}");
+        }
     }
 }

@@ -31,7 +31,7 @@ fn fog_box(sigma: f32, resolution: u32, photons: u32, floor_gap: f32) -> String 
 /// layer last, in W/m².
 fn fluence_by_layer(r: &refrakt::pipeline::Renderer, dims: UVec3) -> Vec<f32> {
     let rad = r.radiance().expect("fog keeps a radiance grid");
-    let bytes = refrakt::gpu::readback::read_texture_3d(&r.ctx, &rad.fluence.texture, 8).unwrap();
+    let bytes = rad.fluence.read(&r.ctx).unwrap();
     let halves: &[half::f16] = bytemuck::cast_slice(&bytes);
     let inner = |i: u32, n: u32| i >= n / 4 && i < n - n / 4;
     (0..dims.y)

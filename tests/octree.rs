@@ -50,7 +50,7 @@ fn build(source: &str) -> Volume {
     renderer.build_volume(&desc).unwrap();
     let grids = renderer.grids().unwrap();
     let n: Vec<f32> = bytemuck::cast_slice(&readback::read_buffer(&renderer.ctx, &grids.index_field).unwrap()).to_vec();
-    let ext = readback::read_texture_3d(&renderer.ctx, &grids.extinction_grid.texture, 8).unwrap();
+    let ext = grids.extinction_grid.read(&renderer.ctx).unwrap();
     let halves: &[half::f16] = bytemuck::cast_slice(&ext);
     let sigma = halves.chunks(4).map(|c| c[0].to_f32().max(c[1].to_f32()).max(c[2].to_f32())).collect();
     let sharp = halves.chunks(4).map(|c| c[3].to_f32()).collect();

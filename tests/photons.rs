@@ -74,7 +74,7 @@ fn luneburg_under_the_sun_focuses_on_the_far_pole() {
         r.settings.always_deposit = true;
         r.frame(&desc).unwrap();
         let rad = r.radiance().unwrap();
-        let bytes = refrakt::gpu::readback::read_texture_3d(&r.ctx, &rad.fluence.texture, 8).unwrap();
+        let bytes = rad.fluence.read(&r.ctx).unwrap();
         let halves: &[half::f16] = bytemuck::cast_slice(&bytes);
         let (mut best, mut at) = (0.0f32, 0usize);
         for (i, t) in halves.chunks(4).enumerate() {

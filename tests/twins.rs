@@ -40,7 +40,7 @@ fn voxelize_matches_cpu_rasterization() {
 }
 
 fn read_ior_grid(r: &refrakt::pipeline::Renderer) -> Vec<[f32; 4]> {
-    let bytes = readback::read_texture_3d(&r.ctx, &r.grids().unwrap().ior_grid.texture, 8).unwrap();
+    let bytes = r.grids().unwrap().ior_grid.read(&r.ctx).unwrap();
     let halves: &[half::f16] = bytemuck::cast_slice(&bytes);
     halves.chunks(4).map(|c| [c[0].to_f32(), c[1].to_f32(), c[2].to_f32(), c[3].to_f32()]).collect()
 }

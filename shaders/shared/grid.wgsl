@@ -1,8 +1,12 @@
 // The voxel grid: world ↔ texture coordinates, the box test, and filtered lookups of the
 // index-of-refraction grid. Outside the box the medium is air: n = 1, ∇n = 0.
 
+// Texture coordinates of x. The texture has a few texels more than the grid (frame.rs's
+// texture_dims: no side a power of two, for lavapipe's sake), so x is held at most at the last
+// voxel's centre: beyond it the sample is that voxel's value, as clamp-to-edge gives it.
 fn grid_uvw(grid: GridParams, x: vec3<f32>) -> vec3<f32> {
-    return (x - grid.origin) * grid.inv_extent;
+    let last_centre = (vec3<f32>(grid.dims) - 0.5) * grid.voxel_size;
+    return min(x - grid.origin, last_centre) * grid.inv_extent;
 }
 
 fn grid_box_max(grid: GridParams) -> vec3<f32> {
@@ -10,8 +14,7 @@ fn grid_box_max(grid: GridParams) -> vec3<f32> {
 }
 
 fn in_grid(grid: GridParams, x: vec3<f32>) -> bool {
-    let uvw = grid_uvw(grid, x);
-    return all(uvw >= vec3<f32>(0.0)) && all(uvw <= vec3<f32>(1.0));
+    return all(x >= grid.origin) && all(x <= grid_box_max(grid));
 }
 
 // Slab test: the parameter interval [t_near, t_far] where origin + t·dir is inside the box

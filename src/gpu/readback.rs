@@ -96,9 +96,10 @@ pub fn read_buffer(ctx: &GpuContext, src: &wgpu::Buffer) -> Result<Vec<u8>> {
     staging.read(ctx, src.size())
 }
 
-/// Reads a whole 3D texture of `bytes_per_texel` into tightly packed rows.
-pub fn read_texture_3d(ctx: &GpuContext, tex: &wgpu::Texture, bytes_per_texel: u32) -> Result<Vec<u8>> {
-    let size = tex.size();
+/// Reads the `extent` texels at a 3D texture's origin, `bytes_per_texel` each, into tightly
+/// packed rows.
+pub fn read_texture_3d(ctx: &GpuContext, tex: &wgpu::Texture, extent: glam::UVec3, bytes_per_texel: u32) -> Result<Vec<u8>> {
+    let size = wgpu::Extent3d { width: extent.x, height: extent.y, depth_or_array_layers: extent.z };
     let row = size.width * bytes_per_texel;
     let padded = row.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
     let total = padded as u64 * size.height as u64 * size.depth_or_array_layers as u64;

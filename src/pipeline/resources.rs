@@ -37,17 +37,20 @@ fn allocating<T>(ctx: &GpuContext, what: &str, f: impl FnOnce() -> T) -> Result<
 /// The format of every filtered 3D grid: see `shaders/gradient.wgsl` for why 16-bit floats.
 pub const GRID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
-/// One filterable 3D grid that compute stages write and later stages sample.
+/// One filterable 3D grid that compute stages write and later stages sample: `dims` voxels in
+/// a texture a little larger (`frame::texture_dims`).
 pub struct Grid3d {
+    pub dims: UVec3,
     pub texture: wgpu::Texture,
     pub view: wgpu::TextureView,
 }
 
 impl Grid3d {
     fn new(device: &wgpu::Device, dims: UVec3, label: &str) -> Self {
+        let size = crate::frame::texture_dims(dims);
         let texture = device.create_texture(&wgpu::TextureDescriptor {
             label: Some(label),
-            size: wgpu::Extent3d { width: dims.x, height: dims.y, depth_or_array_layers: dims.z },
+            size: wgpu::Extent3d { width: size.x, height: size.y, depth_or_array_layers: size.z },
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D3,
@@ -56,7 +59,13 @@ impl Grid3d {
             view_formats: &[],
         });
         let view = texture.create_view(&Default::default());
-        Self { texture, view }
+        Self { dims, texture, view }
+    }
+
+    /// The grid's voxels (not the texture's spare texels), 8 bytes each, x fastest (test and
+    /// diagnostic use).
+    pub fn read(&self, ctx: &GpuContext) -> Result<Vec<u8>> {
+        crate::gpu::readback::read_texture_3d(ctx, &self.texture, self.dims, 8)
     }
 }
 

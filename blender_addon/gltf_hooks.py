@@ -42,6 +42,16 @@ def _set_refrakt_extras(target, value):
     target.extras = current or None
 
 
+def _principled_base_shows(gltf2_material):
+    """Whether an exported transmissive material's base colour colours more than its glass: a
+    diffuse base (transmission below 1, or a transmission texture) or metal."""
+    pbr = gltf2_material.pbr_metallic_roughness
+    transmission = gltf2_material.extensions["KHR_materials_transmission"].extension
+    partly = transmission.get("transmissionFactor", 0.0) < 1.0 or transmission.get("transmissionTexture") is not None
+    metal = (pbr.metallic_factor if pbr.metallic_factor is not None else 1.0) > 0.0
+    return partly or metal
+
+
 def _has(ext, name):
     # The exporter leaves extensions it found nothing for as empty ones (dropped on writing).
     return name in ext and ext[name] is not None and bool(ext[name].extension)
@@ -134,16 +144,27 @@ class RefraktGltfExtension:
         """Cycles' Principled glass tints the light it passes by √(Base Color) at each surface, so
         light through a solid comes out tinted by the Base Color once (the Glass BSDF's Color
         tints at each surface in full); refrakt's tint, glTF's base colour, is the fraction passed
-        at each surface: the exporter's factor becomes its square root. A Base Color texture
-        cannot be so taken: it is warned of."""
+        at each surface. All glass: the exporter's factor becomes its square root. Where the Base
+        Color also colours a diffuse base (Transmission below 1) or metal (Metallic above 0), in
+        full, the factor stays and the root goes to `extras.refrakt.tint`, which refrakt reads as
+        the tint alone (`Glass::base_color`). A Base Color texture cannot be so taken: it is
+        warned of."""
         pbr = gltf2_material.pbr_metallic_roughness
         if pbr is None:
             return
         if pbr.base_color_texture is not None:
             warnings.add(f"Material '{blender_material.name}': a Base Color texture on Principled glass tints refrakt's "
                          "glass by the texture at each surface, where Cycles tints by its square root (a deeper colour)")
-        if pbr.base_color_factor is not None:
-            pbr.base_color_factor = [math.sqrt(max(c, 0.0)) for c in pbr.base_color_factor[:3]] + list(pbr.base_color_factor[3:])
+        factor = pbr.base_color_factor if pbr.base_color_factor is not None else [1.0, 1.0, 1.0, 1.0]
+        root = [math.sqrt(max(c, 0.0)) for c in factor[:3]]
+        if root == list(factor[:3]):
+            return
+        if _principled_base_shows(gltf2_material):
+            refrakt = dict((gltf2_material.extras or {}).get("refrakt") or {})
+            refrakt["tint"] = root
+            _set_refrakt_extras(gltf2_material, refrakt)
+        else:
+            pbr.base_color_factor = root + list(factor[3:])
 
     def _add(self, ext, name, data):
         ext[name] = self.Extension(name, data, False)

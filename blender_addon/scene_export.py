@@ -152,8 +152,12 @@ def _light_channel_fix(light, prop):
 
 def _is_principled_glass(material):
     """Whether an exported material is glass made with the Principled BSDF (transmission), whose
-    base colour the still export takes the square root of (`gltf_hooks`, `_principled_tint`)."""
+    base colour the still export takes the square root of (`gltf_hooks`, `_principled_tint`;
+    not where the base colour also colours a diffuse base or metal and the root is the extras'
+    tint)."""
     if "KHR_materials_transmission" not in (material.get("extensions") or {}):
+        return False
+    if "tint" in ((material.get("extras") or {}).get("refrakt") or {}):
         return False
     blender_material = bpy.data.materials.get(material.get("name", ""))
     return blender_material is not None and extras.glass_surface(blender_material) is None

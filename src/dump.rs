@@ -124,7 +124,8 @@ fn material_json(m: &Material) -> Value {
                                       "multiscatter": g.multiscatter, "emission": vec3(g.emission), "emission_strength": g.emission_strength, "emission_texture": size(&g.emission_texture),
                                       "normal_texture": size(&g.normal_texture), "normal_scale": g.normal_scale,
                                       "transmission": g.transmission, "transmission_texture": size(&g.transmission_texture),
-                                      "alpha": g.alpha, "alpha_mode": g.alpha_mode.name(), "alpha_cutoff": g.alpha_cutoff, "metallic": g.metallic }),
+                                      "alpha": g.alpha, "alpha_mode": g.alpha_mode.name(), "alpha_cutoff": g.alpha_cutoff, "metallic": g.metallic,
+                                      "base_color": vec3(g.base()) }),
         Material::Diffuse(d) => {
             json!({ "kind": "diffuse", "color": vec3(d.color), "texture": size(&d.texture),
                     "metallic": d.metallic, "roughness": d.roughness, "specular": d.specular,

@@ -600,7 +600,9 @@ fn a_material_variant_gives_each_primitive_the_material_it_maps() {
 /// KHR_materials_specular (its emission, which lights the scene as a glowing mesh's, its normal
 /// map, which bends its crossings, its transmission factor and texture, which split the light
 /// between the glass and its diffuse base, and its alpha, which cuts a sheet, are no longer
-/// among them: the dump shows them read; alpha on a solid is said at render).
+/// among them: the dump shows them read; alpha on a solid is said at render). Its
+/// `extras.refrakt.tint` (what the add-on writes for a Principled BSDF's glass with a diffuse
+/// base) is the tint, and the base colour stays the base's.
 #[test]
 fn glass_textures_refrakt_does_not_read_are_said() {
     let mut g = GltfBuilder::new();
@@ -613,7 +615,8 @@ fn glass_textures_refrakt_does_not_read_are_said() {
         g.uses(ext, false);
     }
     let glass = g.push("materials", json!({ "name": "Etched", "alphaMode": "MASK", "normalTexture": { "index": texture }, "emissiveFactor": [1, 1, 1],
-        "pbrMetallicRoughness": { "metallicFactor": 0.0 },
+        "pbrMetallicRoughness": { "metallicFactor": 0.0, "baseColorFactor": [0.25, 0.5625, 1.0, 1.0] },
+        "extras": { "refrakt": { "tint": [0.5, 0.75, 1.0] } },
         "extensions": { "KHR_materials_transmission": { "transmissionFactor": 0.75, "transmissionTexture": { "index": texture } },
                         "KHR_materials_specular": { "specularFactor": 0.5 } } }));
     let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
@@ -636,7 +639,8 @@ fn glass_textures_refrakt_does_not_read_are_said() {
     assert_eq!(doc["materials"][0]["transmission"], json!(0.75));
     assert_eq!(doc["materials"][0]["transmission_texture"], json!([1, 1]));
     assert_eq!(doc["materials"][0]["alpha_mode"], json!("MASK"));
-    assert!(w.iter().all(|w| !w.contains("alpha")), "{w:#?}");
+    assert_eq!((&doc["materials"][0]["tint"], &doc["materials"][0]["base_color"]), (&json!([0.5, 0.75, 1.0]), &json!([0.25, 0.5625, 1.0])));
+    assert!(w.iter().all(|w| !w.contains("alpha") && !w.contains("tint")), "{w:#?}");
 }
 
 /// glTF's metallic on a transmissive material is read as the spec says (transmission applies to

@@ -138,21 +138,44 @@ fn pane_over_a_floor(glass: &str, texture: Option<[u8; 4]>) -> Vec3 {
 /// (1 − R)(1 − t)·tint·E/π from the base plus what is seen through it, (1 − R)·t·tint × the floor
 /// beneath, lit through the pane by E (1 − R)·t·tint — in all, π L = (1 − R)(1 − t)·tint +
 /// (1 − R)² t²·tint², R = R_thin(0°), per channel within 1 %. The factor and a texture of the
-/// same value (64/255, its red channel) give the same.
+/// same value (64/255, its red channel) give the same. With the factor, the base has a colour of
+/// its own (`base_color`, a Principled BSDF's Base Color whose glass is tinted by its root): the
+/// base term takes it, the rest the tint.
 #[test]
 fn a_partly_transmissive_pane_shows_its_diffuse_base_and_passes_the_rest() {
     let tint = Vec3::new(1.0, 0.5, 0.25);
     let passed = 1.0 - thin_slab_reflectance(0.0);
-    for (factor, texel) in [(0.25f32, None), (1.0, Some([64u8, 0, 0, 255]))] {
+    let own_base = Vec3::new(0.3, 0.9, 0.6);
+    for (factor, texel, base) in [(0.25f32, None, own_base), (1.0, Some([64u8, 0, 0, 255]), tint)] {
         let texture = texel.map_or("", |_| r#", transmission_texture = "t.png""#);
-        let seen = pane_over_a_floor(&format!("thin = true, tint = {{{}, {}, {}}}, transmission = {factor}{texture}", tint.x, tint.y, tint.z), texel);
+        let base_field = if base == tint { String::new() } else { format!(", base_color = {{{}, {}, {}}}", base.x, base.y, base.z) };
+        let seen = pane_over_a_floor(&format!("thin = true, tint = {{{}, {}, {}}}, transmission = {factor}{texture}{base_field}", tint.x, tint.y, tint.z), texel);
         let t = texel.map_or(factor, |v| factor * v[0] as f32 / 255.0);
         for k in 0..3 {
-            let expected = passed * (1.0 - t) * tint[k] + passed * passed * t * t * tint[k] * tint[k];
-            eprintln!("pane of transmission {t:.4}, channel {k}: π L = {:.4}, expected {expected:.4} (its base {:.4})", seen[k], passed * (1.0 - t) * tint[k]);
+            let expected = passed * (1.0 - t) * base[k] + passed * passed * t * t * tint[k] * tint[k];
+            eprintln!("pane of transmission {t:.4}, channel {k}: π L = {:.4}, expected {expected:.4} (its base {:.4})", seen[k], passed * (1.0 - t) * base[k]);
             assert!((seen[k] / expected - 1.0).abs() < 0.01, "transmission {t}, channel {k}: {} vs {expected}", seen[k]);
         }
     }
+}
+
+/// A glass's `base_color` reads back as its tint until set (glTF's one base colour is both),
+/// is its own once set, and must be a fraction per channel.
+#[test]
+fn a_glass_base_colour_is_its_tint_until_set() {
+    let desc = frame_from_lua(
+        r#"local r = require("refrakt")
+        local g = r.glass{ tint = {0.5, 0.25, 1} }
+        assert(g.base_color[1] == 0.5 and g.base_color[2] == 0.25 and g.base_color[3] == 1)
+        g.base_color = {0.75, 0.5, 0}
+        assert(g.base_color[1] == 0.75 and g.tint[1] == 0.5)
+        local scene = r.scene{}
+        scene:add(r.node{ name = "b", shape = r.sphere{ radius = 0.2 }, material = g })
+        return scene"#,
+    );
+    assert_eq!((desc.fields[0].glass.base_color, desc.fields[0].glass.tint), (Some(Vec3::new(0.75, 0.5, 0.0)), Vec3::new(0.5, 0.25, 1.0)));
+    let error = load_error("local g = require('refrakt').glass{ base_color = {2, 0, 0} }", &Default::default());
+    assert!(error.contains("glass.base_color") && error.contains("from 0 to 1"), "{error}");
 }
 
 /// Alpha on a thin pane over a white floor in the sun (`pane_over_a_floor`): where it is there
@@ -211,30 +234,31 @@ fn tinted_glass_of_index_1_tints_each_surface_it_is_crossed_at() {
 
 /// Metal on glass (glTF's metallic on a transmissive material): a thin pane in a uniform white
 /// sky, seen straight down, shows what it reflects and what it passes of the sky: the metal
-/// part m reflects Schlick's F from the base colour, at normal incidence the base colour c
-/// itself, and passes nothing; the glass part reflects R and passes (1 − R)·c — so
-/// L = (1 − m) R + m c + (1 − m)(1 − R) c, per channel within 1 % (all metal: L = c).
+/// part m reflects Schlick's F from the base colour, at normal incidence the base colour b
+/// itself, and passes nothing; the glass part reflects R and passes (1 − R)·c, c the tint — so
+/// L = (1 − m) R + m b + (1 − m)(1 − R) c, per channel within 1 % (all metal: L = b). Half metal
+/// has a base colour of its own (`base_color`); all metal, glTF's one base colour (b = c).
 #[test]
 fn metal_on_a_pane_reflects_its_base_colour_and_passes_nothing() {
     let tint = Vec3::new(1.0, 0.5, 0.25);
     let r = thin_slab_reflectance(0.0);
-    for m in [0.5f32, 1.0] {
+    for (m, base) in [(0.5f32, Vec3::new(0.3, 0.9, 0.6)), (1.0, tint)] {
         let desc = frame_from_lua(&format!(
             r#"local r = require("refrakt")
             local scene = r.scene{{ volume = {{ resolution = 16 }}, photons = 1000, samples = 1, bounces = 0,
                                     environment = r.environment{{ color = {{1, 1, 1}} }},
                                     camera = r.camera{{ position = {{0, 0.5, 0}}, target = {{0, -1, 0}}, up = {{0, 0, -1}}, orthographic = 0.3, size = {{8, 8}} }} }}
             scene:add(r.node{{ name = "pane", shape = r.plane{{ size = {{1, 1}} }},
-                              material = r.glass{{ ior = 1.5, thin = true, tint = {{{}, {}, {}}}, metallic = {m} }} }})
+                              material = r.glass{{ ior = 1.5, thin = true, tint = {{{}, {}, {}}}, metallic = {m}, base_color = {{{}, {}, {}}} }} }})
             return scene"#,
-            tint.x, tint.y, tint.z
+            tint.x, tint.y, tint.z, base.x, base.y, base.z
         ));
         let image = renderer().frame(&desc).unwrap();
         let l = beauty(&image);
         let n = l.data.len() / l.channels.len();
         let seen = (0..n).map(|i| rgb(l, i)).sum::<Vec3>() / n as f32;
         for k in 0..3 {
-            let expected = (1.0 - m) * r + m * tint[k] + (1.0 - m) * (1.0 - r) * tint[k];
+            let expected = (1.0 - m) * r + m * base[k] + (1.0 - m) * (1.0 - r) * tint[k];
             eprintln!("pane of metallic {m}, channel {k}: L = {:.4}, expected {expected:.4}", seen[k]);
             assert!((seen[k] / expected - 1.0).abs() < 0.01, "metallic {m}, channel {k}: {} vs {expected}", seen[k]);
         }

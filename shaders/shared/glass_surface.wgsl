@@ -38,6 +38,7 @@ fn glass_surface_at(hit: SurfaceHit, parts: u32) -> GlassSurface {
         // (Its alpha cuts a sheet: glTF's base colour alpha.)
         let c = texture_at(f.tint_texture, uv);
         s.tint *= c.rgb;
+        s.base_color *= c.rgb;
         s.coverage = sheet_coverage(f, f.alpha * c.a);
         s.emission = f.emission * s.coverage;
     }

@@ -344,14 +344,17 @@ struct GlassSurface {
     // The outward normal crossings refract and reflect about: the hit's, bent by a normal map.
     normal: vec3<f32>,
     // The fraction of the light entering the surface that passes it (KHR_materials_transmission);
-    // the rest meets a diffuse base of the tint's colour (the view's `base_branch`).
+    // the rest meets a diffuse base of `base_color` (the view's `base_branch`).
     transmission: f32,
     // How much of a thin sheet is there (`sheet_coverage`): 0 where a MASK cuts it away, alpha
     // where it BLENDs, else 1; the rest passes unchanged.
     coverage: f32,
     // How much of the surface is metal (glTF's metallic): it reflects by Schlick's Fresnel from
-    // the tint and passes nothing (`surface_split`).
+    // the base colour and passes nothing (`surface_split`).
     metallic: f32,
+    // The colour of the diffuse base and the metal: glTF's base colour, the tint but where a
+    // Principled BSDF's glass is tinted by the root of it (`Glass::base_color`).
+    base_color: vec3<f32>,
 }
 
 // The coverage of a sheet of interface f whose alpha is `alpha` where it is met (glTF's alpha
@@ -375,8 +378,8 @@ fn sheet_passes(surface: GlassSurface, r: f32) -> vec3<f32> {
 
 // How a surface splits the light that meets it at cos θ = c from the facet's normal, where the
 // glass alone reflects R, per channel (glTF's metallic-roughness model with
-// KHR_materials_transmission): the metal (`metallic` of it) reflects Schlick's F from the tint
-// (the base colour) at c; the glass reflects R and of the rest passes `transmission` (tinted)
+// KHR_materials_transmission): the metal (`metallic` of it) reflects Schlick's F from the base
+// colour at c; the glass reflects R and of the rest passes `transmission` (tinted)
 // into the glass or through the sheet and sends the remainder to its diffuse base; where a sheet
 // is cut away (1 − coverage) the light passes unchanged.
 struct SurfaceSplit {
@@ -388,10 +391,10 @@ struct SurfaceSplit {
 fn surface_split(surface: GlassSurface, r: f32, c: f32) -> SurfaceSplit {
     let x = 1.0 - clamp(c, 0.0, 1.0);
     let x2 = x * x;
-    let metal = surface.tint + (vec3<f32>(1.0) - surface.tint) * (x2 * x2 * x);
+    let metal = surface.base_color + (vec3<f32>(1.0) - surface.base_color) * (x2 * x2 * x);
     let glass = surface.coverage * (1.0 - surface.metallic);
     let reflected = glass * r + surface.coverage * surface.metallic * metal;
-    let base = glass * (1.0 - r) * (1.0 - surface.transmission) * surface.tint;
+    let base = glass * (1.0 - r) * (1.0 - surface.transmission) * surface.base_color;
     return SurfaceSplit(reflected, sheet_passes(surface, r), base);
 }
 
@@ -401,7 +404,7 @@ fn plain_surface(hit: SurfaceHit) -> GlassSurface {
     let f = interfaces[hit.interface_id];
     // (A sheet glows where it is there.)
     let coverage = sheet_coverage(f, f.alpha);
-    return GlassSurface(f.tint, f.roughness, f.emission * coverage, hit.normal, f.transmission, coverage, f.metallic);
+    return GlassSurface(f.tint, f.roughness, f.emission * coverage, hit.normal, f.transmission, coverage, f.metallic, f.base_color);
 }
 
 // Smith's masking for GGX of a direction at cos θ = c from the normal (c > 0):
@@ -520,7 +523,7 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
         reflectance = r;
         return Crossing(reflected, transmitted, reflectance, tint, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true, split.base, reflected_tint);
     }
-    let base = (1.0 - reflectance) * (1.0 - surface.transmission) * surface.tint;
+    let base = (1.0 - reflectance) * (1.0 - surface.transmission) * surface.base_color;
     return Crossing(reflected, transmitted, reflectance, tint, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true, base, reflected_tint);
 }
 

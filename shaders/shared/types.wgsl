@@ -195,17 +195,17 @@ struct Interface {
     normal_texture: vec4<u32>,
     normal_scale: f32,
     // The fraction of the light entering the surface that passes it; the rest meets a diffuse
-    // base of the tint's colour. Times the transmission texture's red channel.
+    // base of the base colour. Times the transmission texture's red channel.
     transmission: f32,
     // A thin sheet's alpha and cutoff, read as the kind's INTERFACE_ALPHA_* bit says.
     alpha: f32,
     alpha_cutoff: f32,
     transmission_texture: vec4<u32>,
+    // The colour of the diffuse base and the metal part (the tint unless a Principled BSDF's
+    // Base Color differs from it), × the tint texture.
+    base_color: vec3<f32>,
     // How much of the surface is metal (× the roughness texture's blue channel).
     metallic: f32,
-    _pad0: f32,
-    _pad1: f32,
-    _pad2: f32,
 }
 
 struct ReceiverGpu {

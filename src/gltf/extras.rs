@@ -339,9 +339,13 @@ pub struct MediumExtras {
     pub priority: Option<i32>,
     /// Rough crossings keep the light masking takes (`Glass::multiscatter`).
     pub multiscatter: Option<bool>,
+    /// The tint per surface where it is not the base colour, which then colours only the
+    /// diffuse base and the metal (`Glass::base_color`): what the add-on writes for a
+    /// Principled BSDF's glass, tinted by the root of its Base Color.
+    pub tint: Option<[f32; 3]>,
 }
 
-const MATERIAL_KEYS: &[&str] = &["absorption", "scattering", "g", "boundary", "thin", "priority", "multiscatter"];
+const MATERIAL_KEYS: &[&str] = &["absorption", "scattering", "g", "boundary", "thin", "priority", "multiscatter", "tint"];
 
 pub fn medium(material: &gltf::Material, file: &str, what: &str, warnings: &mut Collector) -> Result<Option<MediumExtras>> {
     let Some(m) = refrakt_object::<MediumExtras>(material.extras(), file, what, MATERIAL_KEYS, warnings)? else { return Ok(None) };
@@ -350,6 +354,7 @@ pub fn medium(material: &gltf::Material, file: &str, what: &str, warnings: &mut 
     check(m.g.is_none_or(|g| (-0.99..=0.99).contains(&g)), file, what, "g", "from −0.99 to 0.99")?;
     check(m.boundary.is_none_or(|b| (0.0..=16.0).contains(&b)), file, what, "boundary", "from 0 to 16 (voxels)")?;
     check(m.priority.is_none_or(|p| (-1000..=1000).contains(&p)), file, what, "priority", "a whole number from -1000 to 1000")?;
+    check(m.tint.is_none_or(|t| t.iter().all(|c| (0.0..=1.0).contains(c))), file, what, "tint", "three numbers from 0 to 1 (the fraction passed per surface)")?;
     Ok(Some(m))
 }
 

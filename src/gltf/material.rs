@@ -188,6 +188,11 @@ impl<'a> Materials<'a> {
         if let Some(g) = medium.g {
             glass.g = g;
         }
+        if let Some(t) = medium.tint {
+            // The base colour stays the diffuse base's and the metal's (`Glass::base_color`).
+            glass.base_color = Some(glass.tint);
+            glass.tint = Vec3::from(t);
+        }
         glass.dispersion = dispersion(m, file, what)?;
         glass.priority = medium.priority.unwrap_or(0);
         glass.multiscatter = medium.multiscatter.unwrap_or(true);

@@ -29,7 +29,8 @@ macro_rules! gpu_struct {
 
 gpu_struct! {
     /// The voxel grid's placement in the world. Voxel `i` has its centre at
-    /// `origin + (i + 0.5) · voxel_size`; texture coordinates are `(x − origin) · inv_extent`.
+    /// `origin + (i + 0.5) · voxel_size`; texture coordinates are `(x − origin) · inv_extent`,
+    /// `inv_extent` of the texture's extent (`frame::texture_dims`, a little more than `dims`).
     pub struct GridParams {
         pub origin: [f32; 3],
         pub voxel_size: f32,
@@ -338,7 +339,7 @@ gpu_struct! {
         /// The normal map's x and y scale (glTF's `normalTexture.scale`).
         pub normal_scale: f32,
         /// The fraction of the light entering the surface that passes it (`Glass::transmission`);
-        /// the rest meets a diffuse base of the tint's colour.
+        /// the rest meets a diffuse base of `base_color`.
         pub transmission: f32,
         /// A thin sheet's alpha (× the tint texture's) and cutoff, read as `kind`'s ALPHA_MASK
         /// or ALPHA_BLEND bit says (`Glass::alpha_mode`); neither: the sheet is all there.
@@ -346,11 +347,10 @@ gpu_struct! {
         pub alpha_cutoff: f32,
         /// Its transmission texture (red × `transmission`), as the textures above.
         pub transmission_texture: [u32; 4],
+        /// The colour of the diffuse base and the metal part (`Glass::base`; × the tint texture).
+        pub base_color: [f32; 3],
         /// How much of the surface is metal (`Glass::metallic`; × the roughness texture's blue).
         pub metallic: f32,
-        pub _pad0: f32,
-        pub _pad1: f32,
-        pub _pad2: f32,
     }
 }
 

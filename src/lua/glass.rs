@@ -14,7 +14,7 @@ use crate::scene::{AlphaMode, Glass, Material, Texture2d};
 pub const FIELDS: &[&str] = &[
     "ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin", "dispersion", "abbe", "priority", "multiscatter", "emission",
     "emission_strength", "tint_texture", "roughness_texture", "emission_texture", "normal_texture", "normal_scale", "transmission",
-    "transmission_texture", "alpha", "alpha_mode", "alpha_cutoff", "metallic",
+    "transmission_texture", "alpha", "alpha_mode", "alpha_cutoff", "metallic", "base_color",
 ];
 
 /// The texture field `key` of `g`, and whether its file is sRGB-encoded (colour) or linear.
@@ -27,6 +27,15 @@ fn texture_slot<'a>(g: &'a mut Glass, key: &str) -> Option<(&'a mut Option<Arc<T
         "transmission_texture" => (&mut g.transmission_texture, false),
         _ => return None,
     })
+}
+
+/// A colour each of whose channels is a fraction from 0 to 1.
+fn fraction_color(lua: &Lua, name: FieldName, value: &Value, meaning: &str) -> mlua::Result<Vec3> {
+    let c = cv::color(lua, name, value)?;
+    if c.max_element() > 1.0 {
+        return Err(error_at(lua, &format!("{name} is {meaning}, each channel from 0 to 1 (got {c})")));
+    }
+    Ok(c)
 }
 
 /// Glass field `key` of `g`; None when glass has no such field.
@@ -53,6 +62,7 @@ pub fn get(lua: &Lua, g: &Glass, key: &str) -> Option<mlua::Result<Value>> {
         "transmission" => Ok(number_value(g.transmission)),
         "alpha" => Ok(number_value(g.alpha)),
         "metallic" => Ok(number_value(g.metallic)),
+        "base_color" => vec_value(lua, g.base()),
         "alpha_cutoff" => Ok(number_value(g.alpha_cutoff)),
         "alpha_mode" => lua.create_string(g.alpha_mode.name()).map(Value::String),
         // The Abbe number V_d = 20/dispersion; nil without dispersion.
@@ -79,13 +89,8 @@ fn set_field(lua: &Lua, g: &mut Glass, key: &str, value: Value) -> mlua::Result<
         "scattering" => g.scattering = cv::color(lua, name, &value)?,
         "emission" => g.emission = cv::color(lua, name, &value)?,
         "emission_strength" => g.emission_strength = cv::non_negative(lua, name, &value)?,
-        "tint" => {
-            let c = cv::color(lua, name, &value)?;
-            if c.max_element() > 1.0 {
-                return Err(error_at(lua, &format!("glass.tint is a fraction of the light passed per surface, each channel from 0 to 1 (got {c})")));
-            }
-            g.tint = c;
-        }
+        "tint" => g.tint = fraction_color(lua, name, &value, "a fraction of the light passed per surface")?,
+        "base_color" => g.base_color = Some(fraction_color(lua, name, &value, "the diffuse base's and the metal's colour")?),
         "roughness" => {
             g.roughness = cv::number_in(lua, name, &value, Some(0.0), Some(1.0), "a number from 0 (polished) to 1")? as f32
         }

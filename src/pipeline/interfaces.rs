@@ -141,6 +141,7 @@ fn surface_record(glass: &Glass, thin: bool) -> Interface {
         alpha: glass.alpha,
         alpha_cutoff: glass.alpha_cutoff,
         metallic: glass.metallic,
+        base_color: glass.base().into(),
         ..Default::default()
     }
 }

@@ -68,7 +68,7 @@ pub struct Glass {
     pub normal_scale: f32,
     /// The fraction of the light entering the surface that is transmitted, 0 to 1
     /// (KHR_materials_transmission's transmissionFactor); the rest meets the material's base
-    /// beneath its reflection, a diffuse surface of the tint's colour (glTF's base colour), lit
+    /// beneath its reflection, a diffuse surface of the base colour (`base`), lit
     /// where the camera sees it. 1: all glass.
     pub transmission: f32,
     /// A transmission texture (glTF, linear): its red channel multiplies `transmission` — glass
@@ -83,11 +83,21 @@ pub struct Glass {
     pub alpha_cutoff: f32,
     /// How much of the surface is metal, 0 to 1 (glTF's metallicFactor × the metallic-roughness
     /// texture's blue channel where light meets it): the metal reflects with Schlick's Fresnel
-    /// from the tint (the base colour) and passes nothing; the rest is the glass.
+    /// from the base colour (`base`) and passes nothing; the rest is the glass.
     pub metallic: f32,
+    /// The colour of the diffuse base (what `transmission` does not pass) and of the metal part,
+    /// where it is not the tint: a Principled BSDF's Base Color, whose glass Cycles tints by its
+    /// square root at each surface (the add-on writes that root as `extras.refrakt.tint`). None:
+    /// the tint, as glTF's one base colour is both. The tint texture multiplies it too.
+    pub base_color: Option<Vec3>,
 }
 
 impl Glass {
+    /// The colour of the diffuse base and the metal part (`base_color`, else the tint).
+    pub fn base(&self) -> Vec3 {
+        self.base_color.unwrap_or(self.tint)
+    }
+
     /// The absorption coefficient (per metre, per channel) of a medium that turns white light
     /// `color` after `distance` metres: Beer–Lambert, σ = −ln(color) / distance (glTF's
     /// attenuation color and distance). `None` unless each component is in (0, 1].
@@ -144,7 +154,7 @@ impl Default for Glass {
         Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0, tint: Vec3::ONE, roughness: 0.0, thin: None, dispersion: 0.0,
                roughness_texture: None, tint_texture: None, priority: 0, multiscatter: true, emission: Vec3::ZERO, emission_strength: 1.0,
                emission_texture: None, normal_texture: None, normal_scale: 1.0, transmission: 1.0, transmission_texture: None, alpha: 1.0,
-               alpha_mode: AlphaMode::Opaque, alpha_cutoff: 0.5, metallic: 0.0 }
+               alpha_mode: AlphaMode::Opaque, alpha_cutoff: 0.5, metallic: 0.0, base_color: None }
     }
 }
 

@@ -377,7 +377,8 @@ def test_principled_glass_reaches_khr_materials(addon, saved_blend):
     """What refrakt reads of a Principled BSDF arrives through Blender's own exporter:
     transmission, IOR, roughness and base colour — as its square root, refrakt's tint at each
     surface, since Cycles tints Principled glass by √(Base Color) at each (light through a solid
-    comes out tinted by the Base Color once)."""
+    comes out tinted by the Base Color once); where the Base Color also colours a diffuse base,
+    the root goes to the extras' tint."""
     scenes.round_trip_scene()
     bsdf = bpy.data.materials["Glass"].node_tree.nodes["Principled BSDF"]
     bsdf.inputs["IOR"].default_value = 1.6
@@ -392,6 +393,13 @@ def test_principled_glass_reaches_khr_materials(addon, saved_blend):
     assert pbr.get("roughnessFactor", 1.0) == pytest.approx(0.25, rel=1e-6)
     assert pbr["baseColorFactor"][:3] == pytest.approx([math.sqrt(c) for c in (0.9, 0.8, 0.7)], rel=1e-6)
     assert "KHR_materials_dispersion" not in ext, "no Abbe number set: no dispersion"
+    # Partly glass: the Base Color is also its diffuse base's, in full, so the factor stays and
+    # the root goes to the extras as the tint alone.
+    bsdf.inputs["Transmission Weight"].default_value = 0.5
+    _, gltf = export(saved_blend)
+    glass = gltf.material("Glass")
+    assert glass["pbrMetallicRoughness"]["baseColorFactor"][:3] == pytest.approx((0.9, 0.8, 0.7), rel=1e-6)
+    assert glass["extras"]["refrakt"]["tint"] == pytest.approx([math.sqrt(c) for c in (0.9, 0.8, 0.7)], rel=1e-6)
 
 
 def test_the_abbe_number_goes_out_as_khr_materials_dispersion(addon, saved_blend):

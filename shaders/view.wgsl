@@ -163,19 +163,23 @@ fn aperture_point(u: vec2<f32>) -> vec2<f32> {
 // The camera ray of sample k through a point of the image: the pinhole's, or a thin lens's
 // (pbrt-v4 §5.2.3) leaving a random point of the aperture toward where the pinhole ray meets
 // the plane in focus — CameraDesc::lens_ray_through. (The aperture point is a pure function
-// of the pixel and the sample: no flicker between frames.)
+// of the pixel and the sample: no flicker between frames.) It starts on the plane `clip_start`
+// along the view, as Cycles clips: a distance along the view axis, not along the ray.
 fn camera_ray_through_lens(pixel: vec2<f32>, k: u32) -> array<vec3<f32>, 2> {
     let cam = params.camera;
-    let origin = camera_origin(pixel);
-    let dir = camera_ray(pixel);
-    if cam.lens_radius <= 0.0 {
-        return array<vec3<f32>, 2>(origin, dir);
+    var start = camera_origin(pixel);
+    var dir = camera_ray(pixel);
+    if cam.lens_radius > 0.0 {
+        let u = vec2<f32>(random01(0x1e35a7bdu, pixel_key, 2u * k), random01(0x1e35a7bdu, pixel_key, 2u * k + 1u));
+        let lens = aperture_point(u);
+        let in_focus = start + dir * (cam.focus_distance / dot(dir, cam.forward));
+        start += lens.x * cam.right + lens.y * cam.up;
+        dir = normalize(in_focus - start);
     }
-    let u = vec2<f32>(random01(0x1e35a7bdu, pixel_key, 2u * k), random01(0x1e35a7bdu, pixel_key, 2u * k + 1u));
-    let lens = aperture_point(u);
-    let in_focus = origin + dir * (cam.focus_distance / dot(dir, cam.forward));
-    let start = origin + lens.x * cam.right + lens.y * cam.up;
-    return array<vec3<f32>, 2>(start, normalize(in_focus - start));
+    if cam.clip_start > 0.0 {
+        start += dir * (cam.clip_start / dot(dir, cam.forward));
+    }
+    return array<vec3<f32>, 2>(start, dir);
 }
 
 fn has(flag: u32) -> bool {

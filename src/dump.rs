@@ -91,6 +91,7 @@ pub fn frame_json(scene: &Scene, desc: &FrameDesc, frame: Option<i64>) -> Result
             "yfov": c.fov_y,
             "orthographic": c.orthographic,
             "size": [c.width, c.height],
+            "clip_start": c.clip_start,
             "region": c.crop.map(|r| json!({ "frame": [r.frame.0, r.frame.1], "origin": [r.origin.0, r.origin.1] })),
             "lens": { "aperture": c.aperture, "focus": c.focus, "blades": c.blades, "blade_rotation": c.blade_rotation.to_degrees(), "shift": [c.shift.x, c.shift.y] },
         },

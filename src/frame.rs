@@ -33,6 +33,8 @@ pub struct CameraDesc {
     /// Lens shift ([`crate::scene::Lens::shift`]): the image moved across the image plane, in
     /// fractions of the frame's larger side.
     pub shift: glam::Vec2,
+    /// Camera rays start this far along the view (metres; [`crate::scene::Camera::clip_start`]).
+    pub clip_start: f32,
     /// A region of the frame (`render --region`, Blender's border render): this image, of
     /// `width` × `height`, is that part of a larger frame. `None`: the whole frame.
     pub crop: Option<Crop>,
@@ -67,6 +69,7 @@ impl CameraDesc {
             blades: self.blades,
             blade_rotation: self.blade_rotation,
             window: self.image_window().into(),
+            clip_start: self.clip_start,
             ..Default::default()
         }
     }
@@ -105,16 +108,22 @@ impl CameraDesc {
 
     /// The thin-lens camera ray through a point of the image leaving aperture point `lens`
     /// (metres, [`Self::aperture_point`]): (origin, unit direction). Every such ray of a pixel
-    /// passes through the point the pinhole ray meets on the plane in focus — the CPU twin of
-    /// view.wgsl's `camera_ray_through_lens`.
+    /// passes through the point the pinhole ray meets on the plane in focus. It starts on the
+    /// plane `clip_start` along the view (Cycles' clipping: a distance along the view axis, not
+    /// along the ray) — the CPU twin of view.wgsl's `camera_ray_through_lens`.
     pub fn lens_ray_through(&self, pixel: glam::Vec2, lens: glam::Vec2) -> (Vec3, Vec3) {
         let (origin, dir) = (self.origin_through(pixel), self.ray_through(pixel));
-        if self.orthographic.is_some() || self.aperture <= 0.0 {
-            return (origin, dir);
+        let (start, dir) = if self.orthographic.is_some() || self.aperture <= 0.0 {
+            (origin, dir)
+        } else {
+            let in_focus = origin + dir * (self.focus / dir.dot(self.forward()));
+            let start = origin + lens.x * (self.orientation * Vec3::X) + lens.y * (self.orientation * Vec3::Y);
+            (start, (in_focus - start).normalize())
+        };
+        if self.clip_start <= 0.0 {
+            return (start, dir);
         }
-        let in_focus = origin + dir * (self.focus / dir.dot(self.forward()));
-        let start = origin + lens.x * (self.orientation * Vec3::X) + lens.y * (self.orientation * Vec3::Y);
-        (start, (in_focus - start).normalize())
+        (start + dir * (self.clip_start / dir.dot(self.forward())), dir)
     }
 
     /// The angle (radians) one pixel spans at the image's centre: the cone a camera ray
@@ -664,6 +673,7 @@ mod tests {
             blades: 0,
             blade_rotation: 0.0,
             shift: Vec2::ZERO,
+            clip_start: 0.0,
             crop: None,
         }
     }
@@ -729,6 +739,22 @@ mod tests {
         for side in 1..=2048u32 {
             let t = texture_dims(UVec3::splat(side)).x;
             assert!(!t.is_power_of_two() && t >= side && t <= side + 2, "{side} -> {t}");
+        }
+    }
+
+    #[test]
+    fn camera_rays_start_on_the_clip_plane() {
+        let base = camera(40, 30);
+        for (orthographic, aperture) in [(None, 0.0), (None, 0.2), (Some(2.0), 0.0)] {
+            let c = CameraDesc { orthographic, aperture, clip_start: 0.75, ..base };
+            let unclipped = CameraDesc { clip_start: 0.0, ..c };
+            for (pixel, lens) in [(Vec2::new(3.5, 27.5), Vec2::new(0.05, -0.03)), (Vec2::new(20.0, 15.0), Vec2::ZERO)] {
+                let (start, dir) = c.lens_ray_through(pixel, lens);
+                let (origin, same_dir) = unclipped.lens_ray_through(pixel, lens);
+                assert_eq!(dir, same_dir);
+                assert!(((start - c.position).dot(c.forward()) - 0.75).abs() < 1e-5, "{orthographic:?} {aperture}: starts at {start}");
+                assert!((start - origin).cross(dir).length() < 1e-5, "on the same ray");
+            }
         }
     }
 }

@@ -373,7 +373,7 @@ fn animation_pointers_drive_lights_cameras_and_materials() {
     let thing = g.push("nodes", json!({ "name": "thing", "mesh": mesh }));
     // Keyframes at 0, 1 and 3 s (TIMES), LINEAR.
     let mut anim = Anim::default();
-    let pointers: [(&str, Vec<f32>, &str); 7] = [
+    let pointers: [(&str, Vec<f32>, &str); 8] = [
         ("/extensions/KHR_lights_punctual/lights/0/intensity", vec![10.0, 30.0, 30.0], "SCALAR"),
         ("/extensions/KHR_lights_punctual/lights/0/color", vec![1.0, 1.0, 1.0, 1.0, 0.5, 0.0, 1.0, 0.5, 0.0], "VEC3"),
         ("/extensions/KHR_lights_punctual/lights/0/spot/outerConeAngle", vec![0.6, 0.8, 0.8], "SCALAR"),
@@ -381,6 +381,7 @@ fn animation_pointers_drive_lights_cameras_and_materials() {
         ("/materials/0/pbrMetallicRoughness/baseColorFactor", vec![1.0, 1.0, 1.0, 1.0, 0.0, 0.5, 1.0, 0.5, 0.0, 0.5, 1.0, 0.5], "VEC4"),
         ("/nodes/2/translation", vec![0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 2.0, 0.0, 0.0], "VEC3"),
         ("/cameras/0/perspective/znear", vec![0.1, 0.2, 0.2], "SCALAR"),
+        ("/cameras/0/perspective/zfar", vec![100.0, 200.0, 200.0], "SCALAR"),
     ];
     for (pointer, values, kind) in &pointers {
         let input = g.floats(&TIMES, "SCALAR");
@@ -395,7 +396,7 @@ fn animation_pointers_drive_lights_cameras_and_materials() {
     let access = refrakt::lua::sandbox::FileAccess::new(dir.path(), &[]).unwrap();
     let import = refrakt::gltf::import(&path, "pointer.glb", &access, &ImportOptions::default()).unwrap_or_else(|e| panic!("{e:#}"));
     let said: Vec<String> = import.warnings.iter().map(|w| w.to_string()).filter(|w| w.contains("KHR_animation_pointer")).collect();
-    assert!(said.len() == 1 && said[0].contains("/cameras/0/perspective/znear") && said[0].contains("keep the file's values"), "{said:?}");
+    assert!(said.len() == 1 && said[0].contains("/cameras/0/perspective/zfar") && said[0].contains("keep the file's values"), "{said:?}");
 
     let mut s = load(&path, &ImportOptions::default());
     assert_eq!(s.player.duration(), Some(3.0));
@@ -408,8 +409,12 @@ fn animation_pointers_drive_lights_cameras_and_materials() {
     let LightKind::Spot { angle, blend } = light.kind else { panic!("{:?}", light.kind) };
     // The outer cone widens to 0.7; the inner one stays 0.2.
     assert!((angle - 0.7).abs() < 1e-6 && (angle * (1.0 - blend) - 0.2).abs() < 1e-6, "{angle}, {blend}");
-    let fov = node("cam").borrow().camera.clone().unwrap().borrow().fov_y;
-    assert!((fov - 0.75).abs() < 1e-6, "yfov {fov}");
+    let (fov, clip_start) = {
+        let camera = node("cam").borrow().camera.clone().unwrap();
+        let camera = camera.borrow();
+        (camera.fov_y, camera.clip_start)
+    };
+    assert!((fov - 0.75).abs() < 1e-6 && (clip_start - 0.15).abs() < 1e-6, "yfov {fov}, znear {clip_start}");
     let material = node("thing").borrow().material.clone().unwrap();
     let Material::Diffuse(d) = &*material.borrow() else { panic!() };
     assert!((d.color - Vec3::new(0.5, 0.75, 1.0)).length() < 1e-6 && (d.alpha - 0.75).abs() < 1e-6, "{} {}", d.color, d.alpha);
@@ -417,6 +422,7 @@ fn animation_pointers_drive_lights_cameras_and_materials() {
     // The frame carries them: the light's radiant intensity is the candela over 683 lm/W.
     let desc = refrakt::scene::eval::evaluate(&s.scene, 0.5, &Default::default()).unwrap();
     assert!((desc.lights[0].radiant.x - 20.0 / 683.0).abs() < 1e-6, "{}", desc.lights[0].radiant);
+    assert!((desc.camera.clip_start - 0.15).abs() < 1e-6, "{}", desc.camera.clip_start);
 }
 
 /// A glass's index, dispersion and glow keyed in Blender (KHR_materials_ior `ior`,

@@ -14,7 +14,8 @@ struct Camera {
     position: vec3<f32>,
     tan_half_fov: f32,
     right: vec3<f32>,
-    _pad0: f32,
+    // Camera rays start this far along `forward` (metres): Blender's Clip Start, glTF's znear.
+    clip_start: f32,
     up: vec3<f32>,
     // Half the view's height of an orthographic camera (metres); 0: a pinhole.
     ortho_half_height: f32,

@@ -150,7 +150,8 @@ impl<'a> Builder<'a, '_> {
                     self.warnings.about(format!("{what} (yfov {fov_y})"), "its camera's yfov is not an angle in (0, π); the camera is skipped");
                     return Ok(());
                 }
-                self.place_camera(&cam, node, Camera { fov_y, size, lens, ..Camera::default() });
+                let clip_start = self.clip_start(p.znear(), what);
+                self.place_camera(&cam, node, Camera { fov_y, size, lens, clip_start, ..Camera::default() });
             }
             // §3.10.3: xmag and ymag are half the view's width and height.
             gltf::camera::Projection::Orthographic(o) => {
@@ -161,10 +162,21 @@ impl<'a> Builder<'a, '_> {
                 }
                 let aspect = (xmag / ymag).abs();
                 let size = (((DEFAULT_HEIGHT as f32 * aspect).round() as u32).clamp(1, 16384), DEFAULT_HEIGHT);
-                self.place_camera(&cam, node, Camera { size, orthographic: Some(2.0 * ymag.abs()), ..Camera::default() });
+                let clip_start = self.clip_start(o.znear(), what);
+                self.place_camera(&cam, node, Camera { size, orthographic: Some(2.0 * ymag.abs()), clip_start, ..Camera::default() });
             }
         }
         Ok(())
+    }
+
+    /// A camera's `znear` as where its rays start (`Camera::clip_start`, as Blender's importer
+    /// makes it the Clip Start Cycles honours); one that is not a distance ≥ 0 is said, and 0 used.
+    fn clip_start(&mut self, znear: f32, what: &str) -> f32 {
+        if (0.0..=Camera::MAX_CLIP_START).contains(&znear) {
+            return znear;
+        }
+        self.warnings.about(format!("{what} (znear {znear})"), "its camera's znear is not a distance from 0 to 1e6 m; its rays start at the camera");
+        0.0
     }
 
     /// Puts the camera made of glTF camera `cam` on `node`, noted for animation pointers.

@@ -43,6 +43,8 @@ pub enum CameraProperty {
     Yfov,
     /// orthographic.ymag: half the view's height.
     Ymag,
+    /// perspective.znear or orthographic.znear: where camera rays start (`Camera::clip_start`).
+    Znear,
     /// The thin lens of `extras.refrakt` (extras.rs, `lens`), which glTF has no field for: the
     /// aperture's diameter and the focus distance, metres, and the lens shift [x, y] — a
     /// focus pull, an iris, a shift keyed in Blender (the add-on writes these channels).
@@ -128,6 +130,7 @@ pub fn resolve(pointer: &str) -> Option<(Target, usize)> {
         }
         ["cameras", i, "perspective", "yfov"] => (Target::Camera(CameraProperty::Yfov), index(i)?),
         ["cameras", i, "orthographic", "ymag"] => (Target::Camera(CameraProperty::Ymag), index(i)?),
+        ["cameras", i, "perspective" | "orthographic", "znear"] => (Target::Camera(CameraProperty::Znear), index(i)?),
         ["cameras", i, "extras", "refrakt", lens] => {
             let p = match *lens {
                 "aperture" => CameraProperty::Aperture,
@@ -205,6 +208,7 @@ pub fn apply_camera(camera: &mut Camera, p: CameraProperty, v: &[f32]) {
                 camera.orthographic = Some(2.0 * v[0].abs().max(1e-6));
             }
         }
+        CameraProperty::Znear => camera.clip_start = v[0].clamp(0.0, Camera::MAX_CLIP_START),
         // Held within what the still extras accept (extras.rs, `lens`).
         CameraProperty::Aperture => camera.lens.aperture = v[0].clamp(0.0, Lens::MAX_APERTURE),
         CameraProperty::Focus => camera.lens.focus = Some(v[0].max(Lens::MIN_FOCUS)),
@@ -255,6 +259,8 @@ mod tests {
         assert_eq!(resolve("/extensions/KHR_lights_punctual/lights/2/intensity"), Some((Target::Light(LightProperty::Intensity), 2)));
         assert_eq!(resolve("/extensions/KHR_lights_punctual/lights/0/spot/outerConeAngle"), Some((Target::Light(LightProperty::OuterCone), 0)));
         assert_eq!(resolve("/cameras/1/perspective/yfov"), Some((Target::Camera(CameraProperty::Yfov), 1)));
+        assert_eq!(resolve("/cameras/0/perspective/znear"), Some((Target::Camera(CameraProperty::Znear), 0)));
+        assert_eq!(resolve("/cameras/1/orthographic/znear"), Some((Target::Camera(CameraProperty::Znear), 1)));
         assert_eq!(resolve("/materials/3/pbrMetallicRoughness/baseColorFactor"), Some((Target::Material(MaterialProperty::BaseColor), 3)));
         assert_eq!(resolve("/nodes/4/translation"), Some((Target::Translation, 4)));
         assert_eq!(resolve("/cameras/0/extras/refrakt/focus"), Some((Target::Camera(CameraProperty::Focus), 0)));
@@ -264,7 +270,7 @@ mod tests {
         assert_eq!(resolve("/nodes/7/extras/refrakt/light/intensity"), Some((Target::AreaLight(LightProperty::Intensity), 7)));
         assert_eq!(resolve("/materials/1/extensions/KHR_materials_ior/ior"), Some((Target::Material(MaterialProperty::Ior), 1)));
         assert_eq!(resolve("/materials/0/extensions/KHR_materials_dispersion/dispersion"), Some((Target::Material(MaterialProperty::Dispersion), 0)));
-        for unread in ["/extensions/KHR_lights_punctual/lights/0/range", "/cameras/0/perspective/znear", "/cameras/0/extras/refrakt/blades", "/cameras/0/extras/other/focus", "/materials/x/alphaCutoff", "nodes/0/scale", ""] {
+        for unread in ["/extensions/KHR_lights_punctual/lights/0/range", "/cameras/0/perspective/zfar", "/cameras/0/extras/refrakt/blades", "/cameras/0/extras/other/focus", "/materials/x/alphaCutoff", "nodes/0/scale", ""] {
             assert_eq!(resolve(unread), None, "{unread}");
         }
     }

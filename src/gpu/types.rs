@@ -48,7 +48,8 @@ gpu_struct! {
         pub position: [f32; 3],
         pub tan_half_fov: f32,
         pub right: [f32; 3],
-        pub _pad0: f32,
+        /// Camera rays start this far along `forward` (metres; `CameraDesc::clip_start`).
+        pub clip_start: f32,
         pub up: [f32; 3],
         /// Half the view's height (metres) of an orthographic camera; 0: a pinhole.
         pub ortho_half_height: f32,

@@ -647,7 +647,8 @@ impl LuaObject for Fog {
 // ---------------------------------------------------------------------------------------------
 // Camera.
 
-const CAMERA_FIELDS: &[&str] = &["position", "target", "rotation", "up", "fov", "size", "orthographic", "aperture", "focus", "blades", "blade_rotation", "shift"];
+const CAMERA_FIELDS: &[&str] =
+    &["position", "target", "rotation", "up", "fov", "size", "orthographic", "aperture", "focus", "blades", "blade_rotation", "shift", "clip_start"];
 
 impl LuaObject for Camera {
     fn kind(&self) -> &'static str {
@@ -670,6 +671,7 @@ impl LuaObject for Camera {
             "blades" => Ok(Value::Integer(self.lens.blades.into())),
             "blade_rotation" => Ok(number_value(self.lens.blade_rotation.to_degrees())),
             "shift" => lua.create_sequence_from(self.lens.shift.to_array().map(decimal))?.into_lua(lua),
+            "clip_start" => Ok(number_value(self.clip_start)),
             _ => Err(unknown_field(lua, "camera", key, CAMERA_FIELDS)),
         }
     }
@@ -722,6 +724,9 @@ impl LuaObject for Camera {
             }
             "blade_rotation" => self.lens.blade_rotation = (cv::number_in(lua, name, &value, Some(-3600.0), Some(3600.0), "an angle in degrees")? as f32).to_radians(),
             "shift" => self.lens.shift = cv::vec2_within(lua, name, &value, Lens::MAX_SHIFT.into())?,
+            "clip_start" => {
+                self.clip_start = cv::number_in(lua, name, &value, Some(0.0), Some(Camera::MAX_CLIP_START.into()), "a distance along the view in metres, from 0 to 1e6")? as f32
+            }
             _ => return Err(unknown_field(lua, "camera", key, CAMERA_FIELDS)),
         }
         Ok(())

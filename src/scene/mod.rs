@@ -83,6 +83,9 @@ pub struct Camera {
     pub orthographic: Option<f32>,
     /// A thin lens instead of the pinhole: depth of field.
     pub lens: Lens,
+    /// Nothing nearer than this, metres along the view, is seen (Blender's *Clip Start*, glTF's
+    /// `znear`): camera rays start on that plane — a way to look through a wall into a room.
+    pub clip_start: f32,
 }
 
 /// A thin lens (pbrt-v4 §5.2.3): rays through a pixel leave every point of the aperture and meet
@@ -141,11 +144,15 @@ impl Default for Camera {
             size: (1024, 576),
             orthographic: None,
             lens: Lens::default(),
+            clip_start: 0.0,
         }
     }
 }
 
 impl Camera {
+    /// The largest `clip_start`, metres.
+    pub const MAX_CLIP_START: f32 = 1e6;
+
     /// World orientation (camera looks down its local −Z) when placed on the scene.
     pub fn orientation(&self) -> Quat {
         if let Some(r) = self.rotation {
@@ -177,6 +184,7 @@ impl Camera {
             blades: self.lens.blades,
             blade_rotation: self.lens.blade_rotation,
             shift: self.lens.shift,
+            clip_start: self.clip_start,
             crop: None,
         }
     }

@@ -83,6 +83,8 @@ def test_camera_matches_blender(dumped):
         assert close(c["up"], (world @ Vector((0, 1, 0, 0))).xyz)
         assert c["yfov"] == pytest.approx(scenes.camera_fov_y(cam, scene), rel=1e-5)
         assert c["size"] == [64, 36]
+        # Clip Start goes out as glTF's znear (Blender's exporter), where refrakt's rays start.
+        assert c["clip_start"] == pytest.approx(cam.data.clip_start, rel=1e-5)
 
 
 def test_lights_carry_blender_power(dumped):

@@ -235,15 +235,19 @@ impl VolumeDesc {
 
 /// The sides of the 3D texture that holds a grid of `dims` voxels: each side that is a power of
 /// two gets texels more (1 → 3, 2 → 3, 128 → 129), never read (`grid_uvw` in
-/// `shaders/shared/grid.wgsl` holds lookups inside the grid's own voxels).
+/// `shaders/shared/grid.wgsl` holds lookups inside the grid's own voxels) — but for a side of
+/// [`UNPADDED_SIDE`] or more, which stays as it is: 2048 is the 3D texture side WebGPU
+/// guarantees, and the longest side a volume may have.
 ///
 /// Why: Mesa's llvmpipe compiles a shader variant per combination of its sampled textures'
 /// sides being powers of two or not (`lp_sampler_static_texture_state`: `pot_width`, …), ~70 s
 /// each for the view and march stages on two cores. With no side a power of two, every volume
 /// and the fog's radiance grids share one variant. On other GPUs it costs a few texels.
+pub const UNPADDED_SIDE: u32 = 2048;
+
 pub fn texture_dims(dims: UVec3) -> UVec3 {
     let side = |mut s: u32| {
-        while s.is_power_of_two() {
+        while s.is_power_of_two() && s < UNPADDED_SIDE {
             s += 1;
         }
         s
@@ -736,10 +740,12 @@ mod tests {
     fn a_grid_texture_has_no_side_a_power_of_two_and_holds_its_voxels() {
         assert_eq!(texture_dims(UVec3::new(1, 2, 4)), UVec3::new(3, 3, 5));
         assert_eq!(texture_dims(UVec3::new(128, 127, 96)), UVec3::new(129, 127, 96));
-        for side in 1..=2048u32 {
+        for side in 1..UNPADDED_SIDE {
             let t = texture_dims(UVec3::splat(side)).x;
             assert!(!t.is_power_of_two() && t >= side && t <= side + 2, "{side} -> {t}");
         }
+        // The longest side a volume may have stays within WebGPU's guaranteed 3D texture side.
+        assert_eq!(texture_dims(UVec3::new(2048, 1024, 16)), UVec3::new(2048, 1025, 17));
     }
 
     #[test]

@@ -356,16 +356,17 @@ impl Renderer {
         l.max_storage_buffer_binding_size.min(l.max_buffer_size)
     }
 
-    /// Checks what the voxel grids themselves need: 3D textures of the volume's size and its
-    /// per-voxel index buffer in one binding.
+    /// Checks what the voxel grids themselves need: 3D textures of the volume's size (and the
+    /// texel or two `frame::texture_dims` adds) and its per-voxel index buffer in one binding.
     pub fn check_grid_limits(&self, desc: &FrameDesc) -> Result<()> {
         let l = &self.ctx.limits;
         let dims = desc.volume.dims;
         let name = &self.ctx.info.name;
-        if dims.max_element() > l.max_texture_dimension_3d {
+        let side = crate::frame::texture_dims(dims).max_element();
+        if side > l.max_texture_dimension_3d {
             bail!(
-                "the volume needs a {}×{}×{} voxel grid, but the adapter \"{name}\" allows 3D textures of at \
-                 most {} per side; lower the volume resolution (--volume or volume.resolution)",
+                "the volume needs a {}×{}×{} voxel grid (3D textures of {side} per side), but the adapter \"{name}\" \
+                 allows at most {} per side; lower the volume resolution (--volume or volume.resolution)",
                 dims.x, dims.y, dims.z, l.max_texture_dimension_3d
             );
         }

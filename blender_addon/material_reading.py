@@ -28,6 +28,7 @@ OTHER_INPUTS = (
 READ = {
     "glass": {
         "Metallic": "the metal part of its surface: reflects Base Color, passes nothing",
+        "Specular IOR Level": "reflection strength, × Specular Tint (KHR_materials_specular)",
         "Alpha": "a thin sheet's coverage (a solid ignores it)",
     },
     "receiver": {

@@ -126,7 +126,8 @@ fn material_json(m: &Material) -> Value {
                                       "normal_texture": size(&g.normal_texture), "normal_scale": g.normal_scale,
                                       "transmission": g.transmission, "transmission_texture": size(&g.transmission_texture),
                                       "alpha": g.alpha, "alpha_mode": g.alpha_mode.name(), "alpha_cutoff": g.alpha_cutoff, "metallic": g.metallic,
-                                      "base_color": vec3(g.base()) }),
+                                      "base_color": vec3(g.base()), "specular": g.specular, "specular_color": vec3(g.specular_color),
+                                      "specular_texture": size(&g.specular_texture), "specular_color_texture": size(&g.specular_color_texture) }),
         Material::Diffuse(d) => {
             json!({ "kind": "diffuse", "color": vec3(d.color), "texture": size(&d.texture),
                     "metallic": d.metallic, "roughness": d.roughness, "specular": d.specular,

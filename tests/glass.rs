@@ -31,8 +31,25 @@ fn floor_point(desc: &refrakt::frame::FrameDesc, x: u32, y: u32, floor_y: f32) -
 /// absolute terms. Seen from above through the slab, the camera gets T of that again.
 #[test]
 fn a_slab_passes_one_minus_r_over_one_plus_r_in_absolute_terms() {
+    let t = slab_transmittance(1.5);
+    slab_in_the_sun("", Vec3::splat(t));
+}
+
+/// The slab with a KHR_materials_specular layer (factor 0.5, colour (1, 0.5, 0)): each surface
+/// reflects R′ = 0.5 · 0.04 · colour at normal incidence, (0.02, 0.01, 0), so the slab passes
+/// (1 − R′)/(1 + R′) per channel — all of the blue — where the plain slab passes 0.923 of each:
+/// photons and camera rays carry the coloured split per channel.
+#[test]
+fn a_specular_layer_on_a_slab_passes_the_complement_of_its_coloured_reflection() {
+    let r = Vec3::new(0.02, 0.01, 0.0);
+    slab_in_the_sun("specular = 0.5, specular_color = {1, 0.5, 0}", (Vec3::ONE - r) / (Vec3::ONE + r));
+}
+
+/// `a_slab_passes_one_minus_r_over_one_plus_r_in_absolute_terms` with more `glass` fields and
+/// the slab's transmittance `t` per channel.
+fn slab_in_the_sun(glass: &str, t: Vec3) {
     let desc = frame_from_lua(
-        r#"local r = require("refrakt")
+        &r#"local r = require("refrakt")
         local scene = r.scene{
           camera = r.camera{ position = {0, 6, 0.01}, target = {0, -1, 0}, fov = 30, size = {48, 48} },
           environment = r.environment{ color = {0, 0, 0} },
@@ -40,25 +57,26 @@ fn a_slab_passes_one_minus_r_over_one_plus_r_in_absolute_terms() {
         }
         scene:add(r.node{ name = "floor", translation = {0, -1, 0}, shape = r.plane{ size = {6, 6} },
                           material = r.diffuse{ color = {0.8, 0.8, 0.8} } })
-        scene:add(r.node{ name = "slab", shape = r.box{ size = {1.2, 0.2, 1.2} }, material = r.glass{ ior = 1.5 } })
+        scene:add(r.node{ name = "slab", shape = r.box{ size = {1.2, 0.2, 1.2} }, material = r.glass{ ior = 1.5, GLASS } })
         scene:add(r.node{ name = "sun", light = r.sun{ direction = {0, -1, 0}, intensity = 1000 } })
-        return scene"#,
+        return scene"#
+            .replace("GLASS", glass),
     );
     let mut r = renderer();
     let image = r.frame(&desc).unwrap();
     let e_sun = 1000.0 / 683.0;
-    let t = slab_transmittance(1.5);
     // Irradiance on the floor's caustic chart under the middle of the slab.
     let (c, e) = chart(&r, 0, 2);
     let mut under = Vec::new();
     for j in 0..c.height {
         for i in 0..c.width {
             if texel_centre(&c, i, j).abs().max_element() < 0.45 {
-                under.push(e[(i + c.width * j) as usize][0]);
+                let texel = e[(i + c.width * j) as usize];
+                under.push(Vec3::new(texel[0], texel[1], texel[2]));
             }
         }
     }
-    let e_under = mean(&under);
+    let e_under = under.iter().sum::<Vec3>() / under.len() as f32;
     // What the camera sees: the open floor beside the slab, E·albedo/π; under it, through it.
     let (caustic, direct) = (layer(&image, "caustic"), layer(&image, "direct"));
     let open = e_sun * 0.8 / std::f32::consts::PI;
@@ -69,24 +87,31 @@ fn a_slab_passes_one_minus_r_over_one_plus_r_in_absolute_terms() {
             let i = (y * desc.camera.width + x) as usize;
             let m = p.x.abs().max(p.z.abs());
             if m > 0.75 && m < 1.2 {
-                seen_outside.push(rgb(direct, i).x + rgb(caustic, i).x);
+                seen_outside.push(rgb(direct, i) + rgb(caustic, i));
             }
             if m < 0.45 {
-                seen_under.push(rgb(caustic, i).x);
+                seen_under.push(rgb(caustic, i));
             }
         }
     }
-    let (seen_under, seen_outside) = (mean(&seen_under), mean(&seen_outside));
-    eprintln!(
-        "slab: floor irradiance under it {e_under:.4} W/m² = {:.4} of the sun's {e_sun:.4}, (1 − R)/(1 + R) = {t:.4}; \
-         seen: open floor {seen_outside:.4} (closed form {open:.4}), under the slab through it {:.4} of that, T² = {:.4}",
-        e_under / e_sun,
-        seen_under / open,
-        t * t
-    );
-    assert!((e_under / e_sun / t - 1.0).abs() < 0.015, "caustic irradiance under the slab: {e_under} vs {}", t * e_sun);
-    assert!((seen_outside / open - 1.0).abs() < 0.005, "direct light on the open floor: {seen_outside} vs {open}");
-    assert!((seen_under / open / (t * t) - 1.0).abs() < 0.015, "the floor seen through the slab: {seen_under} vs {}", t * t * open);
+    let average = |v: &[Vec3]| v.iter().sum::<Vec3>() / v.len() as f32;
+    let (seen_under, seen_outside) = (average(&seen_under), average(&seen_outside));
+    for k in 0..3 {
+        eprintln!(
+            "slab{}, channel {k}: floor irradiance under it {:.4} W/m² = {:.4} of the sun's {e_sun:.4}, T = {:.4}; \
+             seen: open floor {:.4} (closed form {open:.4}), under the slab through it {:.4} of that, T² = {:.4}",
+            if glass.is_empty() { String::new() } else { format!(" ({glass})") },
+            e_under[k],
+            e_under[k] / e_sun,
+            t[k],
+            seen_outside[k],
+            seen_under[k] / open,
+            t[k] * t[k]
+        );
+        assert!((e_under[k] / e_sun / t[k] - 1.0).abs() < 0.015, "caustic irradiance under the slab, channel {k}: {} vs {}", e_under[k], t[k] * e_sun);
+        assert!((seen_outside[k] / open - 1.0).abs() < 0.005, "direct light on the open floor, channel {k}: {} vs {open}", seen_outside[k]);
+        assert!((seen_under[k] / open / (t[k] * t[k]) - 1.0).abs() < 0.015, "the floor seen through the slab, channel {k}: {} vs {}", seen_under[k], t[k] * t[k] * open);
+    }
 }
 
 /// Photons through an absorbing slab wider than the volume: the fraction that reaches the floor

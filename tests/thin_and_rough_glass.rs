@@ -243,24 +243,55 @@ fn metal_on_a_pane_reflects_its_base_colour_and_passes_nothing() {
     let tint = Vec3::new(1.0, 0.5, 0.25);
     let r = thin_slab_reflectance(0.0);
     for (m, base) in [(0.5f32, Vec3::new(0.3, 0.9, 0.6)), (1.0, tint)] {
-        let desc = frame_from_lua(&format!(
-            r#"local r = require("refrakt")
-            local scene = r.scene{{ volume = {{ resolution = 16 }}, photons = 1000, samples = 1, bounces = 0,
-                                    environment = r.environment{{ color = {{1, 1, 1}} }},
-                                    camera = r.camera{{ position = {{0, 0.5, 0}}, target = {{0, -1, 0}}, up = {{0, 0, -1}}, orthographic = 0.3, size = {{8, 8}} }} }}
-            scene:add(r.node{{ name = "pane", shape = r.plane{{ size = {{1, 1}} }},
-                              material = r.glass{{ ior = 1.5, thin = true, tint = {{{}, {}, {}}}, metallic = {m}, base_color = {{{}, {}, {}}} }} }})
-            return scene"#,
+        let seen = pane_in_a_white_sky(&format!(
+            "tint = {{{}, {}, {}}}, metallic = {m}, base_color = {{{}, {}, {}}}",
             tint.x, tint.y, tint.z, base.x, base.y, base.z
         ));
-        let image = renderer().frame(&desc).unwrap();
-        let l = beauty(&image);
-        let n = l.data.len() / l.channels.len();
-        let seen = (0..n).map(|i| rgb(l, i)).sum::<Vec3>() / n as f32;
         for k in 0..3 {
             let expected = (1.0 - m) * r + m * base[k] + (1.0 - m) * (1.0 - r) * tint[k];
             eprintln!("pane of metallic {m}, channel {k}: L = {:.4}, expected {expected:.4}", seen[k]);
             assert!((seen[k] / expected - 1.0).abs() < 0.01, "metallic {m}, channel {k}: {} vs {expected}", seen[k]);
+        }
+    }
+}
+
+/// The mean radiance a camera looking straight down sees of a thin pane (index 1.5, `glass`:
+/// the rest of its fields) in a uniform white sky of radiance 1.
+fn pane_in_a_white_sky(glass: &str) -> Vec3 {
+    let desc = frame_from_lua(&format!(
+        r#"local r = require("refrakt")
+        local scene = r.scene{{ volume = {{ resolution = 16 }}, photons = 1000, samples = 1, bounces = 0,
+                                environment = r.environment{{ color = {{1, 1, 1}} }},
+                                camera = r.camera{{ position = {{0, 0.5, 0}}, target = {{0, -1, 0}}, up = {{0, 0, -1}}, orthographic = 0.3, size = {{8, 8}} }} }}
+        scene:add(r.node{{ name = "pane", shape = r.plane{{ size = {{1, 1}} }}, material = r.glass{{ ior = 1.5, thin = true, {glass} }} }})
+        return scene"#
+    ));
+    let image = renderer().frame(&desc).unwrap();
+    let l = beauty(&image);
+    let n = l.data.len() / l.channels.len();
+    (0..n).map(|i| rgb(l, i)).sum::<Vec3>() / n as f32
+}
+
+/// KHR_materials_specular on a pane (`Glass::specular`) seen from straight above in a uniform
+/// white sky: each surface reflects R′ = factor · min(F₀ · colour, 1) at normal incidence (F₀ =
+/// 0.04 for n = 1.5), the sheet 2R′/(1 + R′) per channel, and passes the rest tinted, so
+/// L = R_sheet + (1 − R_sheet)·tint per channel within 1 % — a factor 0 reflects nothing and
+/// shows the tint alone; a colour above 1 raises F₀ (10 × 0.04 = 0.4 in red). The same pane
+/// without the layer reflects 0.077 in every channel, which the bound tells apart.
+#[test]
+fn a_specular_layer_reshapes_a_panes_reflection_and_passes_the_rest() {
+    let tint = Vec3::new(0.5, 0.5, 0.25);
+    for (factor, colour) in [(0.0f32, Vec3::ONE), (0.8, Vec3::new(10.0, 1.0, 0.0))] {
+        let seen = pane_in_a_white_sky(&format!(
+            "tint = {{{}, {}, {}}}, specular = {factor}, specular_color = {{{}, {}, {}}}",
+            tint.x, tint.y, tint.z, colour.x, colour.y, colour.z
+        ));
+        for k in 0..3 {
+            let surface = factor * (0.04 * colour[k]).min(1.0);
+            let sheet = 2.0 * surface / (1.0 + surface);
+            let expected = sheet + (1.0 - sheet) * tint[k];
+            eprintln!("pane of specular {factor} × {colour}, channel {k}: L = {:.4}, expected {expected:.4} (R_sheet {sheet:.4})", seen[k]);
+            assert!((seen[k] / expected - 1.0).abs() < 0.01, "specular {factor}, channel {k}: {} vs {expected}", seen[k]);
         }
     }
 }

@@ -54,7 +54,7 @@ fn sheet_transmittance(hit: SurfaceHit, w: vec3<f32>) -> vec3<f32> {
     if surface.roughness > 0.0 {
         return vec3<f32>(0.0);
     }
-    return sheet_passes(surface, thin_sheet_reflectance(abs(dot(w, hit.normal)), interface_ior(f)));
+    return sheet_passes(surface, glass_reflectance(abs(dot(w, hit.normal)), interface_ior(f), true, surface.specular));
 }
 
 // The light that passes the analytic interfaces along p + t·w, t < dist: each crossing of a
@@ -407,13 +407,14 @@ fn lights_seen(o: vec3<f32>, d: vec3<f32>, t_max: f32, lobe_pdf: f32, lobe_from:
 // branch along w would carry per unit of light, F G₁(w) reflected or (1 − F) G₁(w) transmitted
 // (the tint aside): what multiple importance sampling with lights needs. d: the incoming
 // direction; n: the shading normal toward where d comes from; eta: the index beyond over the
-// index before. pdf 0 where the crossing sends nothing along w.
+// index before; layer: the surface's specular layer (F is its `glass_reflectance`, the channels'
+// mean). pdf 0 where the crossing sends nothing along w.
 struct RoughLobe {
     pdf: f32,
     weight: f32,
 }
 
-fn rough_lobe(d: vec3<f32>, n: vec3<f32>, w: vec3<f32>, alpha: f32, eta: f32) -> RoughLobe {
+fn rough_lobe(d: vec3<f32>, n: vec3<f32>, w: vec3<f32>, alpha: f32, eta: f32, layer: vec4<f32>) -> RoughLobe {
     let wi = -d;
     let cos_i = dot(wi, n);
     let reflect = dot(w, n) > 0.0;
@@ -425,7 +426,8 @@ fn rough_lobe(d: vec3<f32>, n: vec3<f32>, w: vec3<f32>, alpha: f32, eta: f32) ->
         return RoughLobe(0.0, 0.0);
     }
     let visible = smith_g1(cos_i, alpha) * i_m * ggx_d(dot(m, n), alpha) / cos_i;
-    let f = fresnel_dielectric(i_m, eta);
+    let reflectances = glass_reflectance(i_m, eta, false, layer);
+    let f = select(dot(reflectances, vec3<f32>(1.0 / 3.0)), reflectances.r, plain_specular(layer));
     let g_out = smith_g1(abs(dot(w, n)), alpha);
     if reflect {
         return RoughLobe(visible / (4.0 * i_m), f * g_out);
@@ -455,7 +457,7 @@ fn lights_through_rough(p: vec3<f32>, b: Branch, c: Crossing, alpha: f32, k: u32
             continue;
         }
         let a = light_arrival(l, p, k);
-        let lobe = rough_lobe(b.d, c.normal, a.w, alpha, c.eta);
+        let lobe = rough_lobe(b.d, c.normal, a.w, alpha, c.eta, c.specular);
         if lobe.pdf <= 0.0 || media_along(c, a.w, b.media).depth != 0u || all(a.intensity <= vec3<f32>(0.0)) {
             continue;
         }
@@ -490,5 +492,5 @@ fn sampled_lobe_pdf(c: Crossing, media: Media, d: vec3<f32>, w: vec3<f32>, alpha
     if media_along(c, w, media).depth != 0u {
         return 0.0;
     }
-    return rough_lobe(d, c.normal, w, alpha, c.eta).pdf;
+    return rough_lobe(d, c.normal, w, alpha, c.eta, c.specular).pdf;
 }

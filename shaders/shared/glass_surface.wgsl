@@ -23,7 +23,7 @@ fn glass_surface_at(hit: SurfaceHit, parts: u32) -> GlassSurface {
     let f = interfaces[hit.interface_id];
     var s = plain_surface(hit);
     let textured = has_texture(f.roughness_texture) || has_texture(f.tint_texture) || has_texture(f.emission_texture) || has_texture(f.normal_texture)
-        || has_texture(f.transmission_texture);
+        || has_texture(f.transmission_texture) || has_texture(f.specular_texture) || has_texture(f.specular_color_texture);
     if hit.triangle == 0xffffffffu || !textured {
         return s;
     }
@@ -44,6 +44,13 @@ fn glass_surface_at(hit: SurfaceHit, parts: u32) -> GlassSurface {
     }
     if has_texture(f.transmission_texture) {
         s.transmission *= texture_at(f.transmission_texture, uv).r;
+    }
+    if has_texture(f.specular_texture) {
+        // (KHR_materials_specular keeps its factor in the texture's alpha.)
+        s.specular.a *= texture_at(f.specular_texture, uv).a;
+    }
+    if has_texture(f.specular_color_texture) {
+        s.specular = vec4<f32>(s.specular.rgb * texture_at(f.specular_color_texture, uv).rgb, s.specular.a);
     }
     if (parts & SURFACE_EMISSION) != 0u && has_texture(f.emission_texture) {
         s.emission *= texture_at(f.emission_texture, uv).rgb;

@@ -270,6 +270,46 @@ fn thin_sheet_reflectance(cos_i: f32, eta: f32) -> f32 {
     return 0.5 * (sheet.x + sheet.y);
 }
 
+// KHR_materials_specular on glass: the reflectance R of one surface (a polarization's or the
+// mean) reshaped as the spec's Schlick form, F₀′ + (F₉₀′ − F₀′)·w, with F₀′ = min(F₀·colour, 1)
+// and F₉₀′ = the factor (both scaled by it), but w = (R − F₀)/(1 − F₀), the exact Fresnel's own
+// rise from normal incidence (F₀ = ((η − 1)/(η + 1))²) in place of (1 − cos θ)⁵: with factor 1
+// and a white colour it is R itself, exactly. Total internal reflection stays total: no light
+// can pass there, whatever the surface's weight.
+fn specular_reflectance(r: f32, f0: f32, layer: vec4<f32>) -> vec3<f32> {
+    if r >= 1.0 {
+        return vec3<f32>(1.0);
+    }
+    let f0_scaled = min(f0 * layer.rgb, vec3<f32>(1.0));
+    let w = (r - f0) / (1.0 - f0);
+    return clamp(layer.a * (f0_scaled + (vec3<f32>(1.0) - f0_scaled) * w), vec3<f32>(0.0), vec3<f32>(1.0));
+}
+
+// Whether a surface's KHR_materials_specular layer (colour, factor) leaves its Fresnel as it is.
+fn plain_specular(layer: vec4<f32>) -> bool {
+    return all(layer == vec4<f32>(1.0));
+}
+
+// The reflectance of a glass surface of relative index η at cos θᵢ, per channel: a solid's
+// surface's Fresnel, or a thin sheet's summed inner reflections (`thin_sheet_reflectance`), each
+// reshaped by the surface's specular layer (rgb: colour, a: factor; per polarization on a sheet).
+fn glass_reflectance(cos_i: f32, eta: f32, thin: bool, layer: vec4<f32>) -> vec3<f32> {
+    if plain_specular(layer) {
+        if thin {
+            return vec3<f32>(thin_sheet_reflectance(cos_i, eta));
+        }
+        return vec3<f32>(fresnel_dielectric(cos_i, eta));
+    }
+    let f0 = (eta - 1.0) * (eta - 1.0) / ((eta + 1.0) * (eta + 1.0));
+    let r = fresnel_polarized(cos_i, eta);
+    if !thin {
+        return specular_reflectance(0.5 * (r.x + r.y), f0, layer);
+    }
+    let s = specular_reflectance(r.x, f0, layer);
+    let p = specular_reflectance(r.y, f0, layer);
+    return 0.5 * (2.0 * s / (1.0 + s) + 2.0 * p / (1.0 + p));
+}
+
 // What happens at one crossing: both outgoing directions, the reflectance R (1 under total
 // internal reflection, when `transmitted` is meaningless), the transmitted branch's tint, the
 // media on the far side of the surface, and the share of each branch a rough surface's microfacets let through
@@ -304,6 +344,9 @@ struct Crossing {
     base: vec3<f32>,
     // The colour of the reflected light, per unit of `reflectance` (1 but for metal).
     reflected_tint: vec3<f32>,
+    // The surface's KHR_materials_specular layer (`GlassSurface.specular`), which weighs light
+    // sampled through a rough crossing as it weighs the branches (`rough_lobe`).
+    specular: vec4<f32>,
 }
 
 // An orthonormal basis (t, b, n) around unit n (Duff et al. 2017, "Building an Orthonormal
@@ -355,6 +398,9 @@ struct GlassSurface {
     // The colour of the diffuse base and the metal: glTF's base colour, the tint but where a
     // Principled BSDF's glass is tinted by the root of it (`Glass::base_color`).
     base_color: vec3<f32>,
+    // KHR_materials_specular: the colour scaling F₀ in rgb, the factor in a
+    // (`specular_reflectance`); all 1: the Fresnel equations alone.
+    specular: vec4<f32>,
 }
 
 // The coverage of a sheet of interface f whose alpha is `alpha` where it is met (glTF's alpha
@@ -369,15 +415,15 @@ fn sheet_coverage(f: Interface, alpha: f32) -> f32 {
     return 1.0;
 }
 
-// What a polished sheet of reflectance R passes straight through where it is met: of the part
-// that is there and not metal, (1 − R) × tint × transmission; the rest, where it is cut away,
-// unchanged.
-fn sheet_passes(surface: GlassSurface, r: f32) -> vec3<f32> {
-    return surface.coverage * (1.0 - surface.metallic) * (1.0 - r) * surface.tint * surface.transmission + vec3<f32>(1.0 - surface.coverage);
+// What a polished sheet of reflectance R (per channel) passes straight through where it is met:
+// of the part that is there and not metal, (1 − R) × tint × transmission; the rest, where it is
+// cut away, unchanged.
+fn sheet_passes(surface: GlassSurface, r: vec3<f32>) -> vec3<f32> {
+    return surface.coverage * (1.0 - surface.metallic) * (vec3<f32>(1.0) - r) * surface.tint * surface.transmission + vec3<f32>(1.0 - surface.coverage);
 }
 
 // How a surface splits the light that meets it at cos θ = c from the facet's normal, where the
-// glass alone reflects R, per channel (glTF's metallic-roughness model with
+// glass alone reflects R (per channel: a specular colour tints it) (glTF's metallic-roughness model with
 // KHR_materials_transmission): the metal (`metallic` of it) reflects Schlick's F from the base
 // colour at c; the glass reflects R and of the rest passes `transmission` (tinted)
 // into the glass or through the sheet and sends the remainder to its diffuse base; where a sheet
@@ -388,13 +434,13 @@ struct SurfaceSplit {
     base: vec3<f32>,
 }
 
-fn surface_split(surface: GlassSurface, r: f32, c: f32) -> SurfaceSplit {
+fn surface_split(surface: GlassSurface, r: vec3<f32>, c: f32) -> SurfaceSplit {
     let x = 1.0 - clamp(c, 0.0, 1.0);
     let x2 = x * x;
     let metal = surface.base_color + (vec3<f32>(1.0) - surface.base_color) * (x2 * x2 * x);
     let glass = surface.coverage * (1.0 - surface.metallic);
     let reflected = glass * r + surface.coverage * surface.metallic * metal;
-    let base = glass * (1.0 - r) * (1.0 - surface.transmission) * surface.base_color;
+    let base = glass * (vec3<f32>(1.0) - r) * (1.0 - surface.transmission) * surface.base_color;
     return SurfaceSplit(reflected, sheet_passes(surface, r), base);
 }
 
@@ -404,7 +450,8 @@ fn plain_surface(hit: SurfaceHit) -> GlassSurface {
     let f = interfaces[hit.interface_id];
     // (A sheet glows where it is there.)
     let coverage = sheet_coverage(f, f.alpha);
-    return GlassSurface(f.tint, f.roughness, f.emission * coverage, hit.normal, f.transmission, coverage, f.metallic, f.base_color);
+    return GlassSurface(f.tint, f.roughness, f.emission * coverage, hit.normal, f.transmission, coverage, f.metallic, f.base_color,
+                        vec4<f32>(f.specular_color, f.specular));
 }
 
 // Smith's masking for GGX of a direction at cos θ = c from the normal (c > 0):
@@ -475,7 +522,7 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
     // (Where the index does not change — tinted glass of index 1, a liquid of its glass's index —
     // the crossing below bends and reflects nothing but still tints.)
     if (!thin && beyond.holder == media.holder) || surface.coverage <= 0.0 {
-        return Crossing(d, d, 0.0, vec3<f32>(1.0), beyond, geometric, n, eta, 1.0, 1.0, 1.0, through, false, vec3<f32>(0.0), vec3<f32>(1.0));
+        return Crossing(d, d, 0.0, vec3<f32>(1.0), beyond, geometric, n, eta, 1.0, 1.0, 1.0, through, false, vec3<f32>(0.0), vec3<f32>(1.0), surface.specular);
     }
     let alpha = surface.roughness * surface.roughness;
     var m = n;
@@ -484,12 +531,12 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
         m = frame * ggx_visible_normal(-d * frame, alpha, u);
     }
     let cos_i = -dot(d, m);
-    var reflectance = fresnel_dielectric(cos_i, eta);
+    let reflectances = glass_reflectance(cos_i, eta, thin, surface.specular);
+    var reflectance = reflectances.r;
     let reflected = d + 2.0 * cos_i * m;
     var transmitted = reflected;
     if thin {
         transmitted = reflected - 2.0 * dot(reflected, n) * n;
-        reflectance = thin_sheet_reflectance(cos_i, eta);
     } else if reflectance < 1.0 {
         let cos_t = sqrt(1.0 - (1.0 - cos_i * cos_i) / (eta * eta));
         transmitted = normalize(d / eta + (cos_i / eta - cos_t) * m);
@@ -510,21 +557,23 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
     }
     var tint = surface.tint * surface.transmission;
     var reflected_tint = vec3<f32>(1.0);
-    if surface.coverage < 1.0 || surface.metallic > 0.0 {
-        // Metal (coloured reflection, nothing passed) or a sheet partly there (alpha BLEND: the
-        // rest passes unchanged), folded into one reflectance (the mean over the channels), the
-        // colour of what it reflects and the tint of what passes, so photons, view branches and
-        // shadow rays (`sheet_passes`) agree. (Exact on polished glass; a rough sheet partly
-        // there sends what passes its uncovered part along the microfacet's direction.)
-        let split = surface_split(surface, reflectance, cos_i);
+    if surface.coverage < 1.0 || surface.metallic > 0.0 || !plain_specular(surface.specular) {
+        // Metal (coloured reflection, nothing passed), a sheet partly there (alpha BLEND: the
+        // rest passes unchanged) or a specular colour, folded into one reflectance (the mean over
+        // the channels), the colour of what it reflects and the tint of what passes, so photons,
+        // view branches and shadow rays (`sheet_passes`) agree. (Exact on polished glass; a rough
+        // sheet partly there sends what passes its uncovered part along the microfacet's direction.)
+        let split = surface_split(surface, reflectances, cos_i);
         let r = (split.reflected.r + split.reflected.g + split.reflected.b) / 3.0;
         reflected_tint = split.reflected / max(r, 1e-6);
         tint = split.passed / max(1.0 - r, 1e-6);
         reflectance = r;
-        return Crossing(reflected, transmitted, reflectance, tint, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true, split.base, reflected_tint);
+        return Crossing(reflected, transmitted, reflectance, tint, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true, split.base, reflected_tint,
+                        surface.specular);
     }
     let base = (1.0 - reflectance) * (1.0 - surface.transmission) * surface.base_color;
-    return Crossing(reflected, transmitted, reflectance, tint, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true, base, reflected_tint);
+    return Crossing(reflected, transmitted, reflectance, tint, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true, base, reflected_tint,
+                    surface.specular);
 }
 
 // The media of a branch that leaves crossing c along w: the media beyond only if w passes

@@ -207,6 +207,12 @@ struct Interface {
     base_color: vec3<f32>,
     // How much of the surface is metal (× the roughness texture's blue channel).
     metallic: f32,
+    // KHR_materials_specular: the colour scaling F0 (× its texture's rgb) and the factor
+    // scaling the whole reflectance (× its texture's alpha).
+    specular_color: vec3<f32>,
+    specular: f32,
+    specular_texture: vec4<u32>,
+    specular_color_texture: vec4<u32>,
 }
 
 struct ReceiverGpu {

@@ -6,7 +6,8 @@
 //! receiver of the metallic-roughness model (`scene::Diffuse`): base colour, metallic,
 //! roughness, their textures, normal and occlusion maps, emission (with
 //! KHR_materials_emissive_strength), alphaMode / alphaCutoff, KHR_materials_specular's
-//! specular factor, and the clearcoat and sheen layers (`super::layers`).
+//! specular factor, and the clearcoat and sheen layers (`super::layers`). On glass,
+//! KHR_materials_specular's factors and textures too (`Glass::specular`).
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -210,7 +211,8 @@ impl<'a> Materials<'a> {
     /// tints (KHR_materials_transmission: the base colour is the transmitted colour), the
     /// metallic-roughness texture's green channel scales the roughness and the normal map bends
     /// the normal, where each ray or photon meets the surface; the emissive texture where the
-    /// camera sees it glow. The medium inside (index, absorption) stays one per material.
+    /// camera sees it glow; KHR_materials_specular's factors and textures reshape its
+    /// reflectance. The medium inside (index, absorption) stays one per material.
     fn glass_textures(&mut self, m: &gltf::Material, what: &str, glass: &mut Glass, warnings: &mut Collector) -> Result<Option<UvMap>> {
         let pbr = m.pbr_metallic_roughness();
         let file = self.at.file;
@@ -242,13 +244,21 @@ impl<'a> Materials<'a> {
             maps.push(("transmission", UvMap::of(&info, file, what)?));
             glass.transmission_texture = Some(self.texture(&info, what, "transmission", false)?);
         }
-        warn_uv_maps_differ(&maps, what, warnings);
-        let specular = m.specular().filter(|s| {
-            s.specular_factor() != 1.0 || s.specular_color_factor() != [1.0; 3] || s.specular_texture().is_some() || s.specular_color_texture().is_some()
-        });
-        if specular.is_some() {
-            warnings.about(what, "refrakt's glass reflects by the Fresnel equations of its IOR: KHR_materials_specular's factors and textures are not read on glass");
+        if let Some(specular) = m.specular() {
+            // KHR_materials_specular: the factor scales the reflection, the colour its F₀
+            // (`Glass::specular`); the factor's texture is in alpha, the colour's is sRGB.
+            glass.specular = specular.specular_factor().clamp(0.0, 1.0);
+            glass.specular_color = Vec3::from(specular.specular_color_factor()).max(Vec3::ZERO);
+            if let Some(info) = specular.specular_texture() {
+                maps.push(("specular", UvMap::of(&info, file, what)?));
+                glass.specular_texture = Some(self.texture(&info, what, "specular", false)?);
+            }
+            if let Some(info) = specular.specular_color_texture() {
+                maps.push(("specular color", UvMap::of(&info, file, what)?));
+                glass.specular_color_texture = Some(self.texture(&info, what, "specular color", true)?);
+            }
         }
+        warn_uv_maps_differ(&maps, what, warnings);
         Ok(maps.first().map(|m| m.1))
     }
 

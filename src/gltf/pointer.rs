@@ -67,6 +67,10 @@ pub enum MaterialProperty {
     Ior,
     /// KHR_materials_dispersion's 20/V_d of a glass.
     Dispersion,
+    /// KHR_materials_specular's factor (a receiver's and a glass's) and colour (a glass's):
+    /// Blender writes them for a keyed Specular IOR Level and Tint.
+    Specular,
+    SpecularColor,
 }
 
 /// The JSON without its pointer channels (the original bytes when it has none), and those
@@ -150,6 +154,8 @@ pub fn resolve(pointer: &str) -> Option<(Target, usize)> {
                 ["alphaCutoff"] => MaterialProperty::AlphaCutoff,
                 ["extensions", "KHR_materials_ior", "ior"] => MaterialProperty::Ior,
                 ["extensions", "KHR_materials_dispersion", "dispersion"] => MaterialProperty::Dispersion,
+                ["extensions", "KHR_materials_specular", "specularFactor"] => MaterialProperty::Specular,
+                ["extensions", "KHR_materials_specular", "specularColorFactor"] => MaterialProperty::SpecularColor,
                 _ => return None,
             };
             (Target::Material(p), index(i)?)
@@ -217,8 +223,9 @@ pub fn apply_camera(camera: &mut Camera, p: CameraProperty, v: &[f32]) {
 }
 
 /// Sets a material's animated factor, held within what the import accepts: a receiver's, or a
-/// glass's tint and alpha, metallic, roughness, emission, alpha cutoff, index (1 to 4) and
-/// dispersion (0 to 20); what a material does not have (a receiver's index) is left alone.
+/// glass's tint and alpha, metallic, roughness, emission, alpha cutoff, index (1 to 4),
+/// dispersion (0 to 20) and specular factor (0 to 1) and colour (≥ 0); what a material does not
+/// have (a receiver's index or specular colour) is left alone.
 pub fn apply_material(material: &mut Material, p: MaterialProperty, v: &[f32]) {
     let unit = |x: f32| x.clamp(0.0, 1.0);
     match material {
@@ -232,7 +239,8 @@ pub fn apply_material(material: &mut Material, p: MaterialProperty, v: &[f32]) {
             MaterialProperty::Emissive => d.emission = Vec3::from_slice(v).max(Vec3::ZERO),
             MaterialProperty::EmissiveStrength => d.emission_strength = v[0].max(0.0),
             MaterialProperty::AlphaCutoff => d.alpha_cutoff = unit(v[0]),
-            MaterialProperty::Ior | MaterialProperty::Dispersion => {}
+            MaterialProperty::Specular => d.specular = unit(v[0]),
+            MaterialProperty::Ior | MaterialProperty::Dispersion | MaterialProperty::SpecularColor => {}
         },
         Material::Glass(g) => match p {
             MaterialProperty::BaseColor => {
@@ -246,6 +254,8 @@ pub fn apply_material(material: &mut Material, p: MaterialProperty, v: &[f32]) {
             MaterialProperty::AlphaCutoff => g.alpha_cutoff = unit(v[0]),
             MaterialProperty::Ior => g.ior = v[0].clamp(1.0, 4.0),
             MaterialProperty::Dispersion => g.dispersion = v[0].clamp(0.0, 20.0),
+            MaterialProperty::Specular => g.specular = unit(v[0]),
+            MaterialProperty::SpecularColor => g.specular_color = Vec3::from_slice(v).max(Vec3::ZERO),
         },
     }
 }
@@ -270,6 +280,8 @@ mod tests {
         assert_eq!(resolve("/nodes/7/extras/refrakt/light/intensity"), Some((Target::AreaLight(LightProperty::Intensity), 7)));
         assert_eq!(resolve("/materials/1/extensions/KHR_materials_ior/ior"), Some((Target::Material(MaterialProperty::Ior), 1)));
         assert_eq!(resolve("/materials/0/extensions/KHR_materials_dispersion/dispersion"), Some((Target::Material(MaterialProperty::Dispersion), 0)));
+        assert_eq!(resolve("/materials/2/extensions/KHR_materials_specular/specularFactor"), Some((Target::Material(MaterialProperty::Specular), 2)));
+        assert_eq!(resolve("/materials/2/extensions/KHR_materials_specular/specularColorFactor"), Some((Target::Material(MaterialProperty::SpecularColor), 2)));
         for unread in ["/extensions/KHR_lights_punctual/lights/0/range", "/cameras/0/perspective/zfar", "/cameras/0/extras/refrakt/blades", "/cameras/0/extras/other/focus", "/materials/x/alphaCutoff", "nodes/0/scale", ""] {
             assert_eq!(resolve(unread), None, "{unread}");
         }
@@ -307,8 +319,14 @@ mod tests {
         apply_material(&mut m, MaterialProperty::BaseColor, &[0.5, 2.0, 0.25, 0.4]);
         apply_material(&mut m, MaterialProperty::Metallic, &[1.5]);
         apply_material(&mut m, MaterialProperty::AlphaCutoff, &[0.25]);
+        apply_material(&mut m, MaterialProperty::Specular, &[-0.5]);
+        apply_material(&mut m, MaterialProperty::SpecularColor, &[2.0, -1.0, 0.5]);
         let Material::Glass(g) = &m else { unreachable!() };
         assert_eq!((g.tint, g.alpha, g.metallic, g.alpha_cutoff), (Vec3::new(0.5, 1.0, 0.25), 0.4, 1.0, 0.25));
+        assert_eq!((g.specular, g.specular_color), (0.0, Vec3::new(2.0, 0.0, 0.5)), "the factor held to 0–1, the colour to ≥ 0");
+        let mut receiver = Material::Diffuse(Default::default());
+        apply_material(&mut receiver, MaterialProperty::Specular, &[0.25]);
+        assert!(matches!(receiver, Material::Diffuse(d) if d.specular == 0.25));
     }
 
     #[test]

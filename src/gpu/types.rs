@@ -352,6 +352,13 @@ gpu_struct! {
         pub base_color: [f32; 3],
         /// How much of the surface is metal (`Glass::metallic`; × the roughness texture's blue).
         pub metallic: f32,
+        /// KHR_materials_specular's colour (`Glass::specular_color`; × its texture's rgb).
+        pub specular_color: [f32; 3],
+        /// KHR_materials_specular's factor (`Glass::specular`; × its texture's alpha).
+        pub specular: f32,
+        /// The specular and specular-colour textures, as the textures above.
+        pub specular_texture: [u32; 4],
+        pub specular_color_texture: [u32; 4],
     }
 }
 

@@ -14,7 +14,8 @@ use crate::scene::{AlphaMode, Glass, Material, Texture2d};
 pub const FIELDS: &[&str] = &[
     "ior", "absorption", "color", "distance", "scattering", "g", "tint", "roughness", "thin", "dispersion", "abbe", "priority", "multiscatter", "emission",
     "emission_strength", "tint_texture", "roughness_texture", "emission_texture", "normal_texture", "normal_scale", "transmission",
-    "transmission_texture", "alpha", "alpha_mode", "alpha_cutoff", "metallic", "base_color",
+    "transmission_texture", "alpha", "alpha_mode", "alpha_cutoff", "metallic", "base_color", "specular", "specular_color", "specular_texture",
+    "specular_color_texture",
 ];
 
 /// The texture field `key` of `g`, and whether its file is sRGB-encoded (colour) or linear.
@@ -25,6 +26,8 @@ fn texture_slot<'a>(g: &'a mut Glass, key: &str) -> Option<(&'a mut Option<Arc<T
         "emission_texture" => (&mut g.emission_texture, true),
         "normal_texture" => (&mut g.normal_texture, false),
         "transmission_texture" => (&mut g.transmission_texture, false),
+        "specular_texture" => (&mut g.specular_texture, false),
+        "specular_color_texture" => (&mut g.specular_color_texture, true),
         _ => return None,
     })
 }
@@ -59,6 +62,10 @@ pub fn get(lua: &Lua, g: &Glass, key: &str) -> Option<mlua::Result<Value>> {
         "emission_texture" => texture_value(lua, &g.emission_texture),
         "normal_texture" => texture_value(lua, &g.normal_texture),
         "transmission_texture" => texture_value(lua, &g.transmission_texture),
+        "specular_texture" => texture_value(lua, &g.specular_texture),
+        "specular_color_texture" => texture_value(lua, &g.specular_color_texture),
+        "specular" => Ok(number_value(g.specular)),
+        "specular_color" => vec_value(lua, g.specular_color),
         "transmission" => Ok(number_value(g.transmission)),
         "alpha" => Ok(number_value(g.alpha)),
         "metallic" => Ok(number_value(g.metallic)),
@@ -144,7 +151,12 @@ fn set_field(lua: &Lua, g: &mut Glass, key: &str, value: Value) -> mlua::Result<
         "transmission" => {
             g.transmission = cv::number_in(lua, name, &value, Some(0.0), Some(1.0), "a number from 0 (an opaque, diffuse base) to 1 (all glass)")? as f32
         }
-        "tint_texture" | "roughness_texture" | "emission_texture" | "normal_texture" | "transmission_texture" => {
+        "specular" => {
+            g.specular = cv::number_in(lua, name, &value, Some(0.0), Some(1.0), "a number from 0 (reflects nothing) to 1 (the Fresnel reflection of its ior)")? as f32
+        }
+        // (KHR_materials_specular lets the colour exceed 1: F₀ × colour is capped at 1.)
+        "specular_color" => g.specular_color = cv::color(lua, name, &value)?,
+        "tint_texture" | "roughness_texture" | "emission_texture" | "normal_texture" | "transmission_texture" | "specular_texture" | "specular_color_texture" => {
             let (slot, srgb) = texture_slot(g, key).expect("a texture field");
             *slot = texture(lua, name, &value, srgb)?;
         }

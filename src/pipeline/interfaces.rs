@@ -27,7 +27,7 @@ pub const MARK_WIDTH_VOXELS: f32 = 1.75;
 
 /// The textures a glass mesh's surface may carry, in the interface record's order: roughness,
 /// tint, emission, normal map, transmission (`scene::Glass::textures`).
-pub const GLASS_TEXTURES: usize = 5;
+pub const GLASS_TEXTURES: usize = 7;
 pub type GlassTextures = [Option<Arc<Texture2d>>; GLASS_TEXTURES];
 
 
@@ -52,6 +52,8 @@ pub fn table(desc: &FrameDesc, textures: &[[[u32; 4]; GLASS_TEXTURES]]) -> Vec<I
             emission_texture: texture(2),
             normal_texture: texture(3),
             transmission_texture: texture(4),
+            specular_texture: texture(5),
+            specular_color_texture: texture(6),
             glow_area,
             glow_side,
             ..surface
@@ -142,6 +144,8 @@ fn surface_record(glass: &Glass, thin: bool) -> Interface {
         alpha_cutoff: glass.alpha_cutoff,
         metallic: glass.metallic,
         base_color: glass.base().into(),
+        specular: glass.specular,
+        specular_color: glass.specular_color.into(),
         ..Default::default()
     }
 }

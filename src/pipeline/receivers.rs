@@ -288,12 +288,21 @@ fn receiver_gpu(r: &Receiver, atlas: &mut TexelAtlas) -> ReceiverGpu {
 }
 
 
-/// A sharp glass mesh's (roughness, tint, emission) textures with the encoding each is stored
-/// in: the roughness is the metallic-roughness texture's green channel, stored linear; the tint
-/// (base colour) and the glow (emissive) are stored sRGB-encoded, as a receiver's colours are.
+/// A sharp glass mesh's textures (`Glass::textures`) with the encoding each is stored in: the
+/// roughness (the metallic-roughness texture's green channel), the normal map, the transmission
+/// and the specular factor are stored linear; the tint (base colour), the glow (emissive) and
+/// the specular colour sRGB-encoded, as a receiver's colours are.
 fn glass_texture_encodings(t: &GlassTextures) -> [(Option<&Arc<Texture2d>>, u32); GLASS_TEXTURES] {
     use texel_encoding::{LINEAR, SRGB};
-    [(t[0].as_ref(), LINEAR), (t[1].as_ref(), SRGB), (t[2].as_ref(), SRGB), (t[3].as_ref(), LINEAR), (t[4].as_ref(), LINEAR)]
+    [
+        (t[0].as_ref(), LINEAR),
+        (t[1].as_ref(), SRGB),
+        (t[2].as_ref(), SRGB),
+        (t[3].as_ref(), LINEAR),
+        (t[4].as_ref(), LINEAR),
+        (t[5].as_ref(), LINEAR),
+        (t[6].as_ref(), SRGB),
+    ]
 }
 
 /// Every texture the atlas will hold, fitted to `max_texels` (`fit_textures`), warning when

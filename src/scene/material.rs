@@ -90,6 +90,23 @@ pub struct Glass {
     /// square root at each surface (the add-on writes that root as `extras.refrakt.tint`). None:
     /// the tint, as glTF's one base colour is both. The tint texture multiplies it too.
     pub base_color: Option<Vec3>,
+    /// KHR_materials_specular's specular factor, 0 to 1 (Blender's Specular IOR Level, twice
+    /// it): how strongly the glass reflects, at every angle — 0 reflects nothing and passes all.
+    /// With `specular_color` it reshapes the Fresnel reflectance of the glass's index
+    /// (`glass_reflectance` in shaders/shared/interface.wgsl): R′ = specular · (F₀′ + (1 − F₀′)·w),
+    /// F₀′ = min(F₀ · specular_color, 1), where w = (R − F₀)/(1 − F₀) is the exact Fresnel's own
+    /// rise from its normal-incidence F₀ — the spec's Schlick form with Fresnel's angular shape;
+    /// 1 and white give R itself. Total internal reflection stays total. What the surface does
+    /// not reflect it passes (or sends to its diffuse base).
+    pub specular: f32,
+    /// KHR_materials_specular's specular colour: scales the normal-incidence reflectance F₀ per
+    /// channel (up to F₀′ = 1), so the reflection is coloured and the light passed the complement.
+    pub specular_color: Vec3,
+    /// A specular texture (glTF, linear): its alpha multiplies `specular`. A sharp mesh with
+    /// texture coordinates only.
+    pub specular_texture: Option<Arc<Texture2d>>,
+    /// A specular colour texture (glTF, sRGB): its rgb multiplies `specular_color`. Likewise.
+    pub specular_color_texture: Option<Arc<Texture2d>>,
 }
 
 impl Glass {
@@ -117,9 +134,23 @@ impl Glass {
     }
 
     /// Its textures in the order the interface record holds them: roughness, tint, emission,
-    /// normal map, transmission (`pipeline::interfaces::GlassTextures`).
-    pub fn textures(&self) -> [&Option<Arc<Texture2d>>; 5] {
-        [&self.roughness_texture, &self.tint_texture, &self.emission_texture, &self.normal_texture, &self.transmission_texture]
+    /// normal map, transmission, specular, specular colour (`pipeline::interfaces::GlassTextures`).
+    pub fn textures(&self) -> [&Option<Arc<Texture2d>>; 7] {
+        [
+            &self.roughness_texture,
+            &self.tint_texture,
+            &self.emission_texture,
+            &self.normal_texture,
+            &self.transmission_texture,
+            &self.specular_texture,
+            &self.specular_color_texture,
+        ]
+    }
+
+    /// Whether KHR_materials_specular changes its reflectance (a factor or colour other than 1,
+    /// or a texture of either).
+    pub fn has_specular(&self) -> bool {
+        self.specular != 1.0 || self.specular_color != Vec3::ONE || self.specular_texture.is_some() || self.specular_color_texture.is_some()
     }
 
     /// Whether it carries any texture.
@@ -154,7 +185,8 @@ impl Default for Glass {
         Self { ior: 1.5, absorption: Vec3::ZERO, scattering: Vec3::ZERO, g: 0.0, tint: Vec3::ONE, roughness: 0.0, thin: None, dispersion: 0.0,
                roughness_texture: None, tint_texture: None, priority: 0, multiscatter: true, emission: Vec3::ZERO, emission_strength: 1.0,
                emission_texture: None, normal_texture: None, normal_scale: 1.0, transmission: 1.0, transmission_texture: None, alpha: 1.0,
-               alpha_mode: AlphaMode::Opaque, alpha_cutoff: 0.5, metallic: 0.0, base_color: None }
+               alpha_mode: AlphaMode::Opaque, alpha_cutoff: 0.5, metallic: 0.0, base_color: None, specular: 1.0, specular_color: Vec3::ONE,
+               specular_texture: None, specular_color_texture: None }
     }
 }
 

@@ -393,6 +393,15 @@ def test_principled_glass_reaches_khr_materials(addon, saved_blend):
     assert pbr.get("roughnessFactor", 1.0) == pytest.approx(0.25, rel=1e-6)
     assert pbr["baseColorFactor"][:3] == pytest.approx([math.sqrt(c) for c in (0.9, 0.8, 0.7)], rel=1e-6)
     assert "KHR_materials_dispersion" not in ext, "no Abbe number set: no dispersion"
+    assert "KHR_materials_specular" not in ext, "Specular IOR Level 0.5 and a white tint: the plain Fresnel"
+    # Specular IOR Level and Tint reach the glass's KHR_materials_specular (level × 2 the factor).
+    bsdf.inputs["Specular IOR Level"].default_value = 0.25
+    bsdf.inputs["Specular Tint"].default_value = (1.0, 0.5, 0.25, 1.0)
+    _, gltf = export(saved_blend)
+    specular = gltf.material("Glass")["extensions"]["KHR_materials_specular"]
+    assert specular["specularFactor"] == pytest.approx(0.5) and specular["specularColorFactor"] == pytest.approx([1.0, 0.5, 0.25])
+    bsdf.inputs["Specular IOR Level"].default_value = 0.5
+    bsdf.inputs["Specular Tint"].default_value = (1.0, 1.0, 1.0, 1.0)
     # Partly glass: the Base Color is also its diffuse base's, in full, so the factor stays and
     # the root goes to the extras as the tint alone.
     bsdf.inputs["Transmission Weight"].default_value = 0.5

@@ -125,6 +125,7 @@ def test_material_panel_shows_refrakts_reading_of_the_principled_bsdf(addon):
     bsdf.inputs["Roughness"].default_value = 0.2
     bsdf.inputs["Metallic"].default_value = 0.5
     bsdf.inputs["Coat Weight"].default_value = 0.3
+    bsdf.inputs["Specular IOR Level"].default_value = 0.25
     bsdf.inputs["Base Color"].default_value = (0.9, 0.8, 0.7, 1.0)
     labels = [text for kind, text in draw("MATERIAL_PT_refrakt", Context(material=glass)) if kind == "label"]
     assert labels[0] == "refrakt reads: glass (a refractive medium)"
@@ -135,6 +136,7 @@ def test_material_panel_shows_refrakts_reading_of_the_principled_bsdf(addon):
     assert "Glass: Auto → closed meshes solid, flat ones thin sheets" in labels
     # Metal on glass is read (glTF's metallicFactor on a transmissive material); a coat is not.
     assert "Metallic: 0.5 → the metal part of its surface: reflects Base Color, passes nothing" in labels
+    assert "Specular IOR Level: 0.25 → reflection strength, × Specular Tint (KHR_materials_specular)" in labels
     ignored = labels[labels.index("Ignored:") + 1:]
     assert not any(text.startswith(("Roughness", "Metallic")) for text in ignored)
     assert "Coat Weight 0.3" in ignored
@@ -148,7 +150,8 @@ def test_material_panel_shows_refrakts_reading_of_the_principled_bsdf(addon):
     # A receiver is read with glTF's metallic-roughness model, its clear coat too.
     assert reading.kind == "receiver" and reading.rows == [
         ("Base Color", "0.9 0.8 0.7", "albedo"), ("Roughness", "0.2", "GGX roughness of its reflection"),
-        ("Metallic", "0.5", "metallic: reflects Base Color"), ("Coat Weight", "0.3", "a clear coat (KHR_materials_clearcoat)"),
+        ("Metallic", "0.5", "metallic: reflects Base Color"), ("Specular IOR Level", "0.25", "specular weight (KHR_materials_specular)"),
+        ("Coat Weight", "0.3", "a clear coat (KHR_materials_clearcoat)"),
     ]
     assert reading.ignored == []
     shown = draw("MATERIAL_PT_refrakt", Context(material=glass))

@@ -93,7 +93,7 @@ fn spread_ray(e: Emitter, u: vec2<f32>, xi: vec2<f32>) -> SpreadRay {
         return SpreadRay(origin, dir, s.radiance / s.pdf);
     }
     let at = area_point(e, u);
-    let radiance = lights[e.light].radiant;
+    let radiance = lights[e.light].radiant * at.scale;
     let cone = rect_cone(e, at.p);
     if cone.w <= -1.0 {
         // About a rect's own axes; a mesh's point has only its normal.
@@ -115,13 +115,13 @@ fn area_point(e: Emitter, u: vec2<f32>) -> LightPoint {
     let light = lights[e.light];
     if light.kind == LIGHT_MESH {
         let q = mesh_light_side_point(light, u);
-        return LightPoint(q.p + q.n * (1e-4 + 1e-3 * params.grid.voxel_size), q.n);
+        return LightPoint(q.p + q.n * (1e-4 + 1e-3 * params.grid.voxel_size), q.n, q.scale);
     }
     var q = 2.0 * u - 1.0;
     if light.kind == LIGHT_DISK {
         q = concentric_disk(u);
     }
-    return LightPoint(e.origin + e.right * (q.x * e.half_width) + e.up * (q.y * e.half_height), e.axis);
+    return LightPoint(e.origin + e.right * (q.x * e.half_width) + e.up * (q.y * e.half_height), e.axis, vec3<f32>(1.0));
 }
 
 // The cone a rect light's photons from p leave in: toward the volume (`volume_cone`), or every

@@ -224,6 +224,8 @@ fn a_dark_environment_changes_nothing() {
 /// and reached the floor) within 1.5 % of 0.9954 × the point light's, and the caustic seen
 /// (relative L1 of the caustic images, which differ also by the light's blur of the focus)
 /// ≤ 0.15. (The glowing square's back faces away from the ball: none of its photons go there.)
+/// So does a patterned glowing square twice as wide whose emission texture glows only in its
+/// middle quarter, the same 4 cm square: its photons leave from the pattern alone.
 #[test]
 fn a_small_area_lights_caustic_is_a_point_lights() {
     let (radiance, side) = (2.0e6f32, 0.04f32);
@@ -237,13 +239,23 @@ fn a_small_area_lights_caustic_is_a_point_lights() {
         "shape = r.plane{{ size = {{{side}, {side}}} }}, material = r.pbr{{ color = {{0, 0, 0}}, emission = {{1, 1, 1}}, emission_strength = {} }}",
         radiance / 683.0
     );
+    let patterned = glowing.replace(&format!("size = {{{side}, {side}}}"), &format!("size = {{{}, {}}}", 2.0 * side, 2.0 * side));
     let lamps = [
         ("rect", side * side, format!("{facing_down} light = r.rect{{ size = {{{side}, {side}}}, intensity = {radiance} }}")),
         ("disk", PI / 4.0 * side * side, format!("{facing_down} light = r.disk{{ size = {{{side}, {side}}}, intensity = {radiance} }}")),
         ("glowing mesh", side * side, glowing),
+        ("patterned glowing mesh", side * side, patterned),
     ];
     for (kind, area, lamp) in lamps {
-        let with_area = r.frame(&scene(&lamp)).unwrap();
+        let mut desc = scene(&lamp);
+        if kind.starts_with("patterned") {
+            // White in the middle 33 of 66 texels each way (u, v from 17/66 to 50/66): a 4 cm square.
+            let middle = |i: usize| (17..50).contains(&i);
+            let texels = (0..66 * 66).map(|i| if middle(i % 66) && middle(i / 66) { [1.0; 4] } else { [0.0, 0.0, 0.0, 1.0] }).collect();
+            let texture = refrakt::scene::Texture2d { width: 66, height: 66, texels, wrap: Default::default() };
+            desc.receivers.iter_mut().find(|r| r.name == "lamp").expect("the lamp").diffuse.emission_texture = Some(Arc::new(texture));
+        }
+        let with_area = r.frame(&desc).unwrap();
         let flux_area = r.photon_stats().expect("photons were traced").caustic[0] * (side * side / area) as f64;
         let (a, b) = (layer(&with_point, "caustic"), layer(&with_area, "caustic"));
         // The glowing square is seen, 2 m from the camera, right where the camera (looking
@@ -325,6 +337,43 @@ fn a_glowing_ball_lights_the_floor_as_its_facets_do() {
         PI * 2.0 * 0.04
     );
     assert!((e / expected - 1.0).abs() < 0.01, "{e} vs {expected}");
+}
+
+/// A glowing square whose emission texture is a pattern lights the floor by the pattern, not by
+/// its mean: a 1 m square 1 m over a white floor, radiance 2 × a texture white on its left half
+/// and black on its right (66 × 5 texels: sides not powers of two, which lavapipe would compile
+/// the view for anew), seen at the point below the middle of its white half and below the middle
+/// of its black half. Each gives what Lambert's polygon formula gives for the white half alone at
+/// radiance 2, within 2 % (bilinear filtering blurs one texel's width at the edge); the mean
+/// (radiance 1 over the whole square) would give 0.84× and 1.23× of that.
+#[test]
+fn a_glowing_squares_pattern_lights_the_floor_where_it_glows() {
+    for offset in [0.25f32, -0.25] {
+        let script = format!(
+            "local r = require('refrakt')
+             local scene = r.scene{{ camera = r.camera{{ position = {{0, 0.5, 0}}, target = {{0, 0, 0}}, up = {{0, 0, -1}}, orthographic = 0.02, size = {{8, 8}} }},
+                                    environment = r.environment{{ color = {{0, 0, 0}} }}, photons = 0, bounces = 0, samples = 256 }}
+             scene:add(r.node{{ name = 'floor', shape = r.plane{{ size = {{6, 6}} }}, material = r.diffuse{{ color = {{1, 1, 1}} }} }})
+             scene:add(r.node{{ name = 'sign', translation = {{{offset}, 1, 0}}, shape = r.plane{{ size = {{1, 1}} }},
+                               material = r.pbr{{ color = {{0, 0, 0}}, emission = {{1, 1, 1}}, emission_strength = 2, emission_texture = 'sign.png' }} }})
+             return scene"
+        );
+        let (dir, path) = common::write_script("scene.lua", &script);
+        image::RgbImage::from_fn(66, 5, |x, _| if x < 33 { image::Rgb([255; 3]) } else { image::Rgb([0; 3]) }).save(dir.path().join("sign.png")).unwrap();
+        let host = common::load(&path);
+        host.update(0.0).unwrap();
+        let desc = refrakt::scene::eval::evaluate(&host.scene().borrow(), 0.0, &Default::default()).unwrap();
+        let image = shared_renderer().frame(&desc).unwrap();
+        let e = (0..64).map(|i| rgb(layer(&image, "direct"), i).x as f64).sum::<f64>() / 64.0 * PI as f64;
+        // The white half, x from offset − ½ to offset, wound to face the floor.
+        let (x0, x1) = (offset - 0.5, offset);
+        let half = [Vec3::new(x0, 1.0, -0.5), Vec3::new(x1, 1.0, -0.5), Vec3::new(x1, 1.0, 0.5), Vec3::new(x0, 1.0, 0.5)];
+        let expected = glowing_polyhedron_irradiance(&half, &[[0, 1, 2], [0, 2, 3]], Vec3::new(0.0, 2.0, 0.0), Vec3::ZERO, Vec3::Y, 2.0);
+        let square = [Vec3::new(offset - 0.5, 1.0, -0.5), Vec3::new(offset + 0.5, 1.0, -0.5), Vec3::new(offset + 0.5, 1.0, 0.5), Vec3::new(offset - 0.5, 1.0, 0.5)];
+        let by_mean = glowing_polyhedron_irradiance(&square, &[[0, 1, 2], [0, 2, 3]], Vec3::new(0.0, 2.0, 0.0), Vec3::ZERO, Vec3::Y, 1.0);
+        println!("patterned square at x = {offset}: E = {e:.5} vs its white half's {expected:.5} ({:+.2} %); by the mean it would be {by_mean:.5}", 100.0 * (e / expected - 1.0));
+        assert!((e / expected - 1.0).abs() < 0.02, "{e} vs {expected}");
+    }
 }
 
 /// Glass that glows lights the scene as a glowing mesh does: a glass icosphere (r = 0.2 m, n =

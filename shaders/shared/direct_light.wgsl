@@ -207,15 +207,16 @@ fn bulb_arrival(l: LightGpu, p: vec3<f32>, u: vec2<f32>) -> LightArrival {
 
 // A glowing mesh seen from p through one point spread uniformly over its surface: each side
 // that glows a Lambertian emitter of radiance L, so I(θ) = L · A · cos θ (one sample; 0 from a
-// closed mesh's point facing away, which then costs no shadow ray). The shadow ray stops just
-// short of the point, which lies on a receiver's own triangle.
+// closed mesh's point facing away, which then costs no shadow ray) — a patterned glow's points
+// drawn by power instead, weighed by their piece's scale. The shadow ray stops just short of the
+// point, which lies on a receiver's own triangle.
 fn glowing_mesh_arrival(l: LightGpu, p: vec3<f32>, u: vec2<f32>) -> LightArrival {
     let q = mesh_light_point(l, u);
     let to_light = q.p - p;
     let dist2 = dot(to_light, to_light);
     let dist = sqrt(dist2);
     let w = to_light / dist;
-    return LightArrival(w, l.radiant * (l.area * mesh_light_cos(l, q.n, -w)), dist2, dist * (1.0 - 1e-4));
+    return LightArrival(w, l.radiant * q.scale * (l.area * mesh_light_cos(l, q.n, -w)), dist2, dist * (1.0 - 1e-4));
 }
 
 // Four uniform numbers for shadow-ray pair j toward the environment of camera sample k on

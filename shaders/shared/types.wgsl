@@ -308,6 +308,10 @@ struct LightTriangle {
     _pad0: f32,
     e2: vec3<f32>,
     _pad1: f32,
+    // A patterned glow's piece: its radiance over the light's, over the density it is drawn
+    // with (src/pipeline/mesh_lights.rs, `piece_scale`); 1 on a glow of one radiance.
+    scale: vec3<f32>,
+    _pad2: f32,
 }
 
 struct Emitter {

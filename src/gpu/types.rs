@@ -474,6 +474,11 @@ gpu_struct! {
         pub _pad0: f32,
         pub e2: [f32; 3],
         pub _pad1: f32,
+        /// What a point drawn here weighs, per channel, against the light's mean radiance over
+        /// its whole area drawn uniformly: 1 but on a patterned glow's pieces
+        /// (`pipeline::mesh_lights`), drawn by their power.
+        pub scale: [f32; 3],
+        pub _pad2: f32,
     }
 }
 

@@ -5,12 +5,17 @@
 //! share of its area (`LightTriangle::cdf`), so the view's shadow rays and the photons stage
 //! pick a point uniformly over the surface (`shaders/shared/mesh_light.wgsl`).
 //!
-//! The mesh glows with one radiance, the material's `emission × emission_strength` times the
-//! mean of its emission texture, on both sides of each triangle as Cycles' emission does — but
-//! a closed mesh (a bulb, a tube) only on its outer side, its triangles wound outward: light
-//! from the inner side could only land on the mesh itself, so its photons and shadow rays would
-//! be spent for nothing. A texture's pattern shows on the surface itself, not in the light it
-//! casts.
+//! The mesh glows with the material's `emission × emission_strength` on both sides of each
+//! triangle as Cycles' emission does — but a closed mesh (a bulb, a tube) only on its outer
+//! side, its triangles wound outward: light from the inner side could only land on the mesh
+//! itself, so its photons and shadow rays would be spent for nothing.
+//!
+//! An emission texture is a pattern in the light too (a screen, a neon sign, a stained-glass
+//! shade): each triangle is cut into pieces of a few texels each (`pattern_pieces`), each piece
+//! glowing with the texture's mean over it, and points are drawn by the pieces' power rather
+//! than their area, so black texels cost no photon or shadow ray; each piece's `scale` weighs
+//! what is drawn there against the light's mean radiance (`piece_scale`). A mesh without
+//! texture coordinates glows with the texture's mean.
 
 use std::sync::Arc;
 
@@ -49,7 +54,8 @@ pub struct GlowingMeshes {
 impl GlowingMeshes {
     /// Brings the glowing meshes up to this frame's receivers and glass. A frame whose glowing
     /// meshes have more than `max_triangles` triangles in all is refused before anything is
-    /// built: `Err` holds their count.
+    /// built, and one whose patterned glows are cut into more pieces than that once they are:
+    /// `Err` holds their count.
     pub fn update(&mut self, receivers: &[Receiver], glass: &[MeshInstance], max_triangles: usize) -> Result<(), usize> {
         let glowing_glass: Vec<Receiver> = glass.iter().filter_map(glow_of_glass).collect();
         let glowing: Vec<&Receiver> =
@@ -62,7 +68,11 @@ impl GlowingMeshes {
         if count > max_triangles {
             return Err(count);
         }
-        self.built = mesh_lights(glowing.iter().copied());
+        let built = mesh_lights(glowing.iter().copied());
+        if built.triangles.len() > max_triangles {
+            return Err(built.triangles.len());
+        }
+        self.built = built;
         self.built_from = glowing.into_iter().cloned().collect();
         Ok(())
     }
@@ -95,17 +105,15 @@ fn glow_of_glass(m: &MeshInstance) -> Option<Receiver> {
 pub fn mesh_lights<'a>(receivers: impl IntoIterator<Item = &'a Receiver>) -> MeshLights {
     let mut out = MeshLights::default();
     for r in receivers {
-        let radiance = emitted_radiance(r);
-        if radiance.max_element() <= 0.0 {
+        if emitted_radiance(r).max_element() <= 0.0 {
             continue;
         }
         let first = out.triangles.len();
         let closed = r.mesh.is_closed();
-        let (area, centroid) = push_triangles(r, closed, &mut out.triangles);
-        if area <= 0.0 {
+        let Some(Glow { area, centroid, radiance }) = push_triangles(r, closed, &mut out.triangles) else {
             out.triangles.truncate(first);
             continue;
-        }
+        };
         out.lights.push(LightDesc {
             name: r.name.clone(),
             shape: LightShape::Mesh {
@@ -181,36 +189,152 @@ fn emitted_radiance(r: &Receiver) -> Vec3 {
     (d.emitted() * texture_mean).max(Vec3::ZERO)
 }
 
-/// Appends the receiver's world-space triangles with their running area fraction — wound
-/// outward where `closed` (by the sign of the volume they enclose, which a mirroring transform
-/// turns) — and returns the mesh's area and its area-weighted centroid.
-fn push_triangles(r: &Receiver, closed: bool, out: &mut Vec<LightTriangle>) -> (f32, Vec3) {
+/// What `push_triangles` found of a glowing receiver: the area of what glows (a patterned glow's
+/// black pieces left out), its area-weighted centroid and the mean radiance over it.
+struct Glow {
+    area: f32,
+    centroid: Vec3,
+    radiance: Vec3,
+}
+
+/// One piece of a glowing surface: a world-space triangle and the radiance it glows with.
+struct Piece {
+    corners: [Vec3; 3],
+    radiance: Vec3,
+}
+
+/// How many texels of its emission texture a piece of a patterned glow covers, about: small
+/// enough that a sign's letters cast their own light, large enough to keep the pieces few.
+const TEXELS_PER_PIECE: f32 = 4.0;
+/// The most pieces one triangle, and one glowing mesh, is cut into; past the mesh's budget every
+/// triangle is cut more coarsely alike.
+const MAX_PIECES_PER_SIDE: u32 = 64;
+const MAX_PIECES_PER_MESH: u32 = 1 << 16;
+
+/// Appends the receiver's world-space triangles — or on a patterned glow their pieces
+/// (`pattern_pieces`) — wound outward where `closed` (by the sign of the volume they enclose,
+/// which a mirroring transform turns), with their running share: of the area on a glow of one
+/// radiance, of the power (area × the radiance's channel sum) on a patterned one. None where the
+/// mesh has no area or glows nowhere.
+fn push_triangles(r: &Receiver, closed: bool, out: &mut Vec<LightTriangle>) -> Option<Glow> {
     let world = world_positions(&r.mesh, r.world);
-    let corners = |t: &[u32; 3]| t.map(|i| world[i as usize]);
     let inward = closed && enclosed_volume(&world, &r.mesh.triangles) < 0.0;
+    let pieces = pattern_pieces(r, &world, inward);
+    let patterned = pieces.is_some();
+    let pieces = pieces.unwrap_or_else(|| plain_pieces(r, &world, inward));
+    let (mut area, mut power, mut moment, mut glow) = (0.0f64, 0.0f64, glam::DVec3::ZERO, glam::DVec3::ZERO);
     let first = out.len();
-    let (mut area, mut moment) = (0.0f64, glam::DVec3::ZERO);
-    for t in &r.mesh.triangles {
-        let [a, mut b, mut c] = corners(t);
-        if inward {
-            std::mem::swap(&mut b, &mut c);
-        }
+    for p in &pieces {
+        let [a, b, c] = p.corners;
         let (e1, e2) = (b - a, c - a);
-        let twice = e1.cross(e2).length();
-        if !(twice > 0.0 && twice.is_finite()) {
-            continue;
-        }
-        area += 0.5 * twice as f64;
-        moment += (0.5 * twice as f64) * ((a + b + c) / 3.0).as_dvec3();
-        out.push(LightTriangle { v0: a.into(), cdf: area as f32, e1: e1.into(), e2: e2.into(), ..Default::default() });
+        let piece_area = 0.5 * e1.cross(e2).length() as f64;
+        area += piece_area;
+        moment += piece_area * ((a + b + c) / 3.0).as_dvec3();
+        glow += piece_area * p.radiance.as_dvec3();
+        power += if patterned { piece_area * p.radiance.element_sum() as f64 } else { piece_area };
+        out.push(LightTriangle { v0: a.into(), cdf: power as f32, e1: e1.into(), e2: e2.into(), scale: [1.0; 3], ..Default::default() });
     }
-    for t in &mut out[first..] {
-        t.cdf = (t.cdf as f64 / area) as f32;
+    if !(area > 0.0 && power > 0.0) {
+        return None;
+    }
+    let radiance = (glow / area).as_vec3();
+    for (t, p) in out[first..].iter_mut().zip(&pieces) {
+        t.cdf = (t.cdf as f64 / power) as f32;
+        if patterned {
+            t.scale = piece_scale(p.radiance, radiance, power / area).into();
+        }
     }
     if let Some(last) = out[first..].last_mut() {
         last.cdf = 1.0;
     }
-    (area as f32, if area > 0.0 { (moment / area).as_vec3() } else { Vec3::ZERO })
+    Some(Glow { area: area as f32, centroid: (moment / area).as_vec3(), radiance })
+}
+
+/// What a point of a piece of radiance L drawn by power (density Σ(L)/W per unit area, W the
+/// glow's power Σ area·Σ(L)) weighs against the light's mean radiance L̄ drawn uniformly (density
+/// 1/A): L/(Σ(L)/W) = scale · L̄ A, per channel — so the photons and shadow rays that multiply
+/// L̄ A by it carry L over its density. `power_per_area` is W/A. 0 in a channel the glow lacks.
+fn piece_scale(piece: Vec3, mean: Vec3, power_per_area: f64) -> Vec3 {
+    let sum = piece.element_sum();
+    Vec3::from_array(std::array::from_fn(|c| {
+        if mean[c] > 0.0 && sum > 0.0 { (piece[c] as f64 * power_per_area / (sum as f64 * mean[c] as f64)) as f32 } else { 0.0 }
+    }))
+}
+
+/// The receiver's triangles as pieces of its radiance (emission × its texture's mean), the
+/// degenerate ones left out.
+fn plain_pieces(r: &Receiver, world: &[Vec3], inward: bool) -> Vec<Piece> {
+    let radiance = emitted_radiance(r);
+    r.mesh.triangles.iter().map(|t| oriented(world, t, inward)).filter(has_area).map(|corners| Piece { corners, radiance }).collect()
+}
+
+/// Whether a triangle has a finite area above 0.
+fn has_area([a, b, c]: &[Vec3; 3]) -> bool {
+    let twice = (*b - *a).cross(*c - *a).length();
+    twice > 0.0 && twice.is_finite()
+}
+
+/// Triangle t's world corners, its last two swapped where `inward` (to wind it outward).
+fn oriented(world: &[Vec3], t: &[u32; 3], inward: bool) -> [Vec3; 3] {
+    let [a, b, c] = t.map(|i| world[i as usize]);
+    if inward { [a, c, b] } else { [a, b, c] }
+}
+
+/// A patterned glow's pieces: each triangle cut into n² equal triangles (n along each edge, so
+/// each covers about `TEXELS_PER_PIECE` texels of the emission texture, at most
+/// `MAX_PIECES_PER_SIDE`² and all together `MAX_PIECES_PER_MESH`), each glowing with the
+/// emission times the texture's mean over it (four bilinear lookups: its centroid and halfway
+/// from there to each corner), those that glow at all. None without an emission texture or
+/// texture coordinates.
+fn pattern_pieces(r: &Receiver, world: &[Vec3], inward: bool) -> Option<Vec<Piece>> {
+    let texture = r.diffuse.emission_texture.as_ref()?;
+    let uvs = r.mesh.uvs.as_ref()?;
+    let texels = (texture.width * texture.height) as f32;
+    let wanted: Vec<u32> = r.mesh.triangles.iter().map(|t| {
+        let [a, b, c] = t.map(|i| uvs[i as usize]);
+        let covered = 0.5 * (b - a).perp_dot(c - a).abs() * texels;
+        ((covered / TEXELS_PER_PIECE).sqrt().ceil() as u32).clamp(1, MAX_PIECES_PER_SIDE)
+    }).collect();
+    let total: u64 = wanted.iter().map(|&n| (n * n) as u64).sum();
+    let thin = if total > MAX_PIECES_PER_MESH as u64 { (MAX_PIECES_PER_MESH as f64 / total as f64).sqrt() } else { 1.0 };
+    let emitted = r.diffuse.emitted();
+    let mut pieces = Vec::new();
+    for (t, &n) in r.mesh.triangles.iter().zip(&wanted) {
+        let n = ((n as f64 * thin).floor() as u32).max(1);
+        let corners = oriented(world, t, inward);
+        let uv = {
+            let [a, b, c] = t.map(|i| uvs[i as usize]);
+            if inward { [a, c, b] } else { [a, b, c] }
+        };
+        for bary in sub_triangles(n) {
+            let at = |w: glam::Vec3| (corners[0] * w.x + corners[1] * w.y + corners[2] * w.z, uv[0] * w.x + uv[1] * w.y + uv[2] * w.z);
+            let [(p0, t0), (p1, t1), (p2, t2)] = bary.map(at);
+            if !has_area(&[p0, p1, p2]) {
+                continue;
+            }
+            let centre = (t0 + t1 + t2) / 3.0;
+            let mean = [centre, 0.5 * (centre + t0), 0.5 * (centre + t1), 0.5 * (centre + t2)].map(|uv| texture.sample(uv)).iter().sum::<Vec3>() / 4.0;
+            let radiance = (emitted * mean).max(Vec3::ZERO);
+            if radiance.max_element() > 0.0 {
+                pieces.push(Piece { corners: [p0, p1, p2], radiance });
+            }
+        }
+    }
+    Some(pieces)
+}
+
+/// A triangle cut into n² equal triangles, as the barycentric weights of each one's corners
+/// (wound as the triangle): n(n + 1)/2 upright and n(n − 1)/2 upside down.
+fn sub_triangles(n: u32) -> impl Iterator<Item = [Vec3; 3]> {
+    let at = move |i: u32, j: u32| {
+        let (u, v) = (i as f32 / n as f32, j as f32 / n as f32);
+        Vec3::new(1.0 - u - v, u, v)
+    };
+    (0..n).flat_map(move |j| (0..n - j).flat_map(move |i| {
+        let up = [at(i, j), at(i + 1, j), at(i, j + 1)];
+        let down = (i + j + 1 < n).then(|| [at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
+        std::iter::once(up).chain(down)
+    }))
 }
 
 #[cfg(test)]
@@ -287,6 +411,39 @@ mod tests {
         let cdf: Vec<f32> = lit.triangles.iter().map(|t| t.cdf).collect();
         assert_eq!(cdf.len(), 2, "the degenerate triangle is left out");
         assert!((cdf[0] - 0.25).abs() < 1e-6 && cdf[1] == 1.0, "{cdf:?}");
+    }
+
+    /// A square (1 × 1 m, radiance 2 × its texture) whose emission texture is white on its left
+    /// half (u < ½) and black on the right is cut into pieces on the left half alone, about
+    /// `TEXELS_PER_PIECE` texels each, the light's area and mean radiance those of the half that
+    /// glows; drawn by their power and weighed by their scale, they give the glow's power
+    /// exactly: Σ P(piece) · scale · L̄ A = Σ area · L = 2 · ½ m² per channel (bilinear filtering
+    /// blurs one texel's width at the edge: within 1/64).
+    #[test]
+    fn a_patterned_glow_is_cut_where_it_glows_and_keeps_its_power() {
+        let mut texels = vec![[1.0, 1.0, 1.0, 1.0]; 64 * 4];
+        for (i, t) in texels.iter_mut().enumerate() {
+            if i % 64 >= 32 {
+                *t = [0.0, 0.0, 0.0, 1.0];
+            }
+        }
+        let texture = Arc::new(Texture2d { width: 64, height: 4, texels, wrap: [crate::scene::material::Wrap::Clamp; 2] });
+        let diffuse = Diffuse { emission: Vec3::splat(2.0), emission_texture: Some(texture), ..Diffuse::pbr() };
+        let lamp = Receiver { name: "sign".into(), mesh: Arc::new(plane(glam::Vec2::ONE)), world: glam::Mat4::IDENTITY, diffuse };
+        let lit = mesh_lights(&[lamp]);
+        let LightShape::Mesh { area, patterned: true, .. } = lit.lights[0].shape else { panic!("a patterned mesh light") };
+        let pieces = &lit.triangles;
+        assert!(pieces.len() >= 32 && pieces.len() <= 64, "{} pieces for 128 lit texels", pieces.len());
+        assert!(pieces.iter().all(|t| t.v0[0] + (t.e1[0] + t.e2[0]) / 3.0 < 0.02), "a piece on the black half");
+        let mut before = 0.0;
+        let mut power = Vec3::ZERO;
+        for t in pieces {
+            power += (t.cdf - before) * Vec3::from(t.scale) * lit.lights[0].radiant * area;
+            before = t.cdf;
+        }
+        assert!((power - Vec3::ONE).abs().max_element() < 1.0 / 64.0, "drawn power {power}, the glow's 1 W/sr·π per channel");
+        assert!((area - 0.5).abs() < 1.0 / 32.0, "the glowing half's area {area}");
+        assert!((lit.lights[0].radiant - Vec3::splat(2.0)).abs().max_element() < 1.0 / 16.0, "mean radiance {}", lit.lights[0].radiant);
     }
 
     /// Built once while nothing glowing changes; built again when a lamp moves; refused, before

@@ -573,13 +573,13 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                     let alpha = surface.roughness * surface.roughness;
                     let rough = c.seen && alpha > 0.0 && (interfaces[hit.interface_id].kind & INTERFACE_THIN) == 0u;
                     if rough && !companion_ends_here() {
-                        (*out).radiance += b.weight * lights_through_rough(s.x, b, c, alpha, k);
+                        (*out).radiance += b.weight * lights_through_rough(s.x, b, c, surface, alpha, k);
                     }
                     var next = b.d;
                     if c.reflectance < 1.0 {
                         var reflected = Branch(s.x, c.reflected, b.weight * c.reflected_tint * (c.reflectance * c.reflected_share), media_along(c, c.reflected, b.media), b.events, 2u * b.path + 1u, 0.0);
                         if rough {
-                            reflected.lobe_pdf = sampled_lobe_pdf(c, b.media, b.d, c.reflected, alpha);
+                            reflected.lobe_pdf = sampled_lobe_pdf(c, surface, b.media, b.d, c.reflected, alpha);
                         }
                         if max(reflected.weight.r, max(reflected.weight.g, reflected.weight.b)) > MIN_WEIGHT && *top < BRANCH_STACK {
                             reflected.x = crossing_exit(c, s.x, b.d, c.reflected, 1e-3 * grid.voxel_size);
@@ -594,7 +594,7 @@ fn trace_branch(out: ptr<function, ViewSample>, b0: Branch, stack: ptr<function,
                     }
                     b.lobe_pdf = 0.0;
                     if rough {
-                        b.lobe_pdf = sampled_lobe_pdf(c, b.media, b.d, next, alpha);
+                        b.lobe_pdf = sampled_lobe_pdf(c, surface, b.media, b.d, next, alpha);
                     }
                     b.media = media_along(c, next, b.media);
                     b.path = 2u * b.path;

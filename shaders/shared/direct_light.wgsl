@@ -405,17 +405,18 @@ fn lights_seen(o: vec3<f32>, d: vec3<f32>, t_max: f32, lobe_pdf: f32, lobe_from:
 // otherwise — toward a light: the density of its branches' directions there (the visible normals'
 // D_wi(m) = G₁(wi) max(0, wi·m) D(m) / wi·n times the Jacobian of reflection, 1 / 4 wi·m, or of
 // refraction, η² |w·m| / (wi·m + η w·m)²; Walter et al. 2007, Heitz 2018) and the weight the
-// branch along w would carry per unit of light, F G₁(w) reflected or (1 − F) G₁(w) transmitted
-// (the tint aside): what multiple importance sampling with lights needs. d: the incoming
-// direction; n: the shading normal toward where d comes from; eta: the index beyond over the
-// index before; layer: the surface's specular layer (F is its `glass_reflectance`, the channels'
-// mean). pdf 0 where the crossing sends nothing along w.
+// branch along w would carry per unit of light, per channel: the surface's split of the light at
+// the microfacet m that sends it along w (`surface_split`: the glass's F — its
+// `glass_reflectance` — and the metal's, reflected; what passes, tinted) × G₁(w): what multiple
+// importance sampling with lights needs. d: the incoming direction; n: the shading normal toward
+// where d comes from; eta: the index beyond over the index before. pdf 0 where the crossing
+// sends nothing along w.
 struct RoughLobe {
     pdf: f32,
-    weight: f32,
+    weight: vec3<f32>,
 }
 
-fn rough_lobe(d: vec3<f32>, n: vec3<f32>, w: vec3<f32>, alpha: f32, eta: f32, layer: vec4<f32>) -> RoughLobe {
+fn rough_lobe(d: vec3<f32>, n: vec3<f32>, w: vec3<f32>, alpha: f32, eta: f32, surface: GlassSurface) -> RoughLobe {
     let wi = -d;
     let cos_i = dot(wi, n);
     let reflect = dot(w, n) > 0.0;
@@ -424,17 +425,16 @@ fn rough_lobe(d: vec3<f32>, n: vec3<f32>, w: vec3<f32>, alpha: f32, eta: f32, la
     let i_m = dot(wi, m);
     let o_m = dot(w, m);
     if cos_i <= 0.0 || i_m <= 0.0 || (!reflect && o_m >= 0.0) {
-        return RoughLobe(0.0, 0.0);
+        return RoughLobe(0.0, vec3<f32>(0.0));
     }
     let visible = smith_g1(cos_i, alpha) * i_m * ggx_d(dot(m, n), alpha) / cos_i;
-    let reflectances = glass_reflectance(i_m, eta, false, layer);
-    let f = select(dot(reflectances, vec3<f32>(1.0 / 3.0)), reflectances.r, plain_specular(layer));
+    let split = surface_split(surface, glass_reflectance(i_m, eta, false, surface.specular), i_m);
     let g_out = smith_g1(abs(dot(w, n)), alpha);
     if reflect {
-        return RoughLobe(visible / (4.0 * i_m), f * g_out);
+        return RoughLobe(visible / (4.0 * i_m), split.reflected * g_out);
     }
     let denom = i_m + eta * o_m;
-    return RoughLobe(visible * eta * eta * abs(o_m) / (denom * denom), (1.0 - f) * g_out);
+    return RoughLobe(visible * eta * eta * abs(o_m) / (denom * denom), split.passed * g_out);
 }
 
 // Lights seen in rough glass, by both strategies (Veach 1997, multiple importance sampling with
@@ -446,8 +446,10 @@ fn rough_lobe(d: vec3<f32>, n: vec3<f32>, w: vec3<f32>, alpha: f32, eta: f32, la
 // (`rough_lobe`), a shadow ray. A sun or point of no size, which no branch can find, is all
 // light sampling. Returns the light; `lobe_pdf` then weighs what the branches find
 // (`lights_seen`, `glow_share`). A glowing mesh whose glow has a pattern is left to the branches
-// (its light is drawn by the pattern's mean).
-fn lights_through_rough(p: vec3<f32>, b: Branch, c: Crossing, alpha: f32, k: u32) -> vec3<f32> {
+// (its points are drawn by its pieces' power, a density `glow_share` does not know). The lobe's
+// weight is the surface's split at the facet that sends each light's direction — glass, metal
+// and what passes, each in its colour — not at the facet the branches drew.
+fn lights_through_rough(p: vec3<f32>, b: Branch, c: Crossing, surface: GlassSurface, alpha: f32, k: u32) -> vec3<f32> {
     var light = vec3<f32>(0.0);
     for (var i = 0u; i < params.light_count; i++) {
         let l = lights[i];
@@ -458,7 +460,7 @@ fn lights_through_rough(p: vec3<f32>, b: Branch, c: Crossing, alpha: f32, k: u32
             continue;
         }
         let a = light_arrival(l, p, k);
-        let lobe = rough_lobe(b.d, c.normal, a.w, alpha, c.eta, c.specular);
+        let lobe = rough_lobe(b.d, c.normal, a.w, alpha, c.eta, surface);
         if lobe.pdf <= 0.0 || media_along(c, a.w, b.media).depth != 0u || all(a.intensity <= vec3<f32>(0.0)) {
             continue;
         }
@@ -480,18 +482,17 @@ fn lights_through_rough(p: vec3<f32>, b: Branch, c: Crossing, alpha: f32, k: u32
             light_pdf = a.dist2 * radiance / max(a.intensity.r, max(a.intensity.g, a.intensity.b));
         }
         let share = select(1.0, light_pdf / (light_pdf + lobe.pdf), light_pdf > 0.0);
-        let tint = select(c.tint, c.reflected_tint, dot(a.w, c.normal) > 0.0);
         let seen = visibility(leave_surface(p, c.geometric, a.w, 1e-3 * params.grid.voxel_size), a.w, a.dist);
-        light += a.intensity / a.dist2 * tint * seen * (lobe.weight * c.energy * lobe.pdf * share);
+        light += a.intensity / a.dist2 * seen * lobe.weight * (c.energy * lobe.pdf * share);
     }
     return light;
 }
 
 // The density `lights_through_rough` weighs a branch leaving a rough crossing along w by: its
 // lobe's, where w leaves into the open (there the lights were sampled too), else 0.
-fn sampled_lobe_pdf(c: Crossing, media: Media, d: vec3<f32>, w: vec3<f32>, alpha: f32) -> f32 {
+fn sampled_lobe_pdf(c: Crossing, surface: GlassSurface, media: Media, d: vec3<f32>, w: vec3<f32>, alpha: f32) -> f32 {
     if media_along(c, w, media).depth != 0u {
         return 0.0;
     }
-    return rough_lobe(d, c.normal, w, alpha, c.eta, c.specular).pdf;
+    return rough_lobe(d, c.normal, w, alpha, c.eta, surface).pdf;
 }

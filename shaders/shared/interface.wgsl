@@ -344,9 +344,6 @@ struct Crossing {
     base: vec3<f32>,
     // The colour of the reflected light, per unit of `reflectance` (1 but for metal).
     reflected_tint: vec3<f32>,
-    // The surface's KHR_materials_specular layer (`GlassSurface.specular`), which weighs light
-    // sampled through a rough crossing as it weighs the branches (`rough_lobe`).
-    specular: vec4<f32>,
 }
 
 // An orthonormal basis (t, b, n) around unit n (Duff et al. 2017, "Building an Orthonormal
@@ -522,7 +519,7 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
     // (Where the index does not change — tinted glass of index 1, a liquid of its glass's index —
     // the crossing below bends and reflects nothing but still tints.)
     if (!thin && beyond.holder == media.holder) || surface.coverage <= 0.0 {
-        return Crossing(d, d, 0.0, vec3<f32>(1.0), beyond, geometric, n, eta, 1.0, 1.0, 1.0, through, false, vec3<f32>(0.0), vec3<f32>(1.0), surface.specular);
+        return Crossing(d, d, 0.0, vec3<f32>(1.0), beyond, geometric, n, eta, 1.0, 1.0, 1.0, through, false, vec3<f32>(0.0), vec3<f32>(1.0));
     }
     let alpha = surface.roughness * surface.roughness;
     var m = n;
@@ -568,12 +565,10 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
         reflected_tint = split.reflected / max(r, 1e-6);
         tint = split.passed / max(1.0 - r, 1e-6);
         reflectance = r;
-        return Crossing(reflected, transmitted, reflectance, tint, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true, split.base, reflected_tint,
-                        surface.specular);
+        return Crossing(reflected, transmitted, reflectance, tint, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true, split.base, reflected_tint);
     }
     let base = (1.0 - reflectance) * (1.0 - surface.transmission) * surface.base_color;
-    return Crossing(reflected, transmitted, reflectance, tint, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true, base, reflected_tint,
-                    surface.specular);
+    return Crossing(reflected, transmitted, reflectance, tint, beyond, geometric, n, eta, reflected_share, transmitted_share, energy, through, true, base, reflected_tint);
 }
 
 // The media of a branch that leaves crossing c along w: the media beyond only if w passes

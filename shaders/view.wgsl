@@ -320,11 +320,12 @@ fn shade_receiver(hit: SurfaceHit, p: vec3<f32>, d: vec3<f32>, k: u32, path: u32
     // Lift the shading point off the surface so its own triangle does not shadow it.
     let q = p + facing * (1e-4 + 1e-3 * params.grid.voxel_size);
     // The occlusion texture darkens the environment's light, not the lights'.
-    let lit = direct_light(q, facing, s, pbr, env.diffuse * s.occlusion, k, path);
+    // (The glossy lobes' environment light, shadowed, comes back in lit.specular.)
+    let lit = direct_light(q, facing, s, pbr, env.diffuse * s.occlusion, env.specular * s.occlusion, k, path);
     if pbr {
         // The caustic and bounced light land on the diffuse lobe, with the share it keeps of
         // the environment's.
-        return Shading(env.diffuse * e_caustic, lit.diffuse + (env.specular * s.occlusion + lit.specular) + emission, env.diffuse * e_indirect);
+        return Shading(env.diffuse * e_caustic, lit.diffuse + lit.specular + emission, env.diffuse * e_indirect);
     }
     return Shading(base * INV_PI * e_caustic, base * INV_PI * lit.diffuse + emission, base * INV_PI * e_indirect);
 }

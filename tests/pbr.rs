@@ -338,6 +338,72 @@ fn a_metallic_sphere_matches_the_split_sum_reference() {
 // ---------------------------------------------------------------------------------------------
 // Lua fields and glTF import.
 
+/// The environment on a polished floor has shadows: a mirror-like metal floor (metallic 1,
+/// roughness 0.05, white) around a black ball (r = 0.3 m, resting on it, reflecting nothing)
+/// under a uniform sky of radiance 1, seen obliquely. Where a floor pixel's mirror direction
+/// misses the ball by a margin the floor shows the lobe's split-sum light, as the open floor
+/// far off does (within 2 %); where it meets the ball, none (below 3 % of it) — the ball is in
+/// the way of the sky, and not itself reflected. Before the glossy lobe's shadow ray
+/// (`glossy_ray`) the sky showed through the ball's reflection. A glass ball in its place lets
+/// the sky by (within 3 %: its refraction is not followed).
+#[test]
+fn a_polished_floor_reflects_the_sky_with_the_shadow_of_a_ball_on_it() {
+    let (radius, centre) = (0.3f32, Vec3::new(0.0, 0.3, 0.0));
+    for ball in ["r.diffuse{ color = {0, 0, 0} }", "r.glass{ ior = 1.5 }"] {
+        let desc = frame_from_lua(&format!(
+            r#"local r = require("refrakt")
+            local scene = r.scene{{ camera = r.camera{{ position = {{0, 1.6, 2.2}}, target = {{0, 0, 0.2}}, fov = 40, size = {{48, 48}} }},
+                                    environment = r.environment{{ color = {{1, 1, 1}} }}, samples = 4, photons = 0, bounces = 0, volume = {{ resolution = 16 }} }}
+            scene:add(r.node{{ name = "floor", shape = r.plane{{ size = {{6, 6}} }}, material = r.pbr{{ color = {{1, 1, 1}}, metallic = 1, roughness = 0.05 }} }})
+            scene:add(r.node{{ name = "ball", translation = {{0, 0.3, 0}}, shape = r.sphere{{ radius = {radius} }}, material = {ball} }})
+            return scene"#
+        ));
+        let mut r = renderer();
+        let beauty = render(&mut r, &desc, "beauty");
+        // How far a ray from o along unit d passes from the ball's centre (∞ going away).
+        let miss = |o: Vec3, d: Vec3| {
+            let t = (centre - o).dot(d);
+            if t <= 0.0 { f32::INFINITY } else { (o + d * t - centre).length() }
+        };
+        let (mut open, mut behind, mut far) = (Vec::new(), Vec::new(), Vec::new());
+        for y in 0..48 {
+            for x in 0..48 {
+                let (o, d) = (desc.camera.position, desc.camera.ray(x, y));
+                let t = -o.y / d.y;
+                if d.y >= 0.0 || miss(o, d) < radius + 0.02 {
+                    continue; // the sky, or the ball itself (and its outline)
+                }
+                let p = o + d * t;
+                let mirrored = Vec3::new(d.x, -d.y, d.z);
+                let seen = rgb(&beauty, 48, x, y).x;
+                let gap = miss(p, mirrored);
+                if gap < radius - 0.03 {
+                    behind.push(seen);
+                } else if gap > radius + 0.05 {
+                    open.push(seen);
+                    if (p - centre).length() > 1.0 {
+                        far.push(seen);
+                    }
+                }
+            }
+        }
+        let (open_mean, behind_mean, far_mean) = (mean(&open), mean(&behind), mean(&far));
+        println!(
+            "{ball}: polished floor where its reflection misses the ball {open_mean:.4} ({} px), far off {far_mean:.4} ({} px), where it meets the ball {behind_mean:.4} ({} px)",
+            open.len(),
+            far.len(),
+            behind.len()
+        );
+        assert!(open.len() > 300 && behind.len() > 20 && far.len() > 100, "{} {} {}", open.len(), behind.len(), far.len());
+        assert!((open_mean / far_mean - 1.0).abs() < 0.02, "{open_mean} vs {far_mean}");
+        if ball.contains("glass") {
+            assert!((behind_mean / far_mean - 1.0).abs() < 0.03, "glass lets the sky by: {behind_mean} vs {far_mean}");
+        } else {
+            assert!(behind_mean < 0.03 * far_mean, "the ball's shadow in the reflection: {behind_mean} vs {far_mean}");
+        }
+    }
+}
+
 #[test]
 fn lua_fields_read_back_and_bad_values_name_the_field() {
     let desc = frame_from_lua(

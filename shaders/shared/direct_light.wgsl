@@ -79,8 +79,9 @@ fn analytic_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
 
 // The light that passes the surfaces along p + t·w, t < dist, when some are cut-outs,
 // see-through or thin glass: each receiver hides its coverage, a thin sheet passes its
-// transmittance; a solid's glass surface stops it (its light arrives as photons).
-fn receivers_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
+// transmittance; a solid's glass surface stops it (its light arrives as photons) — unless
+// `glass_passes` (the glossy environment's ray, `glossy_ray`), when every glass surface lets it by.
+fn receivers_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32, glass_passes: bool) -> vec3<f32> {
     var t_min = 1e-4;
     var passed = vec3<f32>(1.0);
     for (var i = 0u; i < MAX_SEE_THROUGH; i++) {
@@ -90,8 +91,10 @@ fn receivers_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
         }
         let word = bvh_triangles[b.triangle].receiver;
         if (word & INTERFACE_BIT) != 0u {
-            let id = word & ~INTERFACE_BIT;
-            passed *= sheet_transmittance(SurfaceHit(b.t, b.triangle, id, shading_normal(b.triangle, b.u, b.v), b.u, b.v), w);
+            if !glass_passes {
+                let id = word & ~INTERFACE_BIT;
+                passed *= sheet_transmittance(SurfaceHit(b.t, b.triangle, id, shading_normal(b.triangle, b.u, b.v), b.u, b.v), w);
+            }
         } else {
             passed *= 1.0 - coverage_of(receivers[word], b.triangle, b.u, b.v);
         }
@@ -104,10 +107,15 @@ fn receivers_transmittance(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
 }
 
 // Visibility of a light from p along w up to dist: opaque receivers and glass surfaces (light
-// through glass arrives as caustic photons), then media.
-fn visibility(p: vec3<f32>, w: vec3<f32>, dist: f32) -> vec3<f32> {
+// through glass arrives as caustic photons), then media. With `glass_passes`, opaque receivers
+// alone: the glossy environment's ray (`glossy_ray`), which no photon carries, sees the sky
+// through glass as a glossy reflection of it would, about (the refraction not followed).
+fn visibility(p: vec3<f32>, w: vec3<f32>, dist: f32, glass_passes: bool) -> vec3<f32> {
+    if glass_passes {
+        return receivers_transmittance(p, w, dist, true);
+    }
     if has(VIEW_FLAG_SEE_THROUGH) {
-        let passed = receivers_transmittance(p, w, dist) * analytic_transmittance(p, w, dist);
+        let passed = receivers_transmittance(p, w, dist, false) * analytic_transmittance(p, w, dist);
         if all(passed <= vec3<f32>(0.0)) {
             return vec3<f32>(0.0);
         }
@@ -298,22 +306,49 @@ fn shadow_ray(i: u32, p: vec3<f32>, n: vec3<f32>, k: u32, path: u32) -> ShadowRa
     return ShadowRay(l.dir, NO_HIT, l.radiance * c / ((l.pdf + c * INV_PI) * f32(params.env_pairs)));
 }
 
+// The glossy lobes' shadow ray toward the environment: a direction drawn from the base lobe's GGX
+// (the visible normals about the shading normal, Heitz 2018, mirrored), carrying `e`, the
+// environment's split-sum light on the glossy lobes (`pbr_environment`). Where the direction
+// falls below the surface, the mirror direction; where that does too, along the surface's
+// normal at distance 0 (nothing in the way).
+fn glossy_ray(s: PbrSurface, facing: vec3<f32>, e: vec3<f32>, k: u32, path: u32) -> ShadowRay {
+    let u = env_numbers(k, path, params.env_pairs).xy;
+    let frame = basis_around(s.n);
+    let m = frame * ggx_visible_normal(s.v * frame, max(s.roughness * s.roughness, 1e-4), u);
+    var w = reflect(-s.v, m);
+    if dot(w, facing) <= 0.0 {
+        w = reflect(-s.v, s.n);
+    }
+    return ShadowRay(select(facing, w, dot(w, facing) > 0.0), select(0.0, NO_HIT, dot(w, facing) > 0.0), e);
+}
+
 // The light reaching a shading point directly, with its shadows: every shadow ray through one
 // call of `visibility` (the BVH walks and the march through the volume, which a compiler inlines
 // at each call), the lights' through the surface's response (`pbr`: both lobes; otherwise the
-// irradiance, in `diffuse`), the environment's through the diffuse lobe alone (`env_diffuse`:
-// its share; the glossy lobes take the prefiltered environment, unshadowed).
-fn direct_light(p: vec3<f32>, facing: vec3<f32>, s: PbrSurface, pbr: bool, env_diffuse: vec3<f32>, k: u32, path: u32) -> LightResponse {
+// irradiance, in `diffuse`), the environment's through the diffuse lobe (`env_diffuse`: its
+// share) and, on a receiver with glossy lobes, their split-sum light `env_specular` through one
+// more ray drawn from the lobe (`glossy_ray`): the prefiltered environment where the sky is open
+// along it, none where an opaque receiver is in the way — a ball on a polished floor darkens its
+// reflection (the ball itself is not reflected; glass lets the sky by).
+fn direct_light(p: vec3<f32>, facing: vec3<f32>, s: PbrSurface, pbr: bool, env_diffuse: vec3<f32>, env_specular: vec3<f32>, k: u32, path: u32) -> LightResponse {
     var out = LightResponse(vec3<f32>(0.0), vec3<f32>(0.0));
     let env_first = environment_slot();
-    let count = env_first + 2u * params.env_pairs;
+    let glossy_slot = env_first + 2u * params.env_pairs;
+    let count = glossy_slot + u32(pbr && any(env_specular > vec3<f32>(0.0)));
     for (var i = 0u; i < count; i++) {
-        let ray = shadow_ray(i, p, s.n, k, path);
+        var ray: ShadowRay;
+        if i == glossy_slot {
+            ray = glossy_ray(s, facing, env_specular, k, path);
+        } else {
+            ray = shadow_ray(i, p, s.n, k, path);
+        }
         if all(ray.e <= vec3<f32>(0.0)) || dot(facing, ray.w) <= 0.0 {
             continue;
         }
-        let e = ray.e * visibility(p, ray.w, ray.dist);
-        if i >= env_first {
+        let e = ray.e * visibility(p, ray.w, ray.dist, i == glossy_slot);
+        if i == glossy_slot {
+            out.specular += e;
+        } else if i >= env_first {
             out.diffuse += env_diffuse * e;
         } else if pbr {
             let response = pbr_response(s, ray.w, dot(s.n, ray.w));
@@ -482,7 +517,7 @@ fn lights_through_rough(p: vec3<f32>, b: Branch, c: Crossing, surface: GlassSurf
             light_pdf = a.dist2 * radiance / max(a.intensity.r, max(a.intensity.g, a.intensity.b));
         }
         let share = select(1.0, light_pdf / (light_pdf + lobe.pdf), light_pdf > 0.0);
-        let seen = visibility(leave_surface(p, c.geometric, a.w, 1e-3 * params.grid.voxel_size), a.w, a.dist);
+        let seen = visibility(leave_surface(p, c.geometric, a.w, 1e-3 * params.grid.voxel_size), a.w, a.dist, false);
         light += a.intensity / a.dist2 * seen * lobe.weight * (c.energy * lobe.pdf * share);
     }
     return light;

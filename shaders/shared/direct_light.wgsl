@@ -312,7 +312,9 @@ fn shadow_ray(i: u32, p: vec3<f32>, n: vec3<f32>, k: u32, path: u32) -> ShadowRa
 // falls below the surface, the mirror direction; where that does too, along the surface's
 // normal at distance 0 (nothing in the way).
 fn glossy_ray(s: PbrSurface, facing: vec3<f32>, e: vec3<f32>, k: u32, path: u32) -> ShadowRay {
-    let u = env_numbers(k, path, params.env_pairs).xy;
+    // Point k of the R2 sequence, rotated per pixel and branch by numbers of its own.
+    let key = pcg_hash(pixel_key ^ (path * 0x68bc21ebu));
+    let u = fract(r2(k) + vec2<f32>(random01(key, 0u, 46u), random01(key, 0u, 47u)));
     let frame = basis_around(s.n);
     let m = frame * ggx_visible_normal(s.v * frame, max(s.roughness * s.roughness, 1e-4), u);
     var w = reflect(-s.v, m);

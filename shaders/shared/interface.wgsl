@@ -532,10 +532,13 @@ fn cross_interface(p: vec3<f32>, d: vec3<f32>, hit: SurfaceHit, surface: GlassSu
     var reflectance = reflectances.r;
     let reflected = d + 2.0 * cos_i * m;
     var transmitted = reflected;
+    // (Refracted wherever the index allows it: a specular colour may raise one channel's
+    // reflectance to 1 where the others still pass.)
+    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
     if thin {
         transmitted = reflected - 2.0 * dot(reflected, n) * n;
-    } else if reflectance < 1.0 {
-        let cos_t = sqrt(1.0 - (1.0 - cos_i * cos_i) / (eta * eta));
+    } else if sin2_t < 1.0 {
+        let cos_t = sqrt(1.0 - sin2_t);
         transmitted = normalize(d / eta + (cos_i / eta - cos_t) * m);
     }
     var reflected_share = 1.0;

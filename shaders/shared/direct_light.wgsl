@@ -227,12 +227,17 @@ fn glowing_mesh_arrival(l: LightGpu, p: vec3<f32>, u: vec2<f32>) -> LightArrival
     return LightArrival(w, l.radiant * q.scale * (l.area * mesh_light_cos(l, q.n, -w)), dist2, dist * (1.0 - 1e-4));
 }
 
+// The key a pixel's branch `path` hashes its rotations of a sequence with (`random01`).
+fn branch_key(path: u32) -> u32 {
+    return pcg_hash(pixel_key ^ (path * 0x68bc21ebu));
+}
+
 // Four uniform numbers for shadow-ray pair j toward the environment of camera sample k on
 // branch `path` of this pixel: point k·pairs + j of the R2 sequence, rotated per pixel and
 // branch (Cranley–Patterson) once for the table's direction (xy) and once for the cosine one
 // (zw), so a pixel's directions are evenly spread and neighbouring pixels' are independent.
 fn env_numbers(k: u32, path: u32, j: u32) -> vec4<f32> {
-    let key = pcg_hash(pixel_key ^ (path * 0x68bc21ebu));
+    let key = branch_key(path);
     let rotation = vec4<f32>(random01(key, 0u, 40u), random01(key, 0u, 41u), random01(key, 0u, 42u), random01(key, 0u, 43u));
     let a = r2(k * params.env_pairs + j);
     return fract(vec4<f32>(a, a) + rotation);
@@ -313,7 +318,7 @@ fn shadow_ray(i: u32, p: vec3<f32>, n: vec3<f32>, k: u32, path: u32) -> ShadowRa
 // normal at distance 0 (nothing in the way).
 fn glossy_ray(s: PbrSurface, facing: vec3<f32>, e: vec3<f32>, k: u32, path: u32) -> ShadowRay {
     // Point k of the R2 sequence, rotated per pixel and branch by numbers of its own.
-    let key = pcg_hash(pixel_key ^ (path * 0x68bc21ebu));
+    let key = branch_key(path);
     let u = fract(r2(k) + vec2<f32>(random01(key, 0u, 46u), random01(key, 0u, 47u)));
     let frame = basis_around(s.n);
     let m = frame * ggx_visible_normal(s.v * frame, max(s.roughness * s.roughness, 1e-4), u);
@@ -321,7 +326,10 @@ fn glossy_ray(s: PbrSurface, facing: vec3<f32>, e: vec3<f32>, k: u32, path: u32)
     if dot(w, facing) <= 0.0 {
         w = reflect(-s.v, s.n);
     }
-    return ShadowRay(select(facing, w, dot(w, facing) > 0.0), select(0.0, NO_HIT, dot(w, facing) > 0.0), e);
+    if dot(w, facing) <= 0.0 {
+        return ShadowRay(facing, 0.0, e);
+    }
+    return ShadowRay(w, NO_HIT, e);
 }
 
 // The light reaching a shading point directly, with its shadows: every shadow ray through one

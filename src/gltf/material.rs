@@ -217,21 +217,12 @@ impl<'a> Materials<'a> {
         let pbr = m.pbr_metallic_roughness();
         let file = self.at.file;
         let mut maps = Vec::new();
-        if let Some(info) = pbr.base_color_texture() {
-            maps.push(("base color", UvMap::of(&info, file, what)?));
-            glass.tint_texture = Some(self.texture(&info, what, "base color", true)?);
-        }
-        if let Some(info) = pbr.metallic_roughness_texture() {
-            maps.push(("metallic-roughness", UvMap::of(&info, file, what)?));
-            glass.roughness_texture = Some(self.texture(&info, what, "metallic-roughness", false)?);
-        }
+        glass.tint_texture = self.mapped_texture(&mut maps, pbr.base_color_texture(), what, "base color", true)?;
+        glass.roughness_texture = self.mapped_texture(&mut maps, pbr.metallic_roughness_texture(), what, "metallic-roughness", false)?;
         let (emission, strength) = emissive(m, file, what)?;
         (glass.emission, glass.emission_strength) = (emission, strength);
         if glass.emitted() != Vec3::ZERO {
-            if let Some(info) = m.emissive_texture() {
-                maps.push(("emissive", UvMap::of(&info, file, what)?));
-                glass.emission_texture = Some(self.texture(&info, what, "emissive", true)?);
-            }
+            glass.emission_texture = self.mapped_texture(&mut maps, m.emissive_texture(), what, "emissive", true)?;
         }
         if let Some(n) = m.normal_texture() {
             // (Its KHR_texture_transform is taken to be the other textures', as on receivers.)
@@ -240,26 +231,25 @@ impl<'a> Materials<'a> {
             glass.normal_texture = Some(self.image_texture(n.texture(), what, "normal", false)?);
             glass.normal_scale = n.scale();
         }
-        if let Some(info) = m.transmission().and_then(|t| t.transmission_texture()) {
-            maps.push(("transmission", UvMap::of(&info, file, what)?));
-            glass.transmission_texture = Some(self.texture(&info, what, "transmission", false)?);
-        }
+        glass.transmission_texture = self.mapped_texture(&mut maps, m.transmission().and_then(|t| t.transmission_texture()), what, "transmission", false)?;
         if let Some(specular) = m.specular() {
             // KHR_materials_specular: the factor scales the reflection, the colour its F₀
             // (`Glass::specular`); the factor's texture is in alpha, the colour's is sRGB.
             glass.specular = specular.specular_factor().clamp(0.0, 1.0);
             glass.specular_color = Vec3::from(specular.specular_color_factor()).max(Vec3::ZERO);
-            if let Some(info) = specular.specular_texture() {
-                maps.push(("specular", UvMap::of(&info, file, what)?));
-                glass.specular_texture = Some(self.texture(&info, what, "specular", false)?);
-            }
-            if let Some(info) = specular.specular_color_texture() {
-                maps.push(("specular color", UvMap::of(&info, file, what)?));
-                glass.specular_color_texture = Some(self.texture(&info, what, "specular color", true)?);
-            }
+            glass.specular_texture = self.mapped_texture(&mut maps, specular.specular_texture(), what, "specular", false)?;
+            glass.specular_color_texture = self.mapped_texture(&mut maps, specular.specular_color_texture(), what, "specular color", true)?;
         }
         warn_uv_maps_differ(&maps, what, warnings);
         Ok(maps.first().map(|m| m.1))
+    }
+
+    /// A glass's texture in `role`, where the material has one, its UV map noted in `maps` (all
+    /// of a material's textures are sampled at the first's: `warn_uv_maps_differ`).
+    fn mapped_texture(&mut self, maps: &mut Vec<(&'static str, UvMap)>, info: Option<gltf::texture::Info>, what: &str, role: &'static str, srgb: bool) -> Result<Option<Arc<Texture2d>>> {
+        let Some(info) = info else { return Ok(None) };
+        maps.push((role, UvMap::of(&info, self.at.file, what)?));
+        self.texture(&info, what, role, srgb).map(Some)
     }
 
     /// A texture, decoded to linear values: colour textures (base color, emissive) are stored

@@ -105,12 +105,13 @@ fn glow_of_glass(m: &MeshInstance) -> Option<Receiver> {
 pub fn mesh_lights<'a>(receivers: impl IntoIterator<Item = &'a Receiver>) -> MeshLights {
     let mut out = MeshLights::default();
     for r in receivers {
-        if emitted_radiance(r).max_element() <= 0.0 {
+        let mean_radiance = emitted_radiance(r);
+        if mean_radiance.max_element() <= 0.0 {
             continue;
         }
         let first = out.triangles.len();
         let closed = r.mesh.is_closed();
-        let Some(Glow { area, centroid, radiance }) = push_triangles(r, closed, &mut out.triangles) else {
+        let Some(Glow { area, centroid, radiance }) = push_triangles(r, mean_radiance, closed, &mut out.triangles) else {
             out.triangles.truncate(first);
             continue;
         };
@@ -214,14 +215,14 @@ const MAX_PIECES_PER_MESH: u32 = 1 << 16;
 /// Appends the receiver's world-space triangles — or on a patterned glow their pieces
 /// (`pattern_pieces`) — wound outward where `closed` (by the sign of the volume they enclose,
 /// which a mirroring transform turns), with their running share: of the area on a glow of one
-/// radiance, of the power (area × the radiance's channel sum) on a patterned one. None where the
-/// mesh has no area or glows nowhere.
-fn push_triangles(r: &Receiver, closed: bool, out: &mut Vec<LightTriangle>) -> Option<Glow> {
+/// radiance (`mean_radiance`: the emission × its texture's mean), of the power (area × the
+/// radiance's channel sum) on a patterned one. None where the mesh has no area or glows nowhere.
+fn push_triangles(r: &Receiver, mean_radiance: Vec3, closed: bool, out: &mut Vec<LightTriangle>) -> Option<Glow> {
     let world = world_positions(&r.mesh, r.world);
     let inward = closed && enclosed_volume(&world, &r.mesh.triangles) < 0.0;
     let pieces = pattern_pieces(r, &world, inward);
     let patterned = pieces.is_some();
-    let pieces = pieces.unwrap_or_else(|| plain_pieces(r, &world, inward));
+    let pieces = pieces.unwrap_or_else(|| plain_pieces(r, &world, inward, mean_radiance));
     let (mut area, mut power, mut moment, mut glow) = (0.0f64, 0.0f64, glam::DVec3::ZERO, glam::DVec3::ZERO);
     let first = out.len();
     for p in &pieces {
@@ -261,10 +262,8 @@ fn piece_scale(piece: Vec3, mean: Vec3, power_per_area: f64) -> Vec3 {
     }))
 }
 
-/// The receiver's triangles as pieces of its radiance (emission × its texture's mean), the
-/// degenerate ones left out.
-fn plain_pieces(r: &Receiver, world: &[Vec3], inward: bool) -> Vec<Piece> {
-    let radiance = emitted_radiance(r);
+/// The receiver's triangles as pieces of one radiance, the degenerate ones left out.
+fn plain_pieces(r: &Receiver, world: &[Vec3], inward: bool, radiance: Vec3) -> Vec<Piece> {
     r.mesh.triangles.iter().map(|t| oriented(world, t, inward)).filter(has_area).map(|corners| Piece { corners, radiance }).collect()
 }
 
@@ -274,9 +273,10 @@ fn has_area([a, b, c]: &[Vec3; 3]) -> bool {
     twice > 0.0 && twice.is_finite()
 }
 
-/// Triangle t's world corners, its last two swapped where `inward` (to wind it outward).
-fn oriented(world: &[Vec3], t: &[u32; 3], inward: bool) -> [Vec3; 3] {
-    let [a, b, c] = t.map(|i| world[i as usize]);
+/// Triangle t's corner values (world positions, texture coordinates), its last two swapped where
+/// `inward` (to wind it outward).
+fn oriented<T: Copy>(values: &[T], t: &[u32; 3], inward: bool) -> [T; 3] {
+    let [a, b, c] = t.map(|i| values[i as usize]);
     if inward { [a, c, b] } else { [a, b, c] }
 }
 
@@ -302,10 +302,7 @@ fn pattern_pieces(r: &Receiver, world: &[Vec3], inward: bool) -> Option<Vec<Piec
     for (t, &n) in r.mesh.triangles.iter().zip(&wanted) {
         let n = ((n as f64 * thin).floor() as u32).max(1);
         let corners = oriented(world, t, inward);
-        let uv = {
-            let [a, b, c] = t.map(|i| uvs[i as usize]);
-            if inward { [a, c, b] } else { [a, b, c] }
-        };
+        let uv = oriented(uvs, t, inward);
         for bary in sub_triangles(n) {
             let at = |w: glam::Vec3| (corners[0] * w.x + corners[1] * w.y + corners[2] * w.z, uv[0] * w.x + uv[1] * w.y + uv[2] * w.z);
             let [(p0, t0), (p1, t1), (p2, t2)] = bary.map(at);
